@@ -1,0 +1,332 @@
+//! The hub's control requests and replies, in the same format as any packet.
+//!
+//! Requests go to the reserved subject `<hub>`, one request a line:
+//!
+//! ```text
+//! @ <hub> 0
+//! subscribe ch vision_out
+//! unsubscribe ch radio
+//! unsubscribe_all
+//! status
+//! min_priority value 5
+//! ```
+//!
+//! The hub answers on `<hub>` too: `lease ms N` after a subscription, and a
+//! [`StatusReport`] after `status`.
+
+use std::fmt;
+use std::fmt::Write as _;
+
+use crate::build::write_quoted;
+use crate::error::FieldError;
+use crate::{Packet, PacketBuilder, Priority, Subject, MAX_PACKET};
+
+/// The reserved subject that carries control requests and the hub's replies.
+pub const HUB_SUBJECT: &str = "hub";
+
+/// One control request.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Request {
+    /// Take or refresh a lease on a subject.
+    Subscribe(Subject),
+    Unsubscribe(Subject),
+    UnsubscribeAll,
+    /// Ask for a [`StatusReport`]; only answered to a client that already holds a lease.
+    Status,
+    /// Drop every published packet below this priority, on every channel.
+    MinPriority(Priority),
+}
+
+/// A packet to `<hub>` that is not a well-formed request or reply.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ControlError {
+    /// Control packets name `<hub>` and nothing else.
+    NotControl,
+    /// A line whose label is no known request.
+    Unknown { label: String, line: u32 },
+    /// A request whose field is missing or of the wrong type.
+    Field(FieldError),
+    /// A subscription to a subject that cannot be one (such as `hub` itself).
+    BadSubject { name: String, line: u32 },
+}
+
+impl fmt::Display for ControlError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ControlError::NotControl => write!(f, "a control packet must name `<{HUB_SUBJECT}>` alone"),
+            ControlError::Unknown { label, line } => write!(
+                f,
+                "line {line}: unknown request `{label}` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority)"
+            ),
+            ControlError::Field(e) => e.fmt(f),
+            ControlError::BadSubject { name, line } => {
+                write!(f, "line {line}: `{name}` cannot be subscribed to")
+            }
+        }
+    }
+}
+
+impl std::error::Error for ControlError {}
+
+impl From<FieldError> for ControlError {
+    fn from(e: FieldError) -> Self {
+        ControlError::Field(e)
+    }
+}
+
+fn is_control(p: &Packet<'_>) -> bool {
+    p.subject_count() == 1 && p.has_subject(HUB_SUBJECT)
+}
+
+impl Request {
+    /// Whether a packet is addressed to the hub rather than published.
+    pub fn is_control(packet: &Packet<'_>) -> bool {
+        is_control(packet)
+    }
+
+    /// Reads every request of a control packet, in order.
+    pub fn parse_all(packet: &Packet<'_>) -> Result<Vec<Request>, ControlError> {
+        if !is_control(packet) {
+            return Err(ControlError::NotControl);
+        }
+        packet
+            .lines()
+            .map(|line| {
+                let subject = |line: &crate::Line<'_>| -> Result<Subject, ControlError> {
+                    let name = line.str("ch")?;
+                    match Subject::new(&name) {
+                        Ok(s) if s.as_str() != HUB_SUBJECT => Ok(s),
+                        _ => Err(ControlError::BadSubject {
+                            name: name.into_owned(),
+                            line: line.number(),
+                        }),
+                    }
+                };
+                Ok(match line.label() {
+                    "subscribe" => Request::Subscribe(subject(&line)?),
+                    "unsubscribe" => Request::Unsubscribe(subject(&line)?),
+                    "unsubscribe_all" => Request::UnsubscribeAll,
+                    "status" => Request::Status,
+                    "min_priority" => {
+                        let v = line.i64("value")?;
+                        let v = i32::try_from(v).map_err(|_| {
+                            ControlError::Field(FieldError {
+                                label: "min_priority".into(),
+                                field: "value".into(),
+                                line: line.number(),
+                                column: 1,
+                                kind: crate::FieldErrorKind::NotAnInteger(v.to_string()),
+                            })
+                        })?;
+                        Request::MinPriority(Priority(v))
+                    }
+                    other => {
+                        return Err(ControlError::Unknown {
+                            label: other.to_owned(),
+                            line: line.number(),
+                        })
+                    }
+                })
+            })
+            .collect()
+    }
+
+    /// Writes requests as one control packet.
+    pub fn to_packet(requests: &[Request]) -> Vec<u8> {
+        let mut text = format!("@ <{HUB_SUBJECT}> 0\n");
+        for r in requests {
+            match r {
+                Request::Subscribe(s) => writeln!(text, "subscribe ch {s}"),
+                Request::Unsubscribe(s) => writeln!(text, "unsubscribe ch {s}"),
+                Request::UnsubscribeAll => writeln!(text, "unsubscribe_all"),
+                Request::Status => writeln!(text, "status"),
+                Request::MinPriority(p) => writeln!(text, "min_priority value {p}"),
+            }
+            .expect("writing to a String cannot fail");
+        }
+        text.into_bytes()
+    }
+}
+
+/// What the hub says back on `<hub>`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Reply {
+    /// A subscription was taken; it lasts this long unless refreshed.
+    Lease {
+        ms: u64,
+    },
+    Status(StatusReport),
+}
+
+impl Reply {
+    /// The lease acknowledgement, as small as the smallest subscribe request.
+    pub fn lease_packet(ms: u64) -> Vec<u8> {
+        format!("@ <{HUB_SUBJECT}> 0\nlease ms {ms}\n").into_bytes()
+    }
+
+    /// Reads a reply from the hub, or `None` if the packet is not one.
+    pub fn parse(packet: &Packet<'_>) -> Option<Result<Reply, ControlError>> {
+        if !is_control(packet) {
+            return None;
+        }
+        let first = packet.lines().next()?;
+        match first.label() {
+            "lease" => Some(
+                first
+                    .i64("ms")
+                    .map(|ms| Reply::Lease {
+                        ms: ms.max(0) as u64,
+                    })
+                    .map_err(Into::into),
+            ),
+            "status" => Some(StatusReport::from_packet(packet).map(Reply::Status)),
+            _ => None,
+        }
+    }
+}
+
+/// One client the hub knows, with its subscriptions.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ClientInfo {
+    pub addr: String,
+    /// Time since the hub last heard from it.
+    pub idle_ms: u64,
+    /// Each subscription and the time left on its lease.
+    pub subscriptions: Vec<(String, u64)>,
+}
+
+/// Traffic on one channel (or subject set, written `a b`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ChannelInfo {
+    pub subjects: String,
+    pub packets: u64,
+    pub bytes: u64,
+}
+
+/// The hub's answer to `status`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct StatusReport {
+    pub uptime_ms: u64,
+    pub lease_ms: u64,
+    pub min_priority: Priority,
+    /// How many clients the hub holds, even where `clients` was cut short.
+    pub client_count: u64,
+    pub clients: Vec<ClientInfo>,
+    pub channels: Vec<ChannelInfo>,
+    /// Packets dropped, by reason.
+    pub drops: Vec<(String, u64)>,
+    /// The report was cut to fit one datagram.
+    pub truncated: bool,
+}
+
+impl StatusReport {
+    /// Writes the report as one packet on `<hub>`, cut short (and marked so) if
+    /// it would not fit a datagram.
+    pub fn to_packet(&self) -> Vec<u8> {
+        let mut head = String::new();
+        let mut lines: Vec<String> = Vec::new();
+        for (reason, count) in &self.drops {
+            let mut l = String::from("drop reason ");
+            write_quoted(&mut l, reason);
+            let _ = write!(l, " count {count}");
+            lines.push(l);
+        }
+        for c in &self.channels {
+            let mut l = String::from("channel ch ");
+            write_quoted(&mut l, &c.subjects);
+            let _ = write!(l, " packets {} bytes {}", c.packets, c.bytes);
+            lines.push(l);
+        }
+        for c in &self.clients {
+            let mut l = String::from("client addr ");
+            write_quoted(&mut l, &c.addr);
+            let _ = write!(l, " idle_ms {} subs (", c.idle_ms);
+            for (i, (s, left)) in c.subscriptions.iter().enumerate() {
+                let _ = write!(l, "{}{s} {left}", if i > 0 { " " } else { "" });
+            }
+            l.push(')');
+            lines.push(l);
+        }
+        let mut truncated = self.truncated;
+        let mut head_line = |truncated: bool| {
+            head.clear();
+            let _ = writeln!(
+                head,
+                "@ <{HUB_SUBJECT}> 0\nstatus uptime_ms {} lease_ms {} min_priority {} clients {} truncated {}",
+                self.uptime_ms, self.lease_ms, self.min_priority, self.client_count, truncated as u8
+            );
+            head.clone()
+        };
+        let mut text = head_line(truncated);
+        let budget = MAX_PACKET - 16;
+        let mut kept = 0;
+        for l in &lines {
+            if text.len() + l.len() + 1 > budget {
+                truncated = true;
+                break;
+            }
+            text.push_str(l);
+            text.push('\n');
+            kept += 1;
+        }
+        if truncated && !self.truncated {
+            let mut again = head_line(true);
+            for l in &lines[..kept] {
+                again.push_str(l);
+                again.push('\n');
+            }
+            text = again;
+        }
+        text.into_bytes()
+    }
+
+    pub fn from_packet(packet: &Packet<'_>) -> Result<StatusReport, ControlError> {
+        let mut r = StatusReport::default();
+        for line in packet.lines() {
+            match line.label() {
+                "status" => {
+                    r.uptime_ms = line.i64("uptime_ms")?.max(0) as u64;
+                    r.lease_ms = line.i64("lease_ms")?.max(0) as u64;
+                    r.min_priority = Priority(
+                        line.i64("min_priority")?
+                            .clamp(i32::MIN as i64, i32::MAX as i64) as i32,
+                    );
+                    r.client_count = line.i64("clients")?.max(0) as u64;
+                    r.truncated = line.i64("truncated")? != 0;
+                }
+                "drop" => r.drops.push((
+                    line.str("reason")?.into_owned(),
+                    line.i64("count")?.max(0) as u64,
+                )),
+                "channel" => r.channels.push(ChannelInfo {
+                    subjects: line.str("ch")?.into_owned(),
+                    packets: line.i64("packets")?.max(0) as u64,
+                    bytes: line.i64("bytes")?.max(0) as u64,
+                }),
+                "client" => {
+                    let subs = line.group("subs")?;
+                    r.clients.push(ClientInfo {
+                        addr: line.str("addr")?.into_owned(),
+                        idle_ms: line.i64("idle_ms")?.max(0) as u64,
+                        subscriptions: subs
+                            .fields()
+                            .map(|f| {
+                                (
+                                    f.name.to_owned(),
+                                    f.value.as_i64().unwrap_or(0).max(0) as u64,
+                                )
+                            })
+                            .collect(),
+                    })
+                }
+                _ => {}
+            }
+        }
+        Ok(r)
+    }
+}
+
+/// Builds the header-only start of a packet on `<hub>` (used by tests and tools).
+pub fn hub_packet() -> PacketBuilder {
+    PacketBuilder::new([HUB_SUBJECT], Priority(0))
+}
