@@ -1,1 +1,60 @@
-fn main() {}
+//! The `colony` command: each subcommand is a thin call into a library crate.
+
+mod cmd;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// colony: a toolkit for multi-robot systems.
+#[derive(Parser)]
+#[command(name = "colony", version, about, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run the hub, a simulated vision publisher and a subscriber, and show them talking.
+    Demo(cmd::demo::Args),
+    /// Run the hub (the broker every colony process talks through).
+    Hub(cmd::hub::Args),
+    /// Publish one packet (or packets read from standard input).
+    Pub(cmd::pubsub::PubArgs),
+    /// Subscribe and print packets as they arrive.
+    Sub(cmd::pubsub::SubArgs),
+    /// Ask the hub for its clients, channels and drops.
+    Status(cmd::status::Args),
+    /// List a traffic log, filtered by channel and time.
+    Log(cmd::traffic::LogArgs),
+    /// Publish a traffic log again with its original timing.
+    Replay(cmd::traffic::ReplayArgs),
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_env("COLONY_LOG")
+                .unwrap_or_else(|_| "info".into()),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Demo(a) => cmd::demo::run(a),
+        Command::Hub(a) => cmd::hub::run(a),
+        Command::Pub(a) => cmd::pubsub::publish(a),
+        Command::Sub(a) => cmd::pubsub::subscribe(a),
+        Command::Status(a) => cmd::status::run(a),
+        Command::Log(a) => cmd::traffic::list(a),
+        Command::Replay(a) => cmd::traffic::replay(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("colony: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,1 +1,23 @@
+//! colony's hub: the broker every colony process talks through.
+//!
+//! [`Hub`] is the whole broker as a state machine with no socket and no
+//! clock: feed it `(now, source, bytes)` with [`Hub::handle`] and it says
+//! where to repeat the datagram; ask [`Hub::poll_transmit`] for its own
+//! replies and [`Hub::poll_timeout`] for when it next needs
+//! [`Hub::handle_timeout`]. [`Server`] is the thin UDP runtime around it, and
+//! [`log`] holds the crash-tolerant traffic log and its reader.
+//!
+//! What the hub is not: it keeps no message history, retransmits nothing and
+//! does not read packet bodies beyond checking that they are well formed.
 
+mod config;
+mod counters;
+pub mod log;
+mod routing;
+mod server;
+mod socket;
+
+pub use config::HubConfig;
+pub use counters::DropReason;
+pub use routing::{Hub, Outcome, Transmit};
+pub use server::Server;

@@ -110,12 +110,21 @@ impl Request {
                     "min_priority" => {
                         let v = line.i64("value")?;
                         let v = i32::try_from(v).map_err(|_| {
-                            ControlError::Field(FieldError {
-                                label: "min_priority".into(),
-                                field: "value".into(),
-                                line: line.number(),
-                                column: 1,
-                                kind: crate::FieldErrorKind::NotAnInteger(v.to_string()),
+                            ControlError::Field(match line.fields().find(|f| f.name == "value") {
+                                // The value as written, at its own column.
+                                Some(f) => line.value_error(
+                                    &f,
+                                    crate::FieldErrorKind::NotAnInteger(
+                                        f.value.as_str().unwrap_or_default().into_owned(),
+                                    ),
+                                ),
+                                None => FieldError {
+                                    label: "min_priority".into(),
+                                    field: "value".into(),
+                                    line: line.number(),
+                                    column: 1,
+                                    kind: crate::FieldErrorKind::NotAnInteger(v.to_string()),
+                                },
                             })
                         })?;
                         Request::MinPriority(Priority(v))

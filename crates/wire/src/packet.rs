@@ -230,6 +230,12 @@ impl<'a> Line<'a> {
             .ok_or_else(|| self.context().missing(name))
     }
 
+    /// An error about a field of this line that reads but is out of range,
+    /// placed like a getter's error: at the field's value.
+    pub(crate) fn value_error(&self, field: &Field<'a>, kind: FieldErrorKind) -> FieldError {
+        self.context().error(field.name, field.value_at, kind)
+    }
+
     /// The field as a number (bare token parsed as `f64`).
     pub fn f64(&self, name: &str) -> Result<f64, FieldError> {
         let f = self.field(name)?;

@@ -19,7 +19,9 @@ const CLASS: [u8; 256] = {
         if !control && !delim {
             t[b] |= BARE;
         }
-        if control || c == b'"' || c == b'\\' {
+        // A raw tab may stand inside a string (it is no error anywhere, and
+        // `printf '... "a\tb"'` sends one); every other control character stops.
+        if (control && c != b'\t') || c == b'"' || c == b'\\' {
             t[b] |= QUOTE_STOP;
         }
         b += 1;

@@ -1,0 +1,219 @@
+//! The client's side of the protocol, with no socket and no clock.
+
+use std::time::{Duration, Instant};
+
+use colony_wire::{Packet, Reply, Request, Subject, MAX_PACKET};
+
+/// How often a client talks to the hub to keep its subscriptions.
+#[derive(Debug, Clone)]
+pub struct ClientConfig {
+    /// A subscription is refreshed this often while data flows; well inside
+    /// the hub's default 10 s lease, so two lost refreshes in a row are harmless.
+    pub refresh: Duration,
+    /// A channel silent this long is subscribed again at once: after a hub
+    /// restart, data flows again within about this time.
+    pub resubscribe_after: Duration,
+    /// With no datagram from the hub for this long, [`HubState::Unreachable`].
+    /// The hub's default lease: by then a live hub has answered.
+    pub unreachable_after: Duration,
+}
+
+impl Default for ClientConfig {
+    fn default() -> Self {
+        ClientConfig {
+            refresh: Duration::from_secs(3),
+            resubscribe_after: Duration::from_secs(1),
+            unreachable_after: Duration::from_secs(10),
+        }
+    }
+}
+
+/// Whether the hub seems to be there.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HubState {
+    /// Nothing heard yet, and it is too early to say.
+    Unknown,
+    /// Heard from within [`ClientConfig::unreachable_after`].
+    Alive,
+    /// Silent for this long while the client was asking it for data.
+    Unreachable { silent_for: Duration },
+}
+
+#[derive(Debug)]
+struct Subscription {
+    subject: Subject,
+    added: Instant,
+    last_data: Option<Instant>,
+    last_request: Option<Instant>,
+}
+
+impl Subscription {
+    /// When this subscription next needs a subscribe request: at once when
+    /// new; then every `refresh` while data flows, or every
+    /// `resubscribe_after` while the channel is silent.
+    fn due(&self, config: &ClientConfig) -> Instant {
+        let Some(asked) = self.last_request else {
+            return self.added;
+        };
+        let heard = self.last_data.map_or(asked, |d| d.max(asked));
+        (asked + config.refresh).min(heard + config.resubscribe_after)
+    }
+}
+
+/// The protocol state of one client: subscriptions, their refresh timers and
+/// the hub's liveness. Feed it time and received datagrams; take the
+/// datagrams it wants sent from [`poll_transmit`](Session::poll_transmit).
+#[derive(Debug)]
+pub struct Session {
+    config: ClientConfig,
+    subs: Vec<Subscription>,
+    outbox: Vec<Vec<u8>>,
+    started: Instant,
+    last_from_hub: Option<Instant>,
+    lease: Option<Duration>,
+}
+
+/// What a datagram from the hub was.
+#[derive(Debug)]
+pub enum Incoming<'a> {
+    /// A packet published on a subscribed channel.
+    Packet(Packet<'a>),
+    /// The hub's own answer (a lease, a status report); already noted by the session.
+    Reply(Reply),
+}
+
+impl Session {
+    pub fn new(config: ClientConfig, now: Instant) -> Session {
+        Session {
+            config,
+            subs: Vec::new(),
+            outbox: Vec::new(),
+            started: now,
+            last_from_hub: None,
+            lease: None,
+        }
+    }
+
+    pub fn config(&self) -> &ClientConfig {
+        &self.config
+    }
+
+    /// Subscribes to `subject`; the request goes out with the next transmit.
+    pub fn subscribe(&mut self, now: Instant, subject: Subject) {
+        if !self.subs.iter().any(|s| s.subject == subject) {
+            self.subs.push(Subscription {
+                subject,
+                added: now,
+                last_data: None,
+                last_request: None,
+            });
+        }
+    }
+
+    pub fn unsubscribe(&mut self, subject: &Subject) {
+        if let Some(i) = self.subs.iter().position(|s| &s.subject == subject) {
+            self.subs.remove(i);
+            self.outbox
+                .push(Request::to_packet(&[Request::Unsubscribe(subject.clone())]));
+        }
+    }
+
+    pub fn unsubscribe_all(&mut self) {
+        self.subs.clear();
+        self.outbox
+            .push(Request::to_packet(&[Request::UnsubscribeAll]));
+    }
+
+    /// Queues any control request (status, minimum priority, ...).
+    pub fn request(&mut self, requests: &[Request]) {
+        self.outbox.push(Request::to_packet(requests));
+    }
+
+    /// The subjects this session keeps subscribed.
+    pub fn subscriptions(&self) -> impl Iterator<Item = &Subject> {
+        self.subs.iter().map(|s| &s.subject)
+    }
+
+    /// The hub's lease time, once it has told us.
+    pub fn lease(&self) -> Option<Duration> {
+        self.lease
+    }
+
+    /// Notes a datagram from the hub: a reply is returned as such, a packet
+    /// as itself. A packet that does not parse is an error for the caller to report.
+    pub fn handle_datagram<'a>(
+        &mut self,
+        now: Instant,
+        data: &'a [u8],
+    ) -> Result<Incoming<'a>, colony_wire::ParseError> {
+        self.last_from_hub = Some(now);
+        let packet = Packet::parse(data)?;
+        if let Some(reply) = Reply::parse(&packet) {
+            if let Ok(reply) = reply {
+                if let Reply::Lease { ms } = reply {
+                    self.lease = Some(Duration::from_millis(ms));
+                }
+                return Ok(Incoming::Reply(reply));
+            }
+        }
+        self.note_data(now, &packet);
+        Ok(Incoming::Packet(packet))
+    }
+
+    /// Notes that data arrived for the packet's subjects, and that the hub is alive.
+    pub fn note_data(&mut self, now: Instant, packet: &Packet<'_>) {
+        self.last_from_hub = Some(now);
+        for s in &mut self.subs {
+            if packet.has_subject(s.subject.as_str()) {
+                s.last_data = Some(now);
+            }
+        }
+    }
+
+    /// When the session next needs [`handle_timeout`](Session::handle_timeout).
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        self.subs.iter().map(|s| s.due(&self.config)).min()
+    }
+
+    /// Queues a subscribe request for every subscription that is due by `now`.
+    pub fn handle_timeout(&mut self, now: Instant) {
+        let config = &self.config;
+        let due: Vec<Subject> = self
+            .subs
+            .iter_mut()
+            .filter(|s| s.due(config) <= now)
+            .map(|s| {
+                s.last_request = Some(now);
+                s.subject.clone()
+            })
+            .collect();
+        // One control packet carries many subscriptions; split only to fit a datagram.
+        let per_packet = MAX_PACKET / (16 + colony_wire::MAX_SUBJECT_LEN);
+        for chunk in due.chunks(per_packet) {
+            let requests: Vec<Request> = chunk.iter().cloned().map(Request::Subscribe).collect();
+            self.outbox.push(Request::to_packet(&requests));
+        }
+    }
+
+    /// The next datagram to send to the hub.
+    pub fn poll_transmit(&mut self) -> Option<Vec<u8>> {
+        if self.outbox.is_empty() {
+            None
+        } else {
+            Some(self.outbox.remove(0))
+        }
+    }
+
+    /// Whether the hub has been heard from recently.
+    pub fn hub_state(&self, now: Instant) -> HubState {
+        let since = self.last_from_hub.unwrap_or(self.started);
+        let silent_for = now.saturating_duration_since(since);
+        match self.last_from_hub {
+            _ if silent_for >= self.config.unreachable_after && !self.subs.is_empty() => {
+                HubState::Unreachable { silent_for }
+            }
+            Some(_) => HubState::Alive,
+            None => HubState::Unknown,
+        }
+    }
+}

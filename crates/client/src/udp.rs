@@ -1,0 +1,282 @@
+//! The non-blocking UDP client around a [`Session`].
+
+use std::io;
+use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr, ToSocketAddrs, UdpSocket};
+use std::os::fd::{AsFd, AsRawFd, BorrowedFd, RawFd};
+use std::time::{Duration, Instant};
+
+use colony_wire::{
+    Packet, ParseError, Reply, Request, Subject, SubjectError, HUB_SUBJECT, MAX_PACKET,
+};
+
+use crate::session::{ClientConfig, HubState, Incoming, Session};
+
+/// Something the client was asked to do that cannot be done.
+#[derive(Debug, thiserror::Error)]
+pub enum ClientError {
+    #[error(transparent)]
+    Subject(#[from] SubjectError),
+    #[error("`{0}` is reserved for requests to the hub itself")]
+    Reserved(String),
+    #[error("refusing to publish a malformed packet: {0}")]
+    Malformed(#[from] ParseError),
+    #[error("hub address `{addr}`: {source}")]
+    Address { addr: String, source: io::Error },
+    #[error(transparent)]
+    Io(#[from] io::Error),
+}
+
+/// A hub client on a non-blocking UDP socket. It never blocks, never starts
+/// a thread and never owns the loop: wait on its descriptor (it implements
+/// [`AsFd`]) until [`next_deadline`](Self::next_deadline), then call
+/// [`poll`](Self::poll) and [`recv`](Self::recv).
+pub struct UdpClient {
+    socket: UdpSocket,
+    hub: SocketAddr,
+    session: Session,
+    buf: Box<[u8]>,
+    malformed: u64,
+}
+
+impl UdpClient {
+    /// A client of the hub at `hub` with the default timings.
+    pub fn connect(hub: impl ToSocketAddrs + std::fmt::Debug) -> Result<UdpClient, ClientError> {
+        UdpClient::with_config(hub, ClientConfig::default())
+    }
+
+    pub fn with_config(
+        hub: impl ToSocketAddrs + std::fmt::Debug,
+        config: ClientConfig,
+    ) -> Result<UdpClient, ClientError> {
+        let describe = format!("{hub:?}").trim_matches('"').to_owned();
+        let hub = hub
+            .to_socket_addrs()
+            .and_then(|mut a| {
+                a.next()
+                    .ok_or_else(|| io::Error::new(io::ErrorKind::NotFound, "no address found"))
+            })
+            .map_err(|source| ClientError::Address {
+                addr: describe.clone(),
+                source,
+            })?;
+        // Stay on loopback when the hub is local, so nothing else can reach us.
+        let local: IpAddr = match (hub.ip().is_loopback(), hub) {
+            (true, SocketAddr::V4(_)) => Ipv4Addr::LOCALHOST.into(),
+            (true, SocketAddr::V6(_)) => Ipv6Addr::LOCALHOST.into(),
+            (false, SocketAddr::V4(_)) => Ipv4Addr::UNSPECIFIED.into(),
+            (false, SocketAddr::V6(_)) => Ipv6Addr::UNSPECIFIED.into(),
+        };
+        let socket = UdpSocket::bind((local, 0))?;
+        // Connected: the kernel passes us datagrams from the hub only.
+        socket.connect(hub).map_err(|source| ClientError::Address {
+            addr: describe,
+            source,
+        })?;
+        socket.set_nonblocking(true)?;
+        Ok(UdpClient {
+            socket,
+            hub,
+            session: Session::new(config, Instant::now()),
+            buf: vec![0u8; MAX_PACKET + 1].into_boxed_slice(),
+            malformed: 0,
+        })
+    }
+
+    pub fn hub_addr(&self) -> SocketAddr {
+        self.hub
+    }
+
+    pub fn local_addr(&self) -> io::Result<SocketAddr> {
+        self.socket.local_addr()
+    }
+
+    pub fn session(&self) -> &Session {
+        &self.session
+    }
+
+    /// Subscribes to a channel (or one subject of a subject set) and asks the hub now.
+    pub fn subscribe(&mut self, subject: &str) -> Result<(), ClientError> {
+        let subject = Subject::new(subject)?;
+        if subject.as_str() == HUB_SUBJECT {
+            return Err(ClientError::Reserved(subject.to_string()));
+        }
+        let now = Instant::now();
+        self.session.subscribe(now, subject);
+        self.poll(now)?;
+        Ok(())
+    }
+
+    pub fn unsubscribe(&mut self, subject: &str) -> Result<(), ClientError> {
+        self.session.unsubscribe(&Subject::new(subject)?);
+        self.flush()?;
+        Ok(())
+    }
+
+    pub fn unsubscribe_all(&mut self) -> io::Result<()> {
+        self.session.unsubscribe_all();
+        self.flush()
+    }
+
+    /// Sends control requests (status, minimum priority) to the hub.
+    pub fn request(&mut self, requests: &[Request]) -> io::Result<()> {
+        self.session.request(requests);
+        self.flush()
+    }
+
+    /// Publishes a packet, checked first so that a bad one fails here with
+    /// its position rather than being dropped silently by the hub.
+    pub fn publish(&mut self, packet: &[u8]) -> Result<(), ClientError> {
+        Packet::parse(packet)?;
+        self.send(packet)?;
+        Ok(())
+    }
+
+    fn send(&self, datagram: &[u8]) -> io::Result<()> {
+        match self.socket.send(datagram) {
+            Ok(_) => Ok(()),
+            // Datagrams are fire and forget: a hub that is down (refused) or a
+            // full buffer loses this one packet, and the session recovers.
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::ConnectionRefused | io::ErrorKind::WouldBlock
+                ) =>
+            {
+                Ok(())
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        while let Some(d) = self.session.poll_transmit() {
+            self.send(&d)?;
+        }
+        Ok(())
+    }
+
+    /// Does whatever is due by `now`: refreshes and resubscriptions.
+    pub fn poll(&mut self, now: Instant) -> io::Result<()> {
+        self.session.handle_timeout(now);
+        self.flush()
+    }
+
+    /// When [`poll`](Self::poll) next has work to do.
+    pub fn next_deadline(&self) -> Option<Instant> {
+        self.session.poll_timeout()
+    }
+
+    /// Whether the hub has been heard from lately.
+    pub fn hub_state(&self) -> HubState {
+        self.session.hub_state(Instant::now())
+    }
+
+    /// Datagrams received that did not parse (the hub checks what it repeats,
+    /// so this stays zero unless something else speaks from the hub's address).
+    pub fn malformed_count(&self) -> u64 {
+        self.malformed
+    }
+
+    /// The next packet published on a subscribed channel, or `None` when none
+    /// is waiting. Replies from the hub are taken in along the way.
+    pub fn recv(&mut self) -> io::Result<Option<Packet<'_>>> {
+        let len = loop {
+            match self.recv_one()? {
+                None => return Ok(None),
+                Some(Received::Data(len)) => break len,
+                Some(Received::Reply(_)) => continue,
+            }
+        };
+        let packet = Packet::parse(&self.buf[..len])
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e))?;
+        self.session.note_data(Instant::now(), &packet);
+        Ok(Some(packet))
+    }
+
+    /// Like [`recv`](Self::recv), but also returns the hub's replies (status reports, leases).
+    pub fn recv_reply(&mut self) -> io::Result<Option<Reply>> {
+        loop {
+            match self.recv_one()? {
+                None => return Ok(None),
+                Some(Received::Reply(r)) => return Ok(Some(r)),
+                Some(Received::Data(_)) => continue,
+            }
+        }
+    }
+
+    fn recv_one(&mut self) -> io::Result<Option<Received>> {
+        loop {
+            let len = match self.socket.recv(&mut self.buf) {
+                Ok(len) => len,
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => return Ok(None),
+                // The hub's port was closed when we last sent: it is down, and
+                // the session will resubscribe once it is back.
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::ConnectionRefused | io::ErrorKind::Interrupted
+                    ) =>
+                {
+                    continue
+                }
+                Err(e) => return Err(e),
+            };
+            let now = Instant::now();
+            let data = &self.buf[..len];
+            // Only the hub's own replies need reading here; data is parsed once, by the caller.
+            if !data.starts_with(b"@ <hub> ") {
+                return Ok(Some(Received::Data(len)));
+            }
+            match self.session.handle_datagram(now, data) {
+                Ok(Incoming::Reply(r)) => return Ok(Some(Received::Reply(r))),
+                Ok(Incoming::Packet(_)) => continue,
+                Err(_) => self.malformed += 1,
+            }
+        }
+    }
+
+    /// Blocks until a datagram is waiting or `deadline` passes (`None`: no
+    /// limit). A convenience for programs without a loop of their own; the
+    /// library itself never calls it.
+    pub fn wait(&self, deadline: Option<Instant>) -> io::Result<bool> {
+        let timeout = deadline.map(|d| d.saturating_duration_since(Instant::now()));
+        wait_readable(self.socket.as_raw_fd(), timeout)
+    }
+}
+
+enum Received {
+    Data(usize),
+    Reply(Reply),
+}
+
+fn wait_readable(fd: RawFd, timeout: Option<Duration>) -> io::Result<bool> {
+    let mut pfd = libc::pollfd {
+        fd,
+        events: libc::POLLIN,
+        revents: 0,
+    };
+    let ms = timeout.map_or(-1, |t| t.as_millis().min(i32::MAX as u128) as libc::c_int);
+    // SAFETY: `pfd` is one valid pollfd that outlives the call, and the count is 1.
+    let r = unsafe { libc::poll(&mut pfd, 1, ms) };
+    if r < 0 {
+        let e = io::Error::last_os_error();
+        return if e.kind() == io::ErrorKind::Interrupted {
+            Ok(false)
+        } else {
+            Err(e)
+        };
+    }
+    Ok(r > 0)
+}
+
+impl AsFd for UdpClient {
+    fn as_fd(&self) -> BorrowedFd<'_> {
+        self.socket.as_fd()
+    }
+}
+
+impl AsRawFd for UdpClient {
+    fn as_raw_fd(&self) -> RawFd {
+        self.socket.as_raw_fd()
+    }
+}

@@ -1,0 +1,43 @@
+//! One module per subcommand, plus what they share.
+
+pub mod demo;
+pub mod hub;
+pub mod pubsub;
+pub mod status;
+pub mod traffic;
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use anyhow::Context as _;
+use clap::Args;
+use colony_client::UdpClient;
+
+/// Where the hub is, for every command that talks to one.
+#[derive(Args, Debug, Clone)]
+pub struct HubAddr {
+    /// The hub's address.
+    #[arg(
+        long = "hub",
+        env = "COLONY_HUB",
+        default_value = "127.0.0.1:7400",
+        value_name = "HOST:PORT"
+    )]
+    pub addr: String,
+}
+
+impl HubAddr {
+    pub fn connect(&self) -> anyhow::Result<UdpClient> {
+        UdpClient::connect(self.addr.as_str())
+            .with_context(|| format!("cannot reach a hub at `{}`", self.addr))
+    }
+}
+
+/// A flag set by Ctrl-C or SIGTERM, so loops can stop cleanly.
+pub fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let s = stop.clone();
+    ctrlc::set_handler(move || s.store(true, Ordering::Relaxed))
+        .context("cannot install the Ctrl-C handler")?;
+    Ok(stop)
+}

@@ -1,0 +1,99 @@
+//! What the hub counts: traffic per channel and drops by reason.
+
+use std::collections::HashMap;
+
+/// Why the hub dropped a datagram.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum DropReason {
+    /// Not a well-formed packet.
+    Malformed,
+    /// Published below the minimum priority.
+    BelowMinPriority,
+    /// A packet to `<hub>` that is no valid request.
+    BadControl,
+    /// A status request from an address that held no lease before it asked.
+    NoLease,
+    /// A second status request from one client within the status interval.
+    StatusRateLimited,
+    /// A subscription from a new address while the hub holds its maximum of clients.
+    TooManyClients,
+    /// A subscription beyond the per-client maximum.
+    TooManySubscriptions,
+    /// The socket would not take a datagram for one subscriber (its buffer was full).
+    SendFailed,
+}
+
+impl DropReason {
+    pub const ALL: [DropReason; 8] = [
+        DropReason::Malformed,
+        DropReason::BelowMinPriority,
+        DropReason::BadControl,
+        DropReason::NoLease,
+        DropReason::StatusRateLimited,
+        DropReason::TooManyClients,
+        DropReason::TooManySubscriptions,
+        DropReason::SendFailed,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            DropReason::Malformed => "malformed",
+            DropReason::BelowMinPriority => "below_min_priority",
+            DropReason::BadControl => "bad_control",
+            DropReason::NoLease => "no_lease",
+            DropReason::StatusRateLimited => "status_rate_limited",
+            DropReason::TooManyClients => "too_many_clients",
+            DropReason::TooManySubscriptions => "too_many_subscriptions",
+            DropReason::SendFailed => "send_failed",
+        }
+    }
+}
+
+/// Counters whose memory stays bounded whatever subjects arrive.
+#[derive(Debug, Default)]
+pub(crate) struct Counters {
+    drops: [u64; DropReason::ALL.len()],
+    channels: HashMap<Box<str>, (u64, u64)>,
+    other: (u64, u64),
+}
+
+pub(crate) const OTHER_CHANNELS: &str = "*other*";
+
+impl Counters {
+    pub(crate) fn drop(&mut self, reason: DropReason, n: u64) {
+        self.drops[reason as usize] += n;
+    }
+
+    pub(crate) fn drops(&self, reason: DropReason) -> u64 {
+        self.drops[reason as usize]
+    }
+
+    pub(crate) fn published(&mut self, subjects: &str, bytes: usize, max_channels: usize) {
+        let bump = |slot: &mut (u64, u64)| {
+            slot.0 += 1;
+            slot.1 += bytes as u64;
+        };
+        if let Some(slot) = self.channels.get_mut(subjects) {
+            return bump(slot);
+        }
+        if self.channels.len() < max_channels {
+            bump(self.channels.entry(subjects.into()).or_default());
+        } else {
+            bump(&mut self.other);
+        }
+    }
+
+    /// Per-channel `(name, packets, bytes)`, busiest first.
+    pub(crate) fn channels(&self) -> Vec<(String, u64, u64)> {
+        let mut all: Vec<_> = self
+            .channels
+            .iter()
+            .map(|(k, &(p, b))| (k.to_string(), p, b))
+            .collect();
+        if self.other.0 > 0 {
+            all.push((OTHER_CHANNELS.to_owned(), self.other.0, self.other.1));
+        }
+        all.sort_by(|a, b| b.1.cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+        all
+    }
+}

@@ -1,0 +1,124 @@
+//! The UDP runtime: a socket, a [`Hub`], and an optional traffic log.
+
+use std::io;
+use std::net::{SocketAddr, ToSocketAddrs, UdpSocket};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant, SystemTime};
+
+use crate::log::LogWriter;
+use crate::socket::{recv_batch, send_to_many, wait_readable, RecvBatch};
+use crate::{DropReason, Hub, HubConfig, Outcome};
+
+/// The hub on a UDP socket. It owns its loop only inside [`Server::run`];
+/// [`Server::poll`] does one round for a caller with a loop of its own.
+pub struct Server {
+    socket: UdpSocket,
+    hub: Hub,
+    log: Option<LogWriter>,
+    batch: RecvBatch,
+}
+
+/// The longest [`Server::run`] sleeps before it looks at its stop flag.
+const STOP_CHECK: Duration = Duration::from_millis(100);
+
+impl Server {
+    /// Binds the hub's socket (use `127.0.0.1:7400` for a hub that only this machine reaches).
+    pub fn bind(addr: impl ToSocketAddrs, config: HubConfig) -> io::Result<Server> {
+        let socket = UdpSocket::bind(addr)?;
+        socket.set_nonblocking(true)?;
+        Ok(Server {
+            socket,
+            hub: Hub::new(config, Instant::now()),
+            log: None,
+            batch: RecvBatch::new(),
+        })
+    }
+
+    /// Records every accepted packet in this log.
+    pub fn with_log(mut self, log: LogWriter) -> Server {
+        self.log = Some(log);
+        self
+    }
+
+    pub fn local_addr(&self) -> io::Result<SocketAddr> {
+        self.socket.local_addr()
+    }
+
+    pub fn hub(&self) -> &Hub {
+        &self.hub
+    }
+
+    /// Serves until `stop` is set; then flushes the log.
+    pub fn run(&mut self, stop: &AtomicBool) -> io::Result<()> {
+        while !stop.load(Ordering::Relaxed) {
+            self.poll(STOP_CHECK)?;
+        }
+        if let Some(log) = &mut self.log {
+            log.flush()?;
+        }
+        Ok(())
+    }
+
+    /// Waits at most `max_wait` for datagrams, handles every one that is
+    /// waiting, sends what they cause, and runs the hub's timers. Returns how
+    /// many datagrams it handled.
+    pub fn poll(&mut self, max_wait: Duration) -> io::Result<usize> {
+        let mut handled = 0;
+        loop {
+            let n = recv_batch(&self.socket, &mut self.batch)?;
+            if n == 0 {
+                break;
+            }
+            handled += n;
+            self.handle_batch();
+        }
+        if let Some(log) = &mut self.log {
+            // One flush per round: a crash loses at most the round in hand,
+            // and can only tear the record being written.
+            if let Err(e) = log.flush() {
+                tracing::error!(error = %e, "traffic log failed; serving on without it");
+                self.log = None;
+            }
+        }
+        let now = Instant::now();
+        self.hub.handle_timeout(now);
+        if handled == 0 {
+            let wait = self
+                .hub
+                .poll_timeout()
+                .saturating_duration_since(now)
+                .min(max_wait);
+            wait_readable(&self.socket, wait)?;
+        }
+        Ok(handled)
+    }
+
+    fn handle_batch(&mut self) {
+        let now = Instant::now();
+        let wall = SystemTime::now();
+        for (src, data) in self.batch.iter() {
+            let outcome = self.hub.handle(now, src, data);
+            if outcome.accepted() {
+                if let Some(log) = &mut self.log {
+                    if let Err(e) = log.append(wall, src, data) {
+                        // Losing the log must not take the whole system down with it.
+                        tracing::error!(error = %e, "traffic log failed; serving on without it");
+                        self.log = None;
+                    }
+                }
+            }
+            let failed = match outcome {
+                Outcome::Forward(dests) => send_to_many(&self.socket, data, dests),
+                Outcome::Control | Outcome::Dropped(_) => 0,
+            };
+            if failed > 0 {
+                self.hub.record_drops(DropReason::SendFailed, failed as u64);
+            }
+            while let Some(t) = self.hub.poll_transmit() {
+                if send_to_many(&self.socket, &t.payload, &[t.dest]) > 0 {
+                    self.hub.record_drops(DropReason::SendFailed, 1);
+                }
+            }
+        }
+    }
+}
