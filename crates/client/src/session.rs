@@ -51,12 +51,12 @@ impl Subscription {
     /// When this subscription next needs a subscribe request: at once when
     /// new; then every `refresh` while data flows, or every
     /// `resubscribe_after` while the channel is silent.
-    fn due(&self, config: &ClientConfig) -> Instant {
+    fn due(&self, config: &ClientConfig, refresh: Duration) -> Instant {
         let Some(asked) = self.last_request else {
             return self.added;
         };
         let heard = self.last_data.map_or(asked, |d| d.max(asked));
-        (asked + config.refresh).min(heard + config.resubscribe_after)
+        (asked + refresh).min(heard + config.resubscribe_after)
     }
 }
 
@@ -170,18 +170,28 @@ impl Session {
         }
     }
 
+    /// How often subscriptions are refreshed: as configured, but at least
+    /// three times per lease once the hub has said how long its leases last.
+    pub fn refresh_interval(&self) -> Duration {
+        match self.lease {
+            Some(lease) => self.config.refresh.min(lease / 3),
+            None => self.config.refresh,
+        }
+    }
+
     /// When the session next needs [`handle_timeout`](Session::handle_timeout).
     pub fn poll_timeout(&self) -> Option<Instant> {
-        self.subs.iter().map(|s| s.due(&self.config)).min()
+        let refresh = self.refresh_interval();
+        self.subs.iter().map(|s| s.due(&self.config, refresh)).min()
     }
 
     /// Queues a subscribe request for every subscription that is due by `now`.
     pub fn handle_timeout(&mut self, now: Instant) {
-        let config = &self.config;
+        let (config, refresh) = (&self.config, self.refresh_interval());
         let due: Vec<Subject> = self
             .subs
             .iter_mut()
-            .filter(|s| s.due(config) <= now)
+            .filter(|s| s.due(config, refresh) <= now)
             .map(|s| {
                 s.last_request = Some(now);
                 s.subject.clone()

@@ -120,7 +120,7 @@ pub fn subscribe(args: SubArgs) -> anyhow::Result<()> {
     let stdout = std::io::stdout();
     let mut seen = 0u64;
     let mut warned = false;
-    while !stop.load(Ordering::Relaxed) {
+    'run: while !stop.load(Ordering::Relaxed) {
         let wake = client
             .next_deadline()
             .map(|d| d.min(Instant::now() + Duration::from_millis(250)));
@@ -131,7 +131,8 @@ pub fn subscribe(args: SubArgs) -> anyhow::Result<()> {
             write!(out, "{packet}").context("cannot write to standard output")?;
             seen += 1;
             if args.count.is_some_and(|n| seen >= n) {
-                return out.flush().context("cannot write to standard output");
+                out.flush().context("cannot write to standard output")?;
+                break 'run;
             }
         }
         out.flush().context("cannot write to standard output")?;
@@ -151,6 +152,8 @@ pub fn subscribe(args: SubArgs) -> anyhow::Result<()> {
             _ => {}
         }
     }
+    // Leave no lease behind for the hub to keep until it expires.
+    client.unsubscribe_all()?;
     Ok(())
 }
 

@@ -53,7 +53,11 @@ pub fn fetch(hub: &HubAddr, timeout: Duration) -> anyhow::Result<StatusReport> {
                     leased = true;
                     client.request(&[Request::Status])?;
                 }
-                Reply::Status(report) => return Ok(report),
+                Reply::Status(report) => {
+                    // Leave nothing behind: the lease was only for asking.
+                    client.unsubscribe_all()?;
+                    return Ok(report);
+                }
                 Reply::Lease { .. } => {}
             }
         }

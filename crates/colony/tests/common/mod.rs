@@ -1,0 +1,122 @@
+//! Shared by the integration tests: a real hub process, and bounded waits.
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader};
+use std::net::SocketAddr;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use colony_client::UdpClient;
+
+pub fn colony() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_colony"))
+}
+
+/// A `colony hub` process, killed when dropped.
+pub struct HubProcess {
+    pub child: Child,
+    pub addr: SocketAddr,
+}
+
+impl HubProcess {
+    /// Starts a hub on a free loopback port.
+    pub fn start(extra: &[&str]) -> HubProcess {
+        HubProcess::start_on("127.0.0.1:0", extra)
+    }
+
+    /// Starts a hub on `bind`, and waits until it says where it listens.
+    pub fn start_on(bind: &str, extra: &[&str]) -> HubProcess {
+        let mut child = colony()
+            .args(["hub", "--bind", bind])
+            .args(extra)
+            .env("COLONY_LOG", "info")
+            .env("NO_COLOR", "1")
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start colony hub");
+        let stderr = child.stderr.take().expect("stderr");
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                if let Some(rest) = line.split("addr=").nth(1) {
+                    let addr: String = rest.chars().take_while(|c| !c.is_whitespace()).collect();
+                    let _ = tx.send(addr);
+                }
+            }
+        });
+        let addr = rx
+            .recv_timeout(Duration::from_secs(10))
+            .expect("the hub reports its address");
+        let addr = strip_ansi(&addr).parse().expect("a socket address");
+        HubProcess { child, addr }
+    }
+
+    pub fn client(&self) -> UdpClient {
+        UdpClient::connect(self.addr).expect("client")
+    }
+
+    pub fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for HubProcess {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+fn strip_ansi(s: &str) -> String {
+    let mut out = String::new();
+    let mut chars = s.chars();
+    while let Some(c) = chars.next() {
+        if c == '\u{1b}' {
+            for c in chars.by_ref() {
+                if c.is_ascii_alphabetic() {
+                    break;
+                }
+            }
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// Polls `client` until `deadline`, collecting every packet's text.
+pub fn drain_until(
+    client: &mut UdpClient,
+    deadline: Instant,
+    mut done: impl FnMut(&[String]) -> bool,
+) -> Vec<String> {
+    let mut got = Vec::new();
+    while Instant::now() < deadline && !done(&got) {
+        let _ = client.wait(Some(Instant::now() + Duration::from_millis(20)));
+        client.poll(Instant::now()).expect("poll");
+        while let Some(p) = client.recv().expect("recv") {
+            got.push(p.to_string());
+        }
+    }
+    got
+}
+
+/// Subscribes and waits until the hub has acknowledged the lease.
+pub fn subscribed(hub: SocketAddr, subjects: &[&str]) -> UdpClient {
+    let mut c = UdpClient::connect(hub).expect("client");
+    for s in subjects {
+        c.subscribe(s).expect("subscribe");
+    }
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while c.session().lease().is_none() {
+        assert!(
+            Instant::now() < deadline,
+            "the hub at {hub} never acknowledged a subscription"
+        );
+        let _ = c.wait(Some(Instant::now() + Duration::from_millis(20)));
+        c.poll(Instant::now()).unwrap();
+        while c.recv_reply().unwrap().is_some() {}
+    }
+    c
+}

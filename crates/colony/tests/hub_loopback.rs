@@ -1,0 +1,286 @@
+//! The hub, its clients and the CLI on real sockets on 127.0.0.1.
+
+mod common;
+
+use std::net::UdpSocket;
+use std::process::Stdio;
+use std::time::{Duration, Instant};
+
+use colony_wire::{PacketBuilder, Priority, Request};
+use common::{colony, drain_until, subscribed, HubProcess};
+
+fn packet(channel: &str, seq: u64) -> Vec<u8> {
+    let mut p = PacketBuilder::new([channel], Priority(0));
+    p.line("msg").field("seq", seq);
+    p.finish().unwrap()
+}
+
+#[test]
+fn fan_out_to_50_subscribers_loses_nothing_at_a_moderate_rate() {
+    let hub = HubProcess::start(&[]);
+    let mut subs: Vec<_> = (0..50).map(|_| subscribed(hub.addr, &["vision"])).collect();
+    let mut publisher = hub.client();
+    let mut counts = vec![0u64; subs.len()];
+    let total = 500;
+    for seq in 0..total {
+        publisher.publish(&packet("vision", seq)).unwrap();
+        // About 1,000 packets a second: drain every subscriber as we go.
+        std::thread::sleep(Duration::from_micros(1000));
+        for (c, n) in subs.iter_mut().zip(&mut counts) {
+            while c.recv().unwrap().is_some() {
+                *n += 1;
+            }
+        }
+    }
+    let deadline = Instant::now() + Duration::from_secs(3);
+    while counts.iter().any(|&n| n < total) && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(10));
+        for (c, n) in subs.iter_mut().zip(&mut counts) {
+            while c.recv().unwrap().is_some() {
+                *n += 1;
+            }
+        }
+    }
+    assert!(
+        counts.iter().all(|&n| n == total),
+        "per-subscriber counts: {counts:?}"
+    );
+}
+
+#[test]
+fn the_minimum_priority_filters_low_priority_packets_until_restored() {
+    let hub = HubProcess::start(&[]);
+    let mut sub = subscribed(hub.addr, &["radio"]);
+    let mut console = hub.client();
+    console
+        .request(&[Request::MinPriority(Priority(10))])
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(50));
+    let mut ai = hub.client();
+    let mut operator = hub.client();
+    ai.publish(b"@ <radio> 0\ncmd from \"ai\"\n").unwrap();
+    operator
+        .publish(b"@ <radio> 10\ncmd from \"operator\"\n")
+        .unwrap();
+    let got = drain_until(&mut sub, Instant::now() + Duration::from_secs(2), |g| {
+        !g.is_empty()
+    });
+    std::thread::sleep(Duration::from_millis(100));
+    let later = drain_until(
+        &mut sub,
+        Instant::now() + Duration::from_millis(100),
+        |_| false,
+    );
+    assert_eq!(
+        got.into_iter().chain(later).collect::<Vec<_>>(),
+        ["@ <radio> 10\ncmd from \"operator\"\n"]
+    );
+    console
+        .request(&[Request::MinPriority(Priority(i32::MIN))])
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(50));
+    ai.publish(b"@ <radio> 0\ncmd from \"ai\"\n").unwrap();
+    let got = drain_until(&mut sub, Instant::now() + Duration::from_secs(2), |g| {
+        !g.is_empty()
+    });
+    assert_eq!(got, ["@ <radio> 0\ncmd from \"ai\"\n"]);
+}
+
+#[test]
+fn a_subject_set_packet_reaches_only_clients_with_every_subject() {
+    let hub = HubProcess::start(&[]);
+    let mut both = subscribed(hub.addr, &["mobile", "camera"]);
+    let mut one = subscribed(hub.addr, &["mobile"]);
+    let mut publisher = hub.client();
+    publisher
+        .publish(b"@ <mobile> <camera> 0\ntask name \"track\"\n")
+        .unwrap();
+    publisher
+        .publish(b"@ <mobile> 0\ntask name \"drive\"\n")
+        .unwrap();
+    let got_both = drain_until(&mut both, Instant::now() + Duration::from_secs(2), |g| {
+        g.len() >= 2
+    });
+    let got_one = drain_until(&mut one, Instant::now() + Duration::from_millis(500), |g| {
+        g.len() >= 2
+    });
+    assert_eq!(got_both.len(), 2, "{got_both:?}");
+    assert_eq!(got_one, ["@ <mobile> 0\ntask name \"drive\"\n"]);
+}
+
+#[test]
+fn every_client_receives_again_within_two_resubscribe_intervals_after_a_hub_restart() {
+    let mut hub = HubProcess::start(&[]);
+    let addr = hub.addr;
+    let mut subs: Vec<_> = (0..3).map(|_| subscribed(addr, &["vision"])).collect();
+    // A publisher thread that never stops, like an overhead camera.
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let publisher = {
+        let stop = stop.clone();
+        std::thread::spawn(move || {
+            let mut c = colony_client::UdpClient::connect(addr).unwrap();
+            let mut seq = 0;
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                c.publish(&packet("vision", seq)).unwrap();
+                seq += 1;
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        })
+    };
+    for s in &mut subs {
+        assert!(
+            !drain_until(s, Instant::now() + Duration::from_secs(2), |g| !g
+                .is_empty())
+            .is_empty()
+        );
+    }
+    hub.kill();
+    // Clients keep polling while the hub is away.
+    for s in &mut subs {
+        drain_until(s, Instant::now() + Duration::from_millis(300), |_| false);
+    }
+    let _hub = HubProcess::start_on(&addr.to_string(), &[]);
+    let restarted = Instant::now();
+    let limit = 2 * colony_client::ClientConfig::default().resubscribe_after;
+    // Poll every client together, as independent processes would.
+    let mut recovered = vec![None; subs.len()];
+    while recovered.iter().any(Option::is_none)
+        && restarted.elapsed() < limit + Duration::from_secs(2)
+    {
+        for (s, r) in subs.iter_mut().zip(&mut recovered) {
+            s.poll(Instant::now()).unwrap();
+            if s.recv().unwrap().is_some() && r.is_none() {
+                *r = Some(restarted.elapsed());
+            }
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    publisher.join().unwrap();
+    for r in &recovered {
+        let r = r.expect("every client receives again");
+        assert!(r <= limit, "recovered after {r:?}, more than {limit:?}");
+    }
+}
+
+#[test]
+fn a_killed_client_does_not_disturb_the_others_and_its_lease_expires() {
+    let hub = HubProcess::start(&["--lease", "1"]);
+    let mut victim = colony()
+        .args(["sub", "--hub", &hub.addr.to_string(), "vision"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut survivor = subscribed(hub.addr, &["vision"]);
+    let mut publisher = hub.client();
+    let wait_for_clients = |n: u64| {
+        let deadline = Instant::now() + Duration::from_secs(5);
+        loop {
+            let report = colony_status(hub.addr);
+            // The status command holds a lease of its own.
+            if report.client_count == n + 1 {
+                return report;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "expected {n} clients besides status: {report:?}"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    };
+    wait_for_clients(2);
+    victim.kill().unwrap();
+    victim.wait().unwrap();
+    for seq in 0..20 {
+        publisher.publish(&packet("vision", seq)).unwrap();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let got = drain_until(
+        &mut survivor,
+        Instant::now() + Duration::from_secs(2),
+        |g| g.len() >= 20,
+    );
+    assert_eq!(got.len(), 20);
+    // The survivor keeps refreshing; the dead client's lease runs out.
+    let deadline = Instant::now() + Duration::from_millis(1600);
+    while Instant::now() < deadline {
+        drain_until(
+            &mut survivor,
+            Instant::now() + Duration::from_millis(50),
+            |_| false,
+        );
+    }
+    let report = wait_for_clients(1);
+    let me = survivor.local_addr().unwrap().to_string();
+    assert!(report.clients.iter().any(|c| c.addr == me), "{report:?}");
+}
+
+fn colony_status(hub: std::net::SocketAddr) -> colony_wire::StatusReport {
+    let mut c = subscribed(hub, &["test-status"]);
+    let deadline = Instant::now() + Duration::from_secs(3);
+    loop {
+        c.request(&[Request::Status]).unwrap();
+        let until = Instant::now() + Duration::from_millis(200);
+        while Instant::now() < until {
+            let _ = c.wait(Some(until));
+            if let Some(colony_wire::Reply::Status(r)) = c.recv_reply().unwrap() {
+                c.unsubscribe_all().unwrap();
+                return r;
+            }
+        }
+        assert!(Instant::now() < deadline, "no status reply");
+    }
+}
+
+#[test]
+fn a_flood_of_malformed_packets_does_not_stop_valid_traffic() {
+    let hub = HubProcess::start(&[]);
+    let mut sub = subscribed(hub.addr, &["vision"]);
+    let attacker = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let mut publisher = hub.client();
+    let junk: [&[u8]; 6] = [
+        b"garbage",
+        b"@ <vision> 0\nball x 1 x 2\n",
+        b"@ <vision> 0\nball x (y 1\n",
+        b"@ <vision> 0\nball s \"open\n",
+        b"\xff\xff\xff",
+        &[b'@'; 2000],
+    ];
+    let mut sent = 0;
+    let mut received = 0;
+    for seq in 0..200u64 {
+        for j in &junk {
+            for _ in 0..10 {
+                attacker.send_to(j, hub.addr).unwrap();
+            }
+        }
+        publisher.publish(&packet("vision", seq)).unwrap();
+        sent += 1;
+        std::thread::sleep(Duration::from_micros(500));
+        while sub.recv().unwrap().is_some() {
+            received += 1;
+        }
+    }
+    let rest = drain_until(&mut sub, Instant::now() + Duration::from_secs(3), |g| {
+        received + g.len() >= 200
+    });
+    assert_eq!(
+        received + rest.len(),
+        200,
+        "every valid packet reaches the subscriber"
+    );
+    let report = colony_status(hub.addr);
+    let malformed = report
+        .drops
+        .iter()
+        .find(|(r, _)| r == "malformed")
+        .map(|(_, n)| *n);
+    assert_eq!(malformed, Some(200 * 60), "{report:?}");
+    let vision = report
+        .channels
+        .iter()
+        .find(|c| c.subjects == "vision")
+        .unwrap();
+    assert_eq!(vision.packets, sent);
+}

@@ -1,0 +1,342 @@
+//! The hub as a state machine: no sockets, time driven by hand.
+
+use std::net::SocketAddr;
+use std::time::{Duration, Instant};
+
+use colony_hub::{DropReason, Hub, HubConfig, Outcome};
+use colony_wire::{Packet, Reply, StatusReport};
+
+fn addr(port: u16) -> SocketAddr {
+    SocketAddr::from(([127, 0, 0, 1], port))
+}
+
+fn subscribe(hub: &mut Hub, now: Instant, who: SocketAddr, subjects: &[&str]) {
+    let mut text = String::from("@ <hub> 0\n");
+    for s in subjects {
+        text.push_str(&format!("subscribe ch {s}\n"));
+    }
+    assert_eq!(hub.handle(now, who, text.as_bytes()), Outcome::Control);
+}
+
+fn forwarded(hub: &mut Hub, now: Instant, from: SocketAddr, packet: &str) -> Vec<SocketAddr> {
+    match hub.handle(now, from, packet.as_bytes()) {
+        Outcome::Forward(dests) => {
+            let mut d = dests.to_vec();
+            d.sort();
+            d
+        }
+        other => panic!("expected a forward, got {other:?}"),
+    }
+}
+
+fn replies(hub: &mut Hub) -> Vec<(SocketAddr, Vec<u8>)> {
+    std::iter::from_fn(|| hub.poll_transmit())
+        .map(|t| (t.dest, t.payload))
+        .collect()
+}
+
+#[test]
+fn a_published_packet_reaches_every_subscriber_of_its_channel() {
+    let now = Instant::now();
+    let mut hub = Hub::new(HubConfig::default(), now);
+    for p in 1..=3 {
+        subscribe(&mut hub, now, addr(p), &["vision"]);
+    }
+    subscribe(&mut hub, now, addr(4), &["radio"]);
+    assert_eq!(
+        forwarded(&mut hub, now, addr(9), "@ <vision> 0\nball x 1\n"),
+        [addr(1), addr(2), addr(3)]
+    );
+    assert_eq!(
+        forwarded(&mut hub, now, addr(9), "@ <radio> 0\ncmd id 1\n"),
+        [addr(4)]
+    );
+    assert_eq!(
+        forwarded(&mut hub, now, addr(9), "@ <nobody> 0\nx a 1\n"),
+        Vec::<SocketAddr>::new()
+    );
+}
+
+#[test]
+fn a_subject_set_reaches_only_clients_subscribed_to_all_of_it() {
+    let now = Instant::now();
+    let mut hub = Hub::new(HubConfig::default(), now);
+    subscribe(&mut hub, now, addr(1), &["mobile", "camera", "laser"]);
+    subscribe(&mut hub, now, addr(2), &["mobile", "camera"]);
+    subscribe(&mut hub, now, addr(3), &["mobile"]);
+    subscribe(&mut hub, now, addr(4), &["camera", "laser"]);
+    let task = "@ <mobile> <camera> <laser> 0\ntask name \"find-box\"\n";
+    assert_eq!(forwarded(&mut hub, now, addr(9), task), [addr(1)]);
+    assert_eq!(
+        forwarded(&mut hub, now, addr(9), "@ <camera> <mobile> 0\nt x 1\n"),
+        [addr(1), addr(2)]
+    );
+    assert_eq!(
+        forwarded(&mut hub, now, addr(9), "@ <mobile> 0\nt x 1\n"),
+        [addr(1), addr(2), addr(3)]
+    );
+}
+
+#[test]
+fn a_subscriber_that_stops_refreshing_is_forgotten_after_its_lease() {
+    let start = Instant::now();
+    let config = HubConfig {
+        lease: Duration::from_secs(10),
+        ..HubConfig::default()
+    };
+    let mut hub = Hub::new(config, start);
+    subscribe(&mut hub, start, addr(1), &["vision"]);
+    subscribe(&mut hub, start, addr(2), &["vision"]);
+    // Client 2 refreshes; client 1 does not.
+    for s in 1..=12 {
+        let now = start + Duration::from_secs(s);
+        if s % 3 == 0 {
+            subscribe(&mut hub, now, addr(2), &["vision"]);
+        }
+        hub.handle_timeout(now);
+    }
+    let now = start + Duration::from_secs(12);
+    assert_eq!(
+        forwarded(&mut hub, now, addr(9), "@ <vision> 0\nb x 1\n"),
+        [addr(2)]
+    );
+    assert_eq!(hub.client_count(), 1);
+}
+
+#[test]
+fn timeouts_come_often_enough_to_end_leases_nearly_on_time() {
+    let start = Instant::now();
+    let hub = Hub::new(
+        HubConfig {
+            lease: Duration::from_secs(10),
+            ..HubConfig::default()
+        },
+        start,
+    );
+    assert!(hub.poll_timeout() <= start + Duration::from_secs(1));
+}
+
+#[test]
+fn packets_below_the_minimum_priority_are_dropped_on_every_channel() {
+    let now = Instant::now();
+    let mut hub = Hub::new(HubConfig::default(), now);
+    subscribe(&mut hub, now, addr(1), &["radio", "vision"]);
+    hub.handle(now, addr(7), b"@ <hub> 0\nmin_priority value 5\n");
+    assert_eq!(
+        hub.handle(now, addr(8), b"@ <radio> 0\ncmd id 1\n"),
+        Outcome::Dropped(DropReason::BelowMinPriority)
+    );
+    assert_eq!(
+        hub.handle(now, addr(8), b"@ <vision> 4\nball x 1\n"),
+        Outcome::Dropped(DropReason::BelowMinPriority)
+    );
+    assert_eq!(
+        forwarded(&mut hub, now, addr(7), "@ <radio> 5\ncmd id 1\n"),
+        [addr(1)]
+    );
+    assert_eq!(
+        forwarded(&mut hub, now, addr(7), "@ <radio> 9\ncmd id 1\n"),
+        [addr(1)]
+    );
+    assert_eq!(hub.drops(DropReason::BelowMinPriority), 2);
+    // Control requests are never filtered, or nobody could subscribe again.
+    subscribe(&mut hub, now, addr(2), &["radio"]);
+    hub.handle(now, addr(7), b"@ <hub> 0\nmin_priority value -2147483648\n");
+    assert_eq!(
+        forwarded(&mut hub, now, addr(8), "@ <radio> 0\ncmd id 1\n"),
+        [addr(1), addr(2)]
+    );
+}
+
+#[test]
+fn malformed_packets_are_counted_and_do_not_disturb_routing() {
+    let now = Instant::now();
+    let mut hub = Hub::new(HubConfig::default(), now);
+    subscribe(&mut hub, now, addr(1), &["vision"]);
+    let junk: [&[u8]; 5] = [
+        b"",
+        b"garbage",
+        b"@ <vision> 0\nx a 1 a 2\n",
+        b"@ <vision> 0\nx a (b 1\n",
+        b"\xff\xfe",
+    ];
+    for j in junk {
+        assert_eq!(
+            hub.handle(now, addr(6), j),
+            Outcome::Dropped(DropReason::Malformed)
+        );
+    }
+    assert_eq!(hub.drops(DropReason::Malformed), 5);
+    assert_eq!(
+        forwarded(&mut hub, now, addr(6), "@ <vision> 0\nball x 1\n"),
+        [addr(1)]
+    );
+}
+
+#[test]
+fn unknown_control_requests_are_dropped_as_bad_control() {
+    let now = Instant::now();
+    let mut hub = Hub::new(HubConfig::default(), now);
+    for bad in [
+        "@ <hub> 0\nreboot now 1\n",
+        "@ <hub> 0\nsubscribe\n",
+        "@ <hub> <x> 0\nstatus\n",
+        "@ <hub> 0\nsubscribe ch hub\n",
+    ] {
+        assert_eq!(
+            hub.handle(now, addr(1), bad.as_bytes()),
+            Outcome::Dropped(DropReason::BadControl),
+            "{bad}"
+        );
+    }
+    assert_eq!(hub.client_count(), 0);
+}
+
+#[test]
+fn a_subscription_is_acknowledged_with_the_lease_time() {
+    let now = Instant::now();
+    let mut hub = Hub::new(HubConfig::default(), now);
+    subscribe(&mut hub, now, addr(1), &["vision"]);
+    let r = replies(&mut hub);
+    assert_eq!(r.len(), 1);
+    assert_eq!(r[0].0, addr(1));
+    let p = Packet::parse(&r[0].1).unwrap();
+    assert!(matches!(
+        Reply::parse(&p),
+        Some(Ok(Reply::Lease { ms: 10_000 }))
+    ));
+}
+
+#[test]
+fn unsubscribing_stops_delivery_and_unsubscribe_all_forgets_the_client() {
+    let now = Instant::now();
+    let mut hub = Hub::new(HubConfig::default(), now);
+    subscribe(&mut hub, now, addr(1), &["a", "b"]);
+    hub.handle(now, addr(1), b"@ <hub> 0\nunsubscribe ch a\n");
+    assert!(forwarded(&mut hub, now, addr(9), "@ <a> 0\nx y 1\n").is_empty());
+    assert_eq!(
+        forwarded(&mut hub, now, addr(9), "@ <b> 0\nx y 1\n"),
+        [addr(1)]
+    );
+    hub.handle(now, addr(1), b"@ <hub> 0\nunsubscribe_all\n");
+    assert!(forwarded(&mut hub, now, addr(9), "@ <b> 0\nx y 1\n").is_empty());
+    assert_eq!(hub.client_count(), 0);
+}
+
+#[test]
+fn status_is_answered_only_to_a_client_that_held_a_lease_before_asking() {
+    let now = Instant::now();
+    let mut hub = Hub::new(HubConfig::default(), now);
+    // A stranger (or a forged source) asking for status gets nothing.
+    hub.handle(now, addr(5), b"@ <hub> 0\nstatus\n");
+    assert!(replies(&mut hub).is_empty());
+    assert_eq!(hub.drops(DropReason::NoLease), 1);
+    // Nor does taking the lease in the same packet as the question count.
+    hub.handle(now, addr(5), b"@ <hub> 0\nsubscribe ch x\nstatus\n");
+    let r = replies(&mut hub);
+    assert!(
+        r.iter()
+            .all(|(_, p)| p.len() <= b"@ <hub> 0\nsubscribe ch x\nstatus\n".len()),
+        "only the small lease ack"
+    );
+    assert_eq!(hub.drops(DropReason::NoLease), 2);
+    // Once leased, it gets the report.
+    hub.handle(now, addr(5), b"@ <hub> 0\nstatus\n");
+    let r = replies(&mut hub);
+    assert_eq!(r.len(), 1);
+    let report = StatusReport::from_packet(&Packet::parse(&r[0].1).unwrap()).unwrap();
+    assert_eq!(report.client_count, 1);
+    assert_eq!(report.clients[0].addr, addr(5).to_string());
+    assert_eq!(report.clients[0].subscriptions[0].0, "x");
+}
+
+#[test]
+fn the_lease_ack_to_a_new_address_is_never_larger_than_the_request() {
+    let now = Instant::now();
+    let mut hub = Hub::new(HubConfig::default(), now);
+    let request = b"@ <hub> 0\nsubscribe ch a\n";
+    hub.handle(now, addr(1), request);
+    for (_, payload) in replies(&mut hub) {
+        assert!(
+            payload.len() <= request.len(),
+            "{} > {}",
+            payload.len(),
+            request.len()
+        );
+    }
+}
+
+#[test]
+fn status_requests_are_rate_limited_per_client() {
+    let now = Instant::now();
+    let mut hub = Hub::new(HubConfig::default(), now);
+    subscribe(&mut hub, now, addr(1), &["x"]);
+    replies(&mut hub);
+    for _ in 0..10 {
+        hub.handle(now, addr(1), b"@ <hub> 0\nstatus\n");
+    }
+    assert_eq!(replies(&mut hub).len(), 1);
+    assert_eq!(hub.drops(DropReason::StatusRateLimited), 9);
+    hub.handle(
+        now + Duration::from_millis(150),
+        addr(1),
+        b"@ <hub> 0\nstatus\n",
+    );
+    assert_eq!(replies(&mut hub).len(), 1);
+}
+
+#[test]
+fn status_reports_channels_and_drops() {
+    let now = Instant::now();
+    let mut hub = Hub::new(HubConfig::default(), now);
+    subscribe(&mut hub, now, addr(1), &["vision"]);
+    hub.handle(now, addr(2), b"@ <vision> 0\nball x 1\n");
+    hub.handle(now, addr(2), b"@ <vision> <radio> 0\nball x 1\n");
+    hub.handle(now, addr(2), b"nonsense");
+    let s = hub.status(now);
+    let vision = s.channels.iter().find(|c| c.subjects == "vision").unwrap();
+    assert_eq!((vision.packets, vision.bytes), (1, 22));
+    assert!(s.channels.iter().any(|c| c.subjects == "vision radio"));
+    assert_eq!(s.drops, [("malformed".to_string(), 1)]);
+}
+
+#[test]
+fn memory_stays_bounded_under_hostile_input() {
+    let now = Instant::now();
+    let config = HubConfig {
+        max_clients: 8,
+        max_subscriptions: 4,
+        max_channels: 16,
+        ..HubConfig::default()
+    };
+    let mut hub = Hub::new(config, now);
+    for p in 0..100u16 {
+        subscribe(
+            &mut hub,
+            now,
+            addr(1000 + p),
+            &["a", "b", "c", "d", "e", "f"],
+        );
+    }
+    assert_eq!(hub.client_count(), 8);
+    assert!(hub.drops(DropReason::TooManyClients) >= 92);
+    assert!(hub.drops(DropReason::TooManySubscriptions) >= 16);
+    for i in 0..1000 {
+        hub.handle(now, addr(1), format!("@ <chan{i}> 0\nx y 1\n").as_bytes());
+    }
+    let s = hub.status(now);
+    assert_eq!(s.channels.len(), 17, "16 named channels and `*other*`");
+    assert_eq!(s.channels.iter().map(|c| c.packets).sum::<u64>(), 1000);
+    assert!(s.clients.iter().all(|c| c.subscriptions.len() <= 4));
+}
+
+#[test]
+fn a_subscriber_of_its_own_channel_gets_its_own_packets() {
+    let now = Instant::now();
+    let mut hub = Hub::new(HubConfig::default(), now);
+    subscribe(&mut hub, now, addr(1), &["chat"]);
+    assert_eq!(
+        forwarded(&mut hub, now, addr(1), "@ <chat> 0\nsay text \"hi\"\n"),
+        [addr(1)]
+    );
+}
