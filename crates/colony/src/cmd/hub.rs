@@ -16,7 +16,12 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub log: Option<PathBuf>,
     /// Seconds a subscription lasts without a refresh.
-    #[arg(long, default_value_t = 10.0, value_name = "SECONDS")]
+    #[arg(
+        long,
+        default_value_t = 10.0,
+        value_name = "SECONDS",
+        allow_negative_numbers = true
+    )]
     pub lease: f64,
     /// Most clients held at once.
     #[arg(long, default_value_t = 4096)]

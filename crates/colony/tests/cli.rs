@@ -1,0 +1,292 @@
+//! The `colony` command as a user types it.
+
+mod common;
+
+use std::fs::OpenOptions;
+use std::process::{Output, Stdio};
+use std::time::{Duration, Instant};
+
+use common::{colony, drain_until, subscribed, HubProcess};
+
+fn run(args: &[&str]) -> Output {
+    colony()
+        .args(args)
+        .stdin(Stdio::null())
+        .output()
+        .expect("run colony")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A loopback port with nothing listening on it.
+fn closed_port() -> String {
+    let s = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    s.local_addr().unwrap().to_string()
+}
+
+#[test]
+fn a_packet_forged_with_printf_and_nc_reaches_colony_sub() {
+    let hub = HubProcess::start(&[]);
+    let sub = colony()
+        .args([
+            "sub",
+            "--hub",
+            &hub.addr.to_string(),
+            "-n",
+            "1",
+            "vision_out",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Give `sub` time to take its lease; resend until it has answered.
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let script = format!(
+        "printf '@ <vision_out> 0\\nball x 5.3 y -2.5\\n' | nc -u -w0 127.0.0.1 {}",
+        hub.addr.port()
+    );
+    let mut sub = sub;
+    loop {
+        std::thread::sleep(Duration::from_millis(200));
+        let status = std::process::Command::new("sh")
+            .args(["-c", &script])
+            .status()
+            .expect("sh");
+        assert!(
+            status.success(),
+            "nc is needed for this test (Debian package netcat-openbsd)"
+        );
+        if sub.try_wait().unwrap().is_some() || Instant::now() > deadline {
+            break;
+        }
+    }
+    let _ = sub.kill();
+    let out = sub.wait_with_output().unwrap();
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        "@ <vision_out> 0\nball x 5.3 y -2.5\n"
+    );
+}
+
+#[test]
+fn pub_and_sub_talk_through_the_hub() {
+    let hub = HubProcess::start(&[]);
+    let hub_arg = hub.addr.to_string();
+    let mut sub = subscribed(hub.addr, &["radio"]);
+    let o = run(&[
+        "pub",
+        "--hub",
+        &hub_arg,
+        "--priority",
+        "3",
+        "radio",
+        "cmd id 3 vl 0.2 vr 0.2",
+        "note text \"go\"",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let got = drain_until(&mut sub, Instant::now() + Duration::from_secs(3), |g| {
+        !g.is_empty()
+    });
+    assert_eq!(
+        got,
+        ["@ <radio> 3\ncmd id 3 vl 0.2 vr 0.2\nnote text \"go\"\n"]
+    );
+}
+
+#[test]
+fn pub_reads_whole_packets_from_standard_input() {
+    let hub = HubProcess::start(&[]);
+    let mut sub = subscribed(hub.addr, &["a", "b"]);
+    let mut child = colony()
+        .args(["pub", "--hub", &hub.addr.to_string(), "a"])
+        .stdin(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    use std::io::Write;
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(b"@ <a> 0\nx y 1\n@ <b> 2\nz w 2\n")
+        .unwrap();
+    assert!(child.wait().unwrap().success());
+    let got = drain_until(&mut sub, Instant::now() + Duration::from_secs(3), |g| {
+        g.len() >= 2
+    });
+    assert_eq!(got, ["@ <a> 0\nx y 1\n", "@ <b> 2\nz w 2\n"]);
+}
+
+#[test]
+fn a_malformed_line_is_refused_with_its_position() {
+    let o = run(&["pub", "--hub", &closed_port(), "radio", "cmd id 3 id 4"]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.contains("line 2, column 10") && e.contains("duplicate name `id`"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_bad_hub_address_is_named_in_the_error() {
+    let o = run(&["pub", "--hub", "not-an-address", "radio", "cmd id 3"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("not-an-address"), "{}", stderr(&o));
+    let o = run(&["hub", "--bind", "999.1.1.1:7400"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("999.1.1.1:7400"), "{}", stderr(&o));
+    let o = run(&["hub", "--lease", "-1"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--lease"), "{}", stderr(&o));
+}
+
+#[test]
+fn status_says_so_when_no_hub_answers() {
+    let o = run(&["status", "--hub", &closed_port(), "--timeout", "0.5"]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("no answer from a hub"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn sub_says_so_after_the_lease_time_when_no_hub_answers() {
+    let mut sub = colony()
+        .args(["sub", "--hub", &closed_port(), "vision"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_secs(11));
+    let _ = sub.kill();
+    let out = sub.wait_with_output().unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("no answer from a hub"), "{e}");
+}
+
+#[test]
+fn status_lists_clients_channels_and_drops() {
+    let hub = HubProcess::start(&[]);
+    let _sub = subscribed(hub.addr, &["vision"]);
+    let o = run(&[
+        "pub",
+        "--hub",
+        &hub.addr.to_string(),
+        "vision",
+        "ball x 1 y 2",
+    ]);
+    assert!(o.status.success());
+    let o = run(&["status", "--hub", &hub.addr.to_string()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("vision") && text.contains("1 packets") && text.contains("clients:"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_log_with_a_torn_tail_replays_every_whole_record() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("traffic.clog");
+    let log_arg = log.to_str().unwrap();
+    {
+        let hub = HubProcess::start(&["--log", log_arg]);
+        let mut publisher = hub.client();
+        for seq in 0..20 {
+            publisher
+                .publish(format!("@ <vision> 0\nball seq {seq}\n").as_bytes())
+                .unwrap();
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    // A crash mid-write: the last record loses its end.
+    let len = std::fs::metadata(&log).unwrap().len();
+    OpenOptions::new()
+        .write(true)
+        .open(&log)
+        .unwrap()
+        .set_len(len - 4)
+        .unwrap();
+
+    let listed = run(&["log", log_arg, "--channel", "vision"]);
+    assert!(listed.status.success(), "{}", stderr(&listed));
+    let text = String::from_utf8_lossy(&listed.stdout);
+    assert_eq!(text.matches("ball seq").count(), 19, "{text}");
+    assert!(
+        stderr(&listed).contains("torn record"),
+        "{}",
+        stderr(&listed)
+    );
+
+    let hub = HubProcess::start(&[]);
+    let mut sub = subscribed(hub.addr, &["vision"]);
+    let o = run(&[
+        "replay",
+        "--hub",
+        &hub.addr.to_string(),
+        "--speed",
+        "10",
+        log_arg,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let got = drain_until(&mut sub, Instant::now() + Duration::from_secs(3), |g| {
+        g.len() >= 19
+    });
+    let expected: Vec<String> = (0..19)
+        .map(|s| format!("@ <vision> 0\nball seq {s}\n"))
+        .collect();
+    assert_eq!(got, expected);
+}
+
+#[test]
+fn replay_keeps_the_original_timing_scaled_by_speed() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("t.clog");
+    {
+        let (mut w, _) = colony_hub::log::LogWriter::open(&log).unwrap();
+        let src = "127.0.0.1:1".parse().unwrap();
+        let t0 = std::time::UNIX_EPOCH + Duration::from_secs(1_000);
+        w.append(t0, src, b"@ <a> 0\nx n 0\n").unwrap();
+        w.append(t0 + Duration::from_millis(800), src, b"@ <a> 0\nx n 1\n")
+            .unwrap();
+        w.flush().unwrap();
+    }
+    let hub = HubProcess::start(&[]);
+    let started = Instant::now();
+    let o = run(&[
+        "replay",
+        "--hub",
+        &hub.addr.to_string(),
+        "--speed",
+        "2",
+        log.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let took = started.elapsed();
+    assert!(
+        took >= Duration::from_millis(400),
+        "replay took {took:?}, less than 800 ms / 2"
+    );
+    let o = run(&["replay", "--speed", "0", log.to_str().unwrap()]);
+    assert!(stderr(&o).contains("--speed"), "{}", stderr(&o));
+}
+
+#[test]
+fn demo_shows_vision_packets_flowing() {
+    let bind = closed_port();
+    let o = run(&["demo", "--bind", &bind, "--seconds", "1.5"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("@ <vision_out> 0") && text.contains("ball x"),
+        "{text}"
+    );
+}
