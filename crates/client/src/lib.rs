@@ -31,7 +31,7 @@ mod udp;
 #[cfg(feature = "tokio")]
 mod tokio_client;
 
-pub use session::{ClientConfig, HubState, Session};
+pub use session::{ClientConfig, HubState, Incoming, Session};
 pub use udp::{ClientError, UdpClient};
 
 #[cfg(feature = "tokio")]

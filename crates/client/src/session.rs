@@ -148,13 +148,11 @@ impl Session {
     ) -> Result<Incoming<'a>, colony_wire::ParseError> {
         self.last_from_hub = Some(now);
         let packet = Packet::parse(data)?;
-        if let Some(reply) = Reply::parse(&packet) {
-            if let Ok(reply) = reply {
-                if let Reply::Lease { ms } = reply {
-                    self.lease = Some(Duration::from_millis(ms));
-                }
-                return Ok(Incoming::Reply(reply));
+        if let Some(Ok(reply)) = Reply::parse(&packet) {
+            if let Reply::Lease { ms } = reply {
+                self.lease = Some(Duration::from_millis(ms));
             }
+            return Ok(Incoming::Reply(reply));
         }
         self.note_data(now, &packet);
         Ok(Incoming::Packet(packet))
