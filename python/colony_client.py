@@ -1,0 +1,1186 @@
+"""colony_client: a Python client for the colony hub, in one file, standard library only.
+
+The packet format (the same text every colony process speaks)::
+
+    @ <vision_out> 0
+    ball x 5.3 y -2.5
+    blue id 0 x 15.2 y -98.3 pose (xh 1.0 yh 0.0)
+    note text "kick \\"off\\""
+
+* :func:`parse` reads a datagram exactly as the Rust parser (``colony_wire``)
+  does, with the same errors at the same line and (byte) column.
+* :func:`build` / :func:`format_packet` write packets that every reader accepts.
+* :class:`Client` talks to a hub over a non-blocking UDP socket. It never
+  starts a thread and never owns the loop: wait on :meth:`Client.fileno` until
+  :meth:`Client.next_deadline`, then call :meth:`Client.poll` and
+  :meth:`Client.recv`.
+
+Values become plain Python: ``int`` for a bare token Rust reads as an ``i64``,
+``float`` for any other bare token Rust reads as an ``f64`` (``1e5``, ``.5``,
+``5.``, ``inf``, ``-Infinity``, ``NaN``, ...), ``str`` for every other bare
+token and for every quoted string (``"5"`` stays the string ``'5'``), and
+``dict`` for a parenthesised group.
+
+Python 3.8 or later.
+"""
+
+import ipaddress
+import os
+import re
+import select
+import socket
+import sys
+import time
+from collections import deque
+
+__all__ = [
+    "MAX_PACKET",
+    "MAX_SUBJECTS",
+    "MAX_SUBJECT_LEN",
+    "MAX_DEPTH",
+    "HUB_SUBJECT",
+    "DEFAULT_HUB",
+    "ParseError",
+    "Packet",
+    "parse",
+    "build",
+    "format_packet",
+    "Session",
+    "Client",
+]
+
+#: The largest packet: the payload of one UDP datagram over IPv4.
+MAX_PACKET = 65507
+#: The most subjects one header may name.
+MAX_SUBJECTS = 16
+#: The longest subject name, in bytes.
+MAX_SUBJECT_LEN = 64
+#: How deep groups may nest.
+MAX_DEPTH = 32
+#: The reserved subject that carries control requests and the hub's replies.
+HUB_SUBJECT = "hub"
+#: Where a hub listens unless told otherwise.
+DEFAULT_HUB = ("127.0.0.1", 7400)
+
+_I64_MIN = -(2 ** 63)
+_I64_MAX = 2 ** 63 - 1
+_I32_MIN = -(2 ** 31)
+_I32_MAX = 2 ** 31 - 1
+
+# --------------------------------------------------------------------------- errors
+
+_MESSAGES = {
+    "too_large": "packet is {len} bytes, more than the 65507 a UDP datagram can carry",
+    "empty": "empty packet: expected a header `@ <subject> priority`",
+    "not_utf8": "packet is not valid UTF-8",
+    "bad_header": "bad header: expected {what}",
+    "bad_subject": "bad subject `{name}`: subjects are 1 to 64 characters of A-Z a-z 0-9 _ - . : /",
+    "duplicate_subject": "subject `<{name}>` appears twice in the header",
+    "bad_priority": "priority `{text}` is not a 32-bit integer",
+    "control_char": "control character 0x{byte:02x} is not allowed",
+    "expected_label": "expected a line label, found `{char}`",
+    "expected_name": "expected a field name, found `{char}`",
+    "missing_value": "field `{name}` has no value",
+    "duplicate_name": "duplicate name `{name}`: a name may appear once per line or group",
+    "unclosed_group": "unbalanced parentheses: `(` not closed before the end of the line",
+    "unmatched_close": "unbalanced parentheses: `)` without a matching `(`",
+    "unterminated_string": 'unterminated string: no closing `"` before the end of the line',
+    "bad_escape": 'unknown escape `\\{char}` (known: \\" \\\\ \\n \\r \\t)',
+    "too_deep": "groups nested deeper than 32",
+}
+
+
+class ParseError(ValueError):
+    """A malformed packet: what was wrong and where.
+
+    ``kind`` names the problem (the Rust ``ErrorKind`` in snake case:
+    ``too_large``, ``empty``, ``not_utf8``, ``bad_header``, ``bad_subject``,
+    ``duplicate_subject``, ``bad_priority``, ``control_char``,
+    ``expected_label``, ``expected_name``, ``missing_value``,
+    ``duplicate_name``, ``unclosed_group``, ``unmatched_close``,
+    ``unterminated_string``, ``bad_escape``, ``too_deep``); ``line`` and
+    ``column`` are 1-based, the column counted in bytes as in Rust;
+    ``message`` says what was wrong (``str(e)`` adds the position, worded as
+    the Rust ``Display``); ``detail`` holds the kind's data (the name, the
+    character, the expected text...).
+    """
+
+    def __init__(self, kind, line, column, **detail):
+        self.kind = kind
+        self.line = line
+        self.column = column
+        self.detail = detail
+        self.message = _MESSAGES[kind].format(**detail)
+        super().__init__("line {}, column {}: {}".format(line, column, self.message))
+
+    def __reduce__(self):
+        return (_make_error, (self.kind, self.line, self.column, self.detail))
+
+
+def _make_error(kind, line, column, detail):
+    return ParseError(kind, line, column, **detail)
+
+
+# --------------------------------------------------------------------------- scanning
+
+# Bare tokens: every character but controls (< 0x20, 0x7f), blank, `"`, `(`, `)`.
+# Every non-ASCII character is bare, as every byte >= 0x80 is in Rust.
+_BARE_RUN = re.compile(r'[^\x00-\x20"()\x7f]+')
+# The fast run inside a quoted string: anything but controls (a raw tab is kept), `"`, `\`.
+_QUOTE_RUN = re.compile(r'[^\x00-\x08\x0a-\x1f"\\\x7f]*')
+_BLANKS = re.compile(r"[ \t]*")
+_SUBJECT = re.compile(r"[A-Za-z0-9_\-.:/]{1,64}")
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+# Rust's `f64::from_str`, letters in any case.
+_FLOAT = re.compile(
+    r"[+-]?(?:inf|infinity|nan|(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:e[+-]?[0-9]+)?)",
+    re.IGNORECASE | re.ASCII,
+)
+_ESCAPE = re.compile(r"\\(.)", re.DOTALL)
+_UNESCAPE = {"n": "\n", "r": "\r", "t": "\t"}
+
+_BARE, _QUOTED, _OPEN, _CLOSE, _EOL = range(5)
+
+
+def _is_control(ch):
+    o = ord(ch)
+    return o < 0x20 or o == 0x7F
+
+
+def is_bare_token(s):
+    """Whether ``s`` can be written as a bare token (no quoting needed)."""
+    return isinstance(s, str) and _BARE_RUN.fullmatch(s) is not None
+
+
+def is_subject(s):
+    """Whether ``s`` is a valid subject name (without its angle brackets)."""
+    return isinstance(s, str) and _SUBJECT.fullmatch(s) is not None
+
+
+def _value_of(token):
+    """A bare token as plain Python: int, float or str, as Rust's getters read it."""
+    if _INTEGER.fullmatch(token):
+        v = int(token)
+        if _I64_MIN <= v <= _I64_MAX:
+            return v
+        return float(token)
+    if _FLOAT.fullmatch(token):
+        return float(token)
+    return token
+
+
+def _unescape(raw):
+    if "\\" not in raw:
+        return raw
+    return _ESCAPE.sub(lambda m: _UNESCAPE.get(m.group(1), m.group(1)), raw)
+
+
+class _Scanner:
+    """A cursor over the packet text that knows its line and column (a port of scan.rs)."""
+
+    __slots__ = ("src", "n", "pos", "line", "line_start", "prev")
+
+    def __init__(self, src, pos=0, line=1, line_start=0):
+        self.src = src
+        self.n = len(src)
+        self.pos = pos
+        self.line = line
+        self.line_start = line_start
+        # The line just ended, so an error found at its end is reported on it.
+        self.prev = (line, line_start)
+
+    def at_end(self):
+        return self.pos >= self.n
+
+    def error(self, pos, kind, **detail):
+        if pos < self.line_start:
+            line, start = self.prev
+        else:
+            line, start = self.line, self.line_start
+        # Columns count bytes, as in Rust.
+        column = len(self.src[start:pos].encode("utf-8")) + 1 if pos > start else 1
+        return ParseError(kind, line, column, **detail)
+
+    def char_at(self, pos):
+        return self.src[pos] if pos < self.n else "\ufffd"
+
+    def _new_line(self, next_start):
+        self.prev = (self.line, self.line_start)
+        self.pos = next_start
+        self.line += 1
+        self.line_start = next_start
+
+    def skip_ws(self):
+        self.pos = _BLANKS.match(self.src, self.pos).end()
+
+    def _take_eol(self):
+        """Consumes the line end (``\\n``, ``\\r\\n`` or the end) if it is next."""
+        pos = self.pos
+        if pos >= self.n:
+            return True
+        c = self.src[pos]
+        if c == "\n":
+            self._new_line(pos + 1)
+            return True
+        if c == "\r" and self.src.startswith("\n", pos + 1):
+            self._new_line(pos + 2)
+            return True
+        if _is_control(c):
+            raise self.error(pos, "control_char", byte=ord(c))
+        return False
+
+    def next(self):
+        """The next token after any blanks: ``(kind, start, text)``."""
+        self.skip_ws()
+        start = self.pos
+        if self._take_eol():
+            return _EOL, start, None
+        c = self.src[start]
+        if c == "(":
+            self.pos = start + 1
+            return _OPEN, start, None
+        if c == ")":
+            self.pos = start + 1
+            return _CLOSE, start, None
+        if c == '"':
+            return self._quoted(start)
+        end = _BARE_RUN.match(self.src, start).end()
+        self.pos = end
+        return _BARE, start, self.src[start:end]
+
+    def _quoted(self, start):
+        src, n = self.src, self.n
+        p = start + 1
+        while True:
+            p = _QUOTE_RUN.match(src, p).end()
+            if p >= n or src[p] in "\n\r":
+                raise self.error(start, "unterminated_string")
+            c = src[p]
+            if c == '"':
+                self.pos = p + 1
+                return _QUOTED, start, src[start + 1 : p]
+            if c == "\\":
+                if p + 1 >= n or src[p + 1] in "\n\r":
+                    raise self.error(start, "unterminated_string")
+                if src[p + 1] in '"\\nrt':
+                    p += 2
+                    continue
+                raise self.error(p, "bad_escape", char=src[p + 1])
+            raise self.error(p, "control_char", byte=ord(c))
+
+
+def _decode(data):
+    """Checks size and UTF-8, as the Rust parser does before anything else."""
+    if isinstance(data, (bytearray, memoryview)):
+        data = bytes(data)
+    elif isinstance(data, str):
+        data = data.encode("utf-8")
+    elif not isinstance(data, bytes):
+        raise TypeError("parse() takes bytes, not {}".format(type(data).__name__))
+    if len(data) > MAX_PACKET:
+        raise ParseError("too_large", 1, 1, len=len(data))
+    if not data:
+        raise ParseError("empty", 1, 1)
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        good = data[: e.start]
+        line = good.count(b"\n") + 1
+        line_start = good.rfind(b"\n") + 1
+        raise ParseError("not_utf8", line, len(good) - line_start + 1) from None
+
+
+def _header(s):
+    """Reads ``@ <subject>... priority``; returns (subjects, priority)."""
+    src, n = s.src, s.n
+    if src[0] != "@":
+        raise s.error(0, "bad_header", what="`@` at the start of the packet")
+    s.pos = 1
+    if n < 2 or src[1] not in " \t":
+        raise s.error(1, "bad_header", what="a blank after `@`")
+    s.skip_ws()
+    subjects = []
+    while s.pos < n and src[s.pos] == "<":
+        open_at = s.pos
+        close = src.find(">", open_at)
+        newline = src.find("\n", open_at)
+        if close < 0 or 0 <= newline < close:
+            raise s.error(open_at, "bad_header", what="`>` to close the subject")
+        name = src[open_at + 1 : close]
+        if not is_subject(name):
+            raise s.error(open_at, "bad_subject", name=name)
+        if name in subjects:
+            raise s.error(open_at, "duplicate_subject", name=name)
+        if len(subjects) == MAX_SUBJECTS:
+            raise s.error(open_at, "bad_header", what="at most 16 subjects")
+        subjects.append(name)
+        s.pos = close + 1
+        c = src[s.pos] if s.pos < n else None
+        if c is None or c in "\r\n":
+            raise s.error(s.pos, "bad_header", what="an integer priority after the subjects")
+        if c not in " \t":
+            raise s.error(s.pos, "bad_header", what="a blank after the subject")
+        s.skip_ws()
+    if not subjects:
+        raise s.error(s.pos, "bad_header", what="a `<subject>`")
+    prio_at = s.pos
+    kind, _, text = s.next()
+    if kind != _BARE:
+        raise s.error(prio_at, "bad_header", what="an integer priority")
+    priority = int(text) if _INTEGER.fullmatch(text) else None
+    if priority is None or not _I32_MIN <= priority <= _I32_MAX:
+        raise s.error(prio_at, "bad_priority", text=text)
+    end_at = s.pos
+    if s.next()[0] != _EOL:
+        raise s.error(end_at, "bad_header", what="the end of the header after the priority")
+    return subjects, priority
+
+
+def _body(s):
+    """Reads every line; returns a list of (label, dict)."""
+    lines = []
+    while not s.at_end():
+        kind, p, label = s.next()
+        if kind == _EOL:
+            continue
+        if kind != _BARE:
+            raise s.error(p, "expected_label", char=s.char_at(p))
+        fields = {}
+        stack = [fields]
+        while True:
+            kind, p, name = s.next()
+            if kind == _EOL:
+                if len(stack) > 1:
+                    raise s.error(p, "unclosed_group")
+                break
+            if kind == _CLOSE:
+                if len(stack) == 1:
+                    raise s.error(p, "unmatched_close")
+                stack.pop()
+                continue
+            if kind != _BARE:
+                raise s.error(p, "expected_name", char=s.char_at(p))
+            here = stack[-1]
+            if name in here:
+                raise s.error(p, "duplicate_name", name=name)
+            vkind, vp, text = s.next()
+            if vkind == _BARE:
+                here[name] = _value_of(text)
+            elif vkind == _QUOTED:
+                here[name] = _unescape(text)
+            elif vkind == _OPEN:
+                if len(stack) - 1 >= MAX_DEPTH:
+                    raise s.error(vp, "too_deep")
+                group = {}
+                here[name] = group
+                stack.append(group)
+            else:
+                raise s.error(p, "missing_value", name=name)
+        lines.append((label, fields))
+    return lines
+
+
+# --------------------------------------------------------------------------- packets
+
+
+class Packet:
+    """A parsed packet.
+
+    ``subjects`` is the list of subjects in the order written, ``priority`` an
+    int, ``lines`` a list of ``(label, dict)`` in order (blank lines skipped;
+    repeated labels are the format's arrays), ``text`` the packet as received.
+    ``str(packet)`` is the canonical form, byte for byte what the Rust
+    ``Display`` (and so ``colony sub``) writes.
+    """
+
+    __slots__ = ("subjects", "priority", "lines", "text", "_body")
+
+    def __init__(self, subjects, priority, lines, text=None, body=None):
+        self.subjects = list(subjects)
+        self.priority = priority
+        self.lines = list(lines)
+        self.text = text
+        self._body = body
+
+    def line(self, label):
+        """The fields of the first line with this label, or None."""
+        for lab, fields in self.lines:
+            if lab == label:
+                return fields
+        return None
+
+    def lines_labelled(self, label):
+        """The fields of every line with this label, in order."""
+        return [fields for lab, fields in self.lines if lab == label]
+
+    def labels(self):
+        return [lab for lab, _ in self.lines]
+
+    def has_subject(self, subject):
+        return subject in self.subjects
+
+    def is_control(self):
+        """Whether this is a packet to (or from) the hub itself."""
+        return self.subjects == [HUB_SUBJECT]
+
+    def to_bytes(self):
+        """The packet written again (values re-encoded, see :func:`build`)."""
+        return build(self.subjects, self.priority, self.lines)
+
+    def __bytes__(self):
+        if self.text is not None:
+            return self.text.encode("utf-8")
+        return self.to_bytes()
+
+    def __eq__(self, other):
+        if not isinstance(other, Packet):
+            return NotImplemented
+        return (self.subjects, self.priority, self.lines) == (
+            other.subjects,
+            other.priority,
+            other.lines,
+        )
+
+    __hash__ = None
+
+    def __repr__(self):
+        return "Packet(subjects={!r}, priority={!r}, lines={!r})".format(
+            self.subjects, self.priority, self.lines
+        )
+
+    def __str__(self):
+        if self.text is None or self._body is None:
+            return format_packet(self.subjects, self.priority, self.lines)
+        out = ["@"]
+        for subject in self.subjects:
+            out.append(" <" + subject + ">")
+        out.append(" {}\n".format(self.priority))
+        s = _Scanner(self.text, self._body, 2, self._body)
+        while not s.at_end():
+            kind, _, label = s.next()
+            if kind == _EOL:
+                continue
+            out.append(label)
+            after_open = False
+            while True:
+                kind, _, text = s.next()
+                if kind == _EOL:
+                    break
+                if kind == _CLOSE:
+                    out.append(")")
+                    after_open = False
+                    continue
+                if not after_open:
+                    out.append(" ")
+                if kind == _OPEN:
+                    out.append("(")
+                    after_open = True
+                    continue
+                out.append(text if kind == _BARE else '"' + text + '"')
+                after_open = False
+            out.append("\n")
+        return "".join(out)
+
+
+def parse(data):
+    """Parses one datagram (bytes) into a :class:`Packet`, or raises :class:`ParseError`.
+
+    Exactly the Rust grammar: the header ``@ <subject>... priority`` (1 to 16
+    distinct subjects of 1 to 64 characters ``A-Z a-z 0-9 _ - . : /``, a
+    32-bit priority), then lines of ``label name value ...``; a value is a bare
+    token, a quoted string (escapes ``\\" \\\\ \\n \\r \\t``) or a group
+    ``( name value ... )`` nested at most 32 deep; a name appears once per line
+    or group; ``\\r\\n`` ends a line like ``\\n``; blank lines are skipped; at
+    most 65507 bytes of UTF-8.
+    """
+    text = _decode(data)
+    s = _Scanner(text)
+    subjects, priority = _header(s)
+    body = s.pos
+    lines = _body(s)
+    return Packet(subjects, priority, lines, text, body)
+
+
+# --------------------------------------------------------------------------- writing
+
+
+def _quote(s):
+    out = ['"']
+    for ch in s:
+        if ch == '"':
+            out.append('\\"')
+        elif ch == "\\":
+            out.append("\\\\")
+        elif ch == "\n":
+            out.append("\\n")
+        elif ch == "\r":
+            out.append("\\r")
+        elif ch == "\t":
+            out.append("\\t")
+        elif _is_control(ch):
+            # As the Rust builder does: no escape exists for it.
+            out.append("\ufffd")
+        else:
+            out.append(ch)
+    out.append('"')
+    return "".join(out)
+
+
+def _write_value(value, depth):
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        if not _I64_MIN <= value <= _I64_MAX:
+            raise ValueError("integer {} does not fit in 64 bits".format(value))
+        return str(value)
+    if isinstance(value, float):
+        # repr is the shortest text that reads back to the same float.
+        return repr(value)
+    if isinstance(value, str):
+        # Bare only when it reads back as this very string (not as a number).
+        if is_bare_token(value) and isinstance(_value_of(value), str):
+            return value
+        return _quote(value)
+    if isinstance(value, dict):
+        if depth >= MAX_DEPTH:
+            raise ValueError("groups nested deeper than {}".format(MAX_DEPTH))
+        return "(" + _write_fields(value, depth + 1) + ")"
+    raise TypeError(
+        "cannot write a {} as a packet value (use int, float, str, bool or dict)".format(
+            type(value).__name__
+        )
+    )
+
+
+def _write_fields(fields, depth):
+    if fields is None:
+        return ""
+    items = fields.items() if isinstance(fields, dict) else fields
+    parts = []
+    seen = set()
+    for name, value in items:
+        if not is_bare_token(name):
+            raise ValueError("field name {!r} is not a bare token".format(name))
+        if name in seen:
+            raise ValueError("duplicate field name {!r}".format(name))
+        seen.add(name)
+        parts.append(name + " " + _write_value(value, depth))
+    return " ".join(parts)
+
+
+def _subject_list(subjects):
+    if isinstance(subjects, str):
+        subjects = [subjects]
+    out = []
+    for s in subjects:
+        if isinstance(s, str) and s.startswith("<") and s.endswith(">"):
+            s = s[1:-1]
+        if not is_subject(s):
+            raise ValueError(
+                "{!r} is not a subject: use 1 to 64 characters of A-Z a-z 0-9 _ - . : /".format(s)
+            )
+        out.append(s)
+    if not out:
+        raise ValueError("a packet needs at least one subject")
+    return out
+
+
+def _line_items(lines):
+    if lines is None:
+        return []
+    if isinstance(lines, dict):
+        items = []
+        for label, fields in lines.items():
+            if isinstance(fields, list):
+                items.extend((label, f) for f in fields)
+            else:
+                items.append((label, fields))
+        return items
+    return list(lines)
+
+
+def format_packet(subjects, priority=0, lines=()):
+    """Writes a packet as text (see :func:`build`), checked by :func:`parse`."""
+    subjects = _subject_list(subjects)
+    if isinstance(priority, bool) or not isinstance(priority, int):
+        raise TypeError("the priority is an int")
+    if not _I32_MIN <= priority <= _I32_MAX:
+        raise ValueError("priority {} does not fit in 32 bits".format(priority))
+    out = ["@"]
+    for s in subjects:
+        out.append(" <" + s + ">")
+    out.append(" {}\n".format(priority))
+    for item in _line_items(lines):
+        if isinstance(item, str):
+            # A line written by hand, such as "ball x 5.3 y -2.5".
+            out.append(item if item.endswith("\n") else item + "\n")
+            continue
+        label, fields = item
+        if not is_bare_token(label):
+            raise ValueError("line label {!r} is not a bare token".format(label))
+        written = _write_fields(fields, 0)
+        out.append(label + (" " + written if written else "") + "\n")
+    text = "".join(out)
+    parse(text.encode("utf-8"))
+    return text
+
+
+def build(subjects, priority=0, lines=()):
+    """The bytes of a packet, ready to send.
+
+    ``subjects`` is one subject or a list (a subject set); ``lines`` a list of
+    ``(label, fields)`` where ``fields`` is a dict (or a list of pairs, or
+    None), or a str holding a line written by hand; a dict ``{label: fields or
+    [fields, ...]}`` is accepted too. Values: int (64-bit), float (written with
+    ``repr`` so it reads back to the same float), bool (``true``/``false``),
+    str (bare when it is a bare token that reads back as that string, quoted and
+    escaped otherwise), dict (a group). The result is checked with
+    :func:`parse`; a problem raises ValueError, TypeError or ParseError.
+    """
+    return format_packet(subjects, priority, lines).encode("utf-8")
+
+
+# --------------------------------------------------------------------------- control
+
+
+def _control(*lines):
+    return ("@ <hub> 0\n" + "".join(l + "\n" for l in lines)).encode("ascii")
+
+
+def parse_status(packet):
+    """The hub's status report as a dict (see :meth:`Client.status`)."""
+    report = {
+        "uptime_ms": 0,
+        "lease_ms": 0,
+        "min_priority": 0,
+        "client_count": 0,
+        "truncated": False,
+        "drops": {},
+        "channels": [],
+        "clients": [],
+    }
+    for label, f in packet.lines:
+        if label == "status":
+            report["uptime_ms"] = f.get("uptime_ms")
+            report["lease_ms"] = f.get("lease_ms")
+            report["min_priority"] = f.get("min_priority")
+            report["client_count"] = f.get("clients")
+            report["truncated"] = f.get("truncated") not in (0, None)
+        elif label == "drop":
+            report["drops"][str(f.get("reason"))] = f.get("count")
+        elif label == "channel":
+            report["channels"].append(
+                {"ch": str(f.get("ch")), "packets": f.get("packets"), "bytes": f.get("bytes")}
+            )
+        elif label == "client":
+            subs = f.get("subs")
+            report["clients"].append(
+                {
+                    "addr": str(f.get("addr")),
+                    "idle_ms": f.get("idle_ms"),
+                    "subs": dict(subs) if isinstance(subs, dict) else {},
+                }
+            )
+    return report
+
+
+# --------------------------------------------------------------------------- session
+
+
+class _Subscription:
+    __slots__ = ("subject", "added", "last_data", "last_request")
+
+    def __init__(self, subject, now):
+        self.subject = subject
+        self.added = now
+        self.last_data = None
+        self.last_request = None
+
+    def due(self, refresh, resubscribe_after):
+        """When this subscription next needs a subscribe request: at once when
+        new; then every ``refresh`` while data flows, or every
+        ``resubscribe_after`` while the channel is silent."""
+        asked = self.last_request
+        if asked is None:
+            return self.added
+        heard = asked if self.last_data is None else max(self.last_data, asked)
+        return min(asked + refresh, heard + resubscribe_after)
+
+
+class Session:
+    """The client's side of the protocol with no socket: a port of
+    ``crates/client/src/session.rs``. Times are ``time.monotonic()`` seconds.
+
+    Feed it time (:meth:`handle_timeout`) and received datagrams
+    (:meth:`handle_datagram`); take what it wants sent from
+    :meth:`poll_transmit`.
+    """
+
+    def __init__(self, now=None, refresh=3.0, resubscribe_after=1.0, unreachable_after=10.0):
+        now = time.monotonic() if now is None else now
+        self.refresh = refresh
+        self.resubscribe_after = resubscribe_after
+        self.unreachable_after = unreachable_after
+        self._subs = []
+        self._outbox = deque()
+        self.started = now
+        self.last_from_hub = None
+        #: The hub's lease in milliseconds, once it has told us.
+        self.lease_ms = None
+        #: How many lease replies have arrived.
+        self.leases = 0
+
+    def subscriptions(self):
+        return [s.subject for s in self._subs]
+
+    def subscribe(self, now, subject):
+        if not any(s.subject == subject for s in self._subs):
+            self._subs.append(_Subscription(subject, now))
+
+    def unsubscribe(self, subject):
+        for i, s in enumerate(self._subs):
+            if s.subject == subject:
+                del self._subs[i]
+                self._outbox.append(_control("unsubscribe ch " + subject))
+                return True
+        return False
+
+    def unsubscribe_all(self):
+        self._subs = []
+        self._outbox.append(_control("unsubscribe_all"))
+
+    def request(self, *lines):
+        """Queues a control packet of these request lines (``status``, ...)."""
+        self._outbox.append(_control(*lines))
+
+    def poll_timeout(self):
+        """When :meth:`handle_timeout` next has work, or None with no subscriptions."""
+        if not self._subs:
+            return None
+        return min(s.due(self.refresh, self.resubscribe_after) for s in self._subs)
+
+    def handle_timeout(self, now):
+        """Queues a subscribe request for every subscription due by ``now``."""
+        due = []
+        for s in self._subs:
+            if s.due(self.refresh, self.resubscribe_after) <= now:
+                s.last_request = now
+                due.append(s.subject)
+        # One control packet carries many subscriptions; split only to fit a datagram.
+        per_packet = MAX_PACKET // (16 + MAX_SUBJECT_LEN)
+        for i in range(0, len(due), per_packet):
+            self._outbox.append(_control(*("subscribe ch " + s for s in due[i : i + per_packet])))
+
+    def poll_transmit(self):
+        """The next datagram to send to the hub, or None."""
+        return self._outbox.popleft() if self._outbox else None
+
+    def note_data(self, now, packet):
+        self.last_from_hub = now
+        for s in self._subs:
+            if s.subject in packet.subjects:
+                s.last_data = now
+
+    def handle_datagram(self, now, data):
+        """Notes a datagram from the hub. Returns ``('packet', Packet)`` for
+        published data, ``('lease', ms)`` or ``('status', Packet)`` for the
+        hub's replies, ``('hub', Packet)`` for another packet on ``<hub>``.
+        Raises ParseError for a datagram that does not parse."""
+        self.last_from_hub = now
+        packet = parse(data)
+        if packet.is_control():
+            first = packet.lines[0] if packet.lines else (None, {})
+            if first[0] == "lease" and isinstance(first[1].get("ms"), int):
+                self.lease_ms = max(first[1]["ms"], 0)
+                self.leases += 1
+                return "lease", self.lease_ms
+            if first[0] == "status":
+                return "status", packet
+            return "hub", packet
+        self.note_data(now, packet)
+        return "packet", packet
+
+    def hub_state(self, now):
+        """``'unknown'``, ``'alive'`` or ``'unreachable'``, as the Rust ``HubState``."""
+        since = self.started if self.last_from_hub is None else self.last_from_hub
+        if now - since >= self.unreachable_after and self._subs:
+            return "unreachable"
+        return "unknown" if self.last_from_hub is None else "alive"
+
+
+# --------------------------------------------------------------------------- client
+
+
+def _hub_address(hub):
+    if hub is None:
+        hub = os.environ.get("COLONY_HUB") or DEFAULT_HUB
+    if isinstance(hub, str):
+        text = hub.strip()
+        if text.startswith("["):
+            host, sep, port = text[1:].partition("]:")
+        else:
+            host, sep, port = text.rpartition(":")
+        if not sep or not host or not port.isdigit():
+            raise ValueError("hub address {!r}: expected HOST:PORT".format(hub))
+        hub = (host, int(port))
+    host, port = hub[0], int(hub[1])
+    infos = socket.getaddrinfo(host, port, 0, socket.SOCK_DGRAM)
+    if not infos:
+        raise OSError("hub address {!r}: no address found".format(hub))
+    family, _, _, _, addr = infos[0]
+    return family, addr
+
+
+_REFUSED = (ConnectionRefusedError, BlockingIOError, InterruptedError)
+
+
+class Client:
+    """A hub client on a non-blocking UDP socket connected to the hub.
+
+    It never blocks (except :meth:`status`, which waits at most its timeout),
+    never starts a thread and never owns the loop::
+
+        c = Client(("127.0.0.1", 7400))
+        c.subscribe("vision_out")
+        while True:
+            d = c.next_deadline()
+            select.select([c], [], [], None if d is None else max(0.0, d - time.monotonic()))
+            c.poll()
+            while True:
+                p = c.recv()
+                if p is None:
+                    break
+                print(p.line("ball"))
+
+    ``hub`` is ``(host, port)`` or ``"host:port"``; None means the environment
+    variable ``COLONY_HUB``, else ``127.0.0.1:7400``.
+    """
+
+    def __init__(self, hub=None, refresh=3.0, resubscribe_after=1.0, unreachable_after=10.0):
+        family, addr = _hub_address(hub)
+        self.hub = addr
+        sock = socket.socket(family, socket.SOCK_DGRAM)
+        try:
+            try:
+                loopback = ipaddress.ip_address(addr[0]).is_loopback
+            except ValueError:
+                loopback = False
+            if loopback:
+                # Stay on loopback when the hub is local, so nothing else can reach us.
+                sock.bind(("::1", 0) if family == socket.AF_INET6 else ("127.0.0.1", 0))
+            sock.connect(addr)
+            sock.setblocking(False)
+        except BaseException:
+            sock.close()
+            raise
+        self._sock = sock
+        self.session = Session(
+            time.monotonic(),
+            refresh=refresh,
+            resubscribe_after=resubscribe_after,
+            unreachable_after=unreachable_after,
+        )
+        # Data packets that arrived while status() waited, for recv().
+        self._pending = deque()
+        #: Datagrams received that did not parse.
+        self.malformed = 0
+
+    # -- plumbing
+
+    def fileno(self):
+        """The socket's descriptor, for select/poll/epoll/selectors."""
+        return self._sock.fileno()
+
+    @property
+    def local_addr(self):
+        return self._sock.getsockname()
+
+    @property
+    def lease_ms(self):
+        """The hub's lease in milliseconds, once a lease reply arrived (else None)."""
+        return self.session.lease_ms
+
+    def close(self):
+        self._sock.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def _send(self, datagram):
+        try:
+            self._sock.send(datagram)
+        except _REFUSED:
+            # Fire and forget: a hub that is down (refused) or a full buffer
+            # loses this one datagram, and the session recovers.
+            pass
+
+    def _flush(self):
+        while True:
+            d = self.session.poll_transmit()
+            if d is None:
+                return
+            self._send(d)
+
+    # -- subscriptions
+
+    def subscribe(self, subject):
+        """Subscribes to a channel (or to one subject of a subject set) and asks the hub now."""
+        (subject,) = _subject_list([subject])
+        if subject == HUB_SUBJECT:
+            raise ValueError("`hub` is reserved for requests to the hub itself")
+        now = time.monotonic()
+        self.session.subscribe(now, subject)
+        self.poll(now)
+
+    def unsubscribe(self, subject):
+        (subject,) = _subject_list([subject])
+        self.session.unsubscribe(subject)
+        self._flush()
+
+    def unsubscribe_all(self):
+        self.session.unsubscribe_all()
+        self._flush()
+
+    def subscriptions(self):
+        return self.session.subscriptions()
+
+    def request(self, *lines):
+        """Sends control request lines to the hub, e.g. ``request("min_priority value 5")``."""
+        self.session.request(*lines)
+        self._flush()
+
+    def set_min_priority(self, value):
+        """Tells the hub to drop every published packet below this priority."""
+        if isinstance(value, bool) or not isinstance(value, int) or not _I32_MIN <= value <= _I32_MAX:
+            raise ValueError("the minimum priority is a 32-bit int")
+        self.request("min_priority value {}".format(value))
+
+    # -- publishing
+
+    def publish(self, subjects, priority=0, lines=()):
+        """Builds (see :func:`build`) and sends a packet; returns its bytes."""
+        names = _subject_list(subjects)
+        if HUB_SUBJECT in names:
+            raise ValueError("`hub` is reserved for requests to the hub; use publish_raw")
+        data = build(names, priority, lines)
+        self._send(data)
+        return data
+
+    def publish_raw(self, data):
+        """Sends a packet written by hand, checked first (a bad one raises ParseError
+        here rather than being dropped silently by the hub)."""
+        if isinstance(data, str):
+            data = data.encode("utf-8")
+        data = bytes(data)
+        parse(data)
+        self._send(data)
+        return data
+
+    # -- the loop
+
+    def poll(self, now=None):
+        """Sends whatever is due by ``now`` (monotonic seconds): refreshes and resubscriptions."""
+        now = time.monotonic() if now is None else now
+        self.session.handle_timeout(now)
+        self._flush()
+
+    def next_deadline(self):
+        """When :meth:`poll` next has work (``time.monotonic()`` seconds), or None."""
+        return self.session.poll_timeout()
+
+    def timeout(self, now=None):
+        """Seconds until :meth:`next_deadline` (0 if past), or None: a select() timeout."""
+        d = self.next_deadline()
+        if d is None:
+            return None
+        now = time.monotonic() if now is None else now
+        return max(0.0, d - now)
+
+    def _recv_one(self):
+        """The next datagram handled by the session: (kind, value) or None."""
+        while True:
+            try:
+                data = self._sock.recv(MAX_PACKET + 1)
+            except BlockingIOError:
+                return None
+            except (ConnectionRefusedError, InterruptedError):
+                # The hub's port was closed when we last sent: it is down,
+                # and the session will resubscribe once it is back.
+                continue
+            try:
+                return self.session.handle_datagram(time.monotonic(), data)
+            except ParseError:
+                self.malformed += 1
+
+    def recv(self):
+        """The next packet published on a subscribed channel, or None when none
+        is waiting. The hub's replies are taken in along the way."""
+        if self._pending:
+            return self._pending.popleft()
+        while True:
+            got = self._recv_one()
+            if got is None:
+                return None
+            kind, value = got
+            if kind == "packet":
+                return value
+
+    def __iter__(self):
+        """Every packet waiting now (does not block)."""
+        while True:
+            p = self.recv()
+            if p is None:
+                return
+            yield p
+
+    def hub_state(self, now=None):
+        """``'unknown'`` (nothing heard yet), ``'alive'`` or ``'unreachable'``
+        (silent for ``unreachable_after`` while we hold subscriptions)."""
+        return self.session.hub_state(time.monotonic() if now is None else now)
+
+    def hub_alive(self, now=None):
+        """Whether the hub was heard from within ``unreachable_after`` seconds.
+
+        A client with subscriptions hears the hub at least every few seconds
+        (lease replies); a client that only publishes hears nothing until it
+        asks, e.g. with :meth:`status`."""
+        last = self.session.last_from_hub
+        if last is None:
+            return False
+        now = time.monotonic() if now is None else now
+        return now - last < self.session.unreachable_after
+
+    # -- status
+
+    def status(self, timeout=3.0, channel="colony-status"):
+        """Asks the hub for its status; returns it as a dict::
+
+            {"uptime_ms": int, "lease_ms": int, "min_priority": int,
+             "client_count": int, "truncated": bool,
+             "drops": {reason: count},
+             "channels": [{"ch": str, "packets": int, "bytes": int}],
+             "clients": [{"addr": "127.0.0.1:5000", "idle_ms": int,
+                          "subs": {subject: ms_left}}]}
+
+        The hub answers only a client that held a lease before it asked, so
+        this subscribes first (to a subscription already held, else to
+        ``channel``), waits for the lease reply and then asks, asking again
+        every 0.3 s. It waits at most ``timeout`` seconds, then raises
+        TimeoutError. Data packets arriving meanwhile are kept for :meth:`recv`.
+        """
+        deadline = time.monotonic() + timeout
+        subs = self.subscriptions()
+        if subs:
+            return self._status_with_lease(subs[0], deadline, timeout, asked=False)
+        # Only for this question: a client that subscribes to nothing holds no lease after it.
+        self.subscribe(channel)
+        try:
+            return self._status_with_lease(channel, deadline, timeout, asked=True)
+        finally:
+            self.unsubscribe(channel)
+
+    def _status_with_lease(self, subject, deadline, timeout, asked):
+        leased = False
+        # Ask at once, unless subscribe() just did; then again every 0.3 s
+        # until answered, as either datagram may be lost.
+        next_ask = time.monotonic() + (0.3 if asked else 0.0)
+        while True:
+            now = time.monotonic()
+            if now >= deadline:
+                break
+            if now >= next_ask:
+                if leased:
+                    self.request("status")
+                else:
+                    self.request("subscribe ch " + subject)
+                next_ask = now + 0.3
+            select.select([self._sock], [], [], max(0.0, min(next_ask, deadline) - now))
+            while True:
+                got = self._recv_one()
+                if got is None:
+                    break
+                kind, value = got
+                if kind == "packet":
+                    self._pending.append(value)
+                elif kind == "lease" and not leased:
+                    leased = True
+                    self.request("status")
+                    next_ask = time.monotonic() + 0.3
+                elif kind == "status":
+                    return parse_status(value)
+            self.poll()
+        raise TimeoutError(
+            "no status from a hub at {}:{} within {:.1f} s (is `colony hub` running there?)".format(
+                self.hub[0], self.hub[1], timeout
+            )
+        )
+
+
+# --------------------------------------------------------------------------- command line
+
+
+def _main(argv=None):
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="colony_client.py", description="A colony hub client.")
+    ap.add_argument("--hub", default=None, help="HOST:PORT (default: $COLONY_HUB or 127.0.0.1:7400)")
+    sub = ap.add_subparsers(dest="command")
+    p_sub = sub.add_parser("sub", help="subscribe and print packets as they arrive")
+    p_sub.add_argument("subjects", nargs="+", metavar="SUBJECT")
+    p_sub.add_argument("-n", "--count", type=int, default=None, help="stop after this many packets")
+    p_pub = sub.add_parser("pub", help="publish one packet: SUBJECT... 'label name value ...'")
+    p_pub.add_argument("-p", "--priority", type=int, default=0)
+    p_pub.add_argument("words", nargs="+", metavar="SUBJECT... LINE...")
+    sub.add_parser("status", help="print the hub's status")
+    args = ap.parse_args(argv)
+
+    try:
+        client = Client(args.hub)
+    except (OSError, ValueError) as e:
+        print("colony_client: {}".format(e), file=sys.stderr)
+        return 1
+    try:
+        if args.command == "sub":
+            for s in args.subjects:
+                client.subscribe(s)
+            seen = 0
+            while True:
+                t = client.timeout()
+                select.select([client], [], [], 0.25 if t is None else min(t, 0.25))
+                client.poll()
+                for packet in client:
+                    sys.stdout.write(str(packet))
+                    seen += 1
+                    if args.count is not None and seen >= args.count:
+                        sys.stdout.flush()
+                        return 0
+                sys.stdout.flush()
+        elif args.command == "pub":
+            words = args.words
+            first = next((i for i, w in enumerate(words) if any(c.isspace() for c in w)), len(words))
+            if first == 0:
+                ap.error("give at least one subject before the lines")
+            client.publish(words[:first], args.priority, words[first:])
+            return 0
+        elif args.command == "status":
+            import json
+
+            print(json.dumps(client.status(), indent=2))
+            return 0
+        else:
+            ap.print_help()
+            return 2
+    except KeyboardInterrupt:
+        return 130
+    except (ParseError, ValueError, TimeoutError, OSError) as e:
+        print("colony_client: {}".format(e), file=sys.stderr)
+        return 1
+    finally:
+        client.close()
+
+
+if __name__ == "__main__":
+    sys.exit(_main())

@@ -1,0 +1,1179 @@
+"""Tests for colony_client: the parser and writer on their own, the session's
+timing with a clock we drive, the client against a fake hub, and the client
+against the real Rust hub (`colony hub`) and the `colony pub` / `colony sub`
+commands.
+
+Standard library only:  python3 -m unittest discover -s python/tests -v
+The hub binary is $COLONY_BIN, else ../target/debug/colony relative to python/.
+Every wait has a deadline; every subprocess is killed in a cleanup.
+"""
+
+import glob
+import math
+import os
+import select
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+PYTHON_DIR = os.path.dirname(HERE)
+sys.path.insert(0, PYTHON_DIR)
+
+import colony_client as cc  # noqa: E402
+from colony_client import ParseError, build, format_packet, parse  # noqa: E402
+
+ROOT = os.path.dirname(PYTHON_DIR)
+CORPUS = os.path.join(ROOT, "fuzz", "corpus", "parse_packet")
+
+VISION = (
+    b"@ <vision_out> 0\n"
+    b"ball x 5.3 y -2.5\n"
+    b"blue id 0 x 15.2 y -98.3 xh 1.0 yh 0.0\n"
+    b"blue id 1 x -40.5 y 12.0 xh 0.0 yh 1.0\n"
+    b"yellow id 0 x 80.1 y 3.25 xh -1.0 yh 0.0\n"
+    b"latency millis 152\n"
+)
+
+
+def _b(x):
+    return x.encode("utf-8") if isinstance(x, str) else x
+
+
+# =========================================================================== parser
+
+
+class PaperPacket(unittest.TestCase):
+    def test_papers_vision_packet_reads_every_field(self):
+        p = parse(VISION)
+        self.assertEqual(p.subjects, ["vision_out"])
+        self.assertEqual(p.priority, 0)
+        self.assertEqual(p.labels(), ["ball", "blue", "blue", "yellow", "latency"])
+        self.assertEqual(p.line("ball"), {"x": 5.3, "y": -2.5})
+        blue = p.lines_labelled("blue")
+        self.assertEqual(len(blue), 2, "repeated labels are an array")
+        self.assertEqual(blue[0], {"id": 0, "x": 15.2, "y": -98.3, "xh": 1.0, "yh": 0.0})
+        self.assertEqual(blue[1]["id"], 1)
+        self.assertIsInstance(blue[1]["id"], int)
+        self.assertIsInstance(blue[1]["xh"], float)
+        self.assertEqual(p.line("yellow")["y"], 3.25)
+        self.assertEqual(p.line("latency"), {"millis": 152})
+        self.assertIsNone(p.line("radio"))
+        self.assertEqual(p.lines_labelled("radio"), [])
+        self.assertEqual(p.lines[0], ("ball", {"x": 5.3, "y": -2.5}))
+        self.assertEqual(str(p), VISION.decode(), "a canonical packet is written back as is")
+        self.assertEqual(list(p.line("blue")), ["id", "x", "y", "xh", "yh"], "fields keep their order")
+
+    def test_header_only_and_label_only_lines(self):
+        self.assertEqual(parse(b"@ <vision_out> 0\n").lines, [])
+        self.assertEqual(parse(b"@ <vision_out> 0").lines, [], "the final line end is optional")
+        p = parse(b"@ <hub> 0\nstatus\nunsubscribe_all   \n")
+        self.assertEqual(p.lines, [("status", {}), ("unsubscribe_all", {})])
+        self.assertTrue(p.is_control())
+
+    def test_unicode_tokens(self):
+        p = parse("@ <a> 0\nroböter größe 1,5 ✓ ja\n".encode())
+        self.assertEqual(p.line("roböter"), {"größe": "1,5", "✓": "ja"})
+
+    def test_subject_sets_and_priorities(self):
+        p = parse(b"@ <task> <robot:7> <arm/left> 2\nannounce id 9\n")
+        self.assertEqual(p.subjects, ["task", "robot:7", "arm/left"])
+        self.assertTrue(p.has_subject("robot:7"))
+        self.assertFalse(p.has_subject("robot"))
+        for text, prio in [("0", 0), ("42", 42), ("-7", -7), ("+5", 5), ("2147483647", 2 ** 31 - 1), ("-2147483648", -(2 ** 31))]:
+            self.assertEqual(parse(_b("@ <a> %s\n" % text)).priority, prio)
+        p = parse(b"@\t<a>  \t<b>   7\n")
+        self.assertEqual(p.subjects, ["a", "b"])
+        self.assertEqual(str(p), "@ <a> <b> 7\n")
+        self.assertEqual(parse(b"@ <Az09_-.:/> 0\n").subjects, ["Az09_-.:/"])
+        names = " ".join("<s%02d>" % i for i in range(16))
+        self.assertEqual(len(parse(_b("@ %s 0\n" % names)).subjects), 16)
+        self.assertEqual(parse(_b("@ <%s> 0\n" % ("s" * 64))).subjects, ["s" * 64])
+
+
+class Values(unittest.TestCase):
+    def test_numbers_as_rust_reads_them(self):
+        p = parse(
+            b"@ <a> 0\nn a 1 b -2.5 c 1e3 d .5 e 5. f -0 g inf h NaN i 0.1 j -inf "
+            b"k infinity l -Infinity m +7 o 1E-2 q 1.e3 r +nan\n"
+        )
+        n = p.line("n")
+        self.assertEqual(n["a"], 1)
+        self.assertIsInstance(n["a"], int)
+        self.assertEqual(n["b"], -2.5)
+        self.assertEqual(n["c"], 1000.0)
+        self.assertIsInstance(n["c"], float)
+        self.assertEqual(n["d"], 0.5)
+        self.assertEqual(n["e"], 5.0)
+        self.assertIsInstance(n["e"], float)
+        self.assertEqual(n["f"], 0)
+        self.assertIsInstance(n["f"], int)
+        self.assertEqual(n["g"], math.inf)
+        self.assertTrue(math.isnan(n["h"]))
+        self.assertEqual(n["i"], 0.1)
+        self.assertEqual(n["j"], -math.inf)
+        self.assertEqual(n["k"], math.inf)
+        self.assertEqual(n["l"], -math.inf)
+        self.assertEqual(n["m"], 7)
+        self.assertEqual(n["o"], 0.01)
+        self.assertEqual(n["q"], 1000.0)
+        self.assertTrue(math.isnan(n["r"]))
+
+    def test_integers_in_64_bits_and_beyond(self):
+        n = parse(b"@ <a> 0\nn min -9223372036854775808 max 9223372036854775807 big 9223372036854775808\n").line("n")
+        self.assertEqual(n["min"], -(2 ** 63))
+        self.assertEqual(n["max"], 2 ** 63 - 1)
+        self.assertIsInstance(n["big"], float, "Rust reads it as f64, not i64")
+        self.assertEqual(n["big"], 9223372036854775808.0)
+
+    def test_words_stay_strings(self):
+        n = parse(b'@ <a> 0\nn w fast x 0x10 y 1_000 z . e 1e q "5.3" r infin s nanx t ++1 u \xd9\xa1\n').line("n")
+        self.assertEqual(n["w"], "fast")
+        self.assertEqual(n["x"], "0x10")
+        self.assertEqual(n["y"], "1_000")
+        self.assertEqual(n["z"], ".")
+        self.assertEqual(n["e"], "1e")
+        self.assertEqual(n["q"], "5.3", "a quoted number is a string")
+        self.assertEqual(n["r"], "infin")
+        self.assertEqual(n["s"], "nanx")
+        self.assertEqual(n["t"], "++1")
+        self.assertEqual(n["u"], "\u0661", "only ASCII digits are digits")
+
+    def test_quoted_strings_resolve_every_escape(self):
+        p = parse(b'@ <a> 0\nnote text "q\\" b\\\\ n\\n r\\r t\\t end"\n')
+        self.assertEqual(p.line("note")["text"], 'q" b\\ n\n r\r t\t end')
+        p = parse(b'@ <a> 0\nnote text "" after 1 raw "a\tb" d "@ <x> ( ) \' \xc3\xa9"\n')
+        self.assertEqual(p.line("note"), {"text": "", "after": 1, "raw": "a\tb", "d": "@ <x> ( ) ' \u00e9"})
+
+    def test_quoted_value_may_touch_names(self):
+        p = parse(b'@ <a> 0\nnote a"x"b"y"c 1\n')
+        self.assertEqual(p.line("note"), {"a": "x", "b": "y", "c": 1})
+        self.assertEqual(str(p), '@ <a> 0\nnote a "x" b "y" c 1\n')
+
+    def test_groups(self):
+        p = parse(b'@ <a> 0\nblue id 0 pose (x 1.5 y -2 h (c 1.0 s 0.0)) name "b0"\n')
+        self.assertEqual(
+            p.line("blue"),
+            {"id": 0, "pose": {"x": 1.5, "y": -2, "h": {"c": 1.0, "s": 0.0}}, "name": "b0"},
+        )
+        p = parse(b"@ <a> 0\nl x 1 g (x 2 g (x 3))\n")
+        self.assertEqual(p.line("l"), {"x": 1, "g": {"x": 2, "g": {"x": 3}}}, "names are scoped to their group")
+        p = parse(b"@ <a> 0\nl g () h ( ) k 1\n")
+        self.assertEqual(p.line("l"), {"g": {}, "h": {}, "k": 1})
+        self.assertEqual(str(p), "@ <a> 0\nl g () h () k 1\n")
+        p = parse(b"@ <a> 0\nl g(  x 1   y 2 )k 3\n")
+        self.assertEqual(p.line("l"), {"g": {"x": 1, "y": 2}, "k": 3})
+        self.assertEqual(str(p), "@ <a> 0\nl g (x 1 y 2) k 3\n")
+
+    def test_groups_nest_down_to_the_limit(self):
+        text = nested(32)
+        p = parse(text)
+        g = p.line("deep")
+        for i in range(32):
+            g = g["g%d" % i]
+        self.assertEqual(g, {"leaf": 1})
+        self.assertEqual(str(p).encode(), text)
+
+    def test_line_ends_blanks_and_blank_lines(self):
+        crlf = VISION.replace(b"\n", b"\r\n")
+        p = parse(crlf)
+        self.assertEqual(len(p.lines), 5)
+        self.assertEqual(p.line("latency"), {"millis": 152})
+        self.assertEqual(str(p), VISION.decode())
+        p = parse(b"@ <a> 0\r\nball x 1\nblue x 2\r\n")
+        self.assertEqual(p.labels(), ["ball", "blue"])
+        p = parse(b"@ <a> 0\n\nball x 1\n   \n\t\n\r\nblue x 2\n\n")
+        self.assertEqual(p.labels(), ["ball", "blue"])
+        self.assertEqual(str(p), "@ <a> 0\nball x 1\nblue x 2\n")
+        p = parse(b"@ <a> 0\n  ball\tx  5.3 \t y\t-2.5  \n")
+        self.assertEqual(p.line("ball"), {"x": 5.3, "y": -2.5})
+
+    def test_canonical_form_is_rusts_display(self):
+        p = parse(b'@\t<a>   <b>\t+5  \r\n\r\n  ball \t x 5.3   y\t-2.5 \r\n\n l g(  k 1 )z"q" \n')
+        canon = '@ <a> <b> 5\nball x 5.3 y -2.5\nl g (k 1) z "q"\n'
+        self.assertEqual(str(p), canon)
+        self.assertEqual(str(parse(canon.encode())), canon)
+        for text in [
+            '@ <task> <robot:7> -3\nannounce id 9 need (arm 1 cam 2) note "a \\"b\\" \\\\ \\n"\nstatus\n',
+            '@ <a> 2147483647\nl g () h (a (b (c 1))) s "" t "(x)"\n',
+        ]:
+            self.assertEqual(str(parse(text.encode())), text)
+
+    def test_accepts_bytearray_memoryview_and_str(self):
+        self.assertEqual(parse(bytearray(VISION)), parse(VISION))
+        self.assertEqual(parse(memoryview(VISION)), parse(VISION))
+        self.assertEqual(parse(VISION.decode()), parse(VISION))
+
+
+def nested(depth):
+    line = "deep " + "".join("g%d (" % i for i in range(depth)) + "leaf 1" + ")" * depth
+    return ("@ <a> 0\n%s\n" % line).encode()
+
+
+def packet_of_len(n):
+    head = b'@ <a> 0\npad s "'
+    tail = b'"\n'
+    return head + b"x" * (n - len(head) - len(tail)) + tail
+
+
+class Errors(unittest.TestCase):
+    """Every error kind, at the line and byte column the Rust parser reports."""
+
+    CASES = [
+        # (packet, kind, line, column) -- the expectations of crates/wire/tests/parse.rs
+        (b"", "empty", 1, 1),
+        (packet_of_len(65508), "too_large", 1, 1),
+        (b"\xff" * 65607, "too_large", 1, 1),
+        (b"@ <a> 0\nball x \xff\n", "not_utf8", 2, 8),
+        (b"\xfe@ <a> 0\n", "not_utf8", 1, 1),
+        (b'@ <a> 0\nball x 1\r\nnote t "\xc3\x28"\n', "not_utf8", 3, 9),
+        ("@ <a> 0\nnote t é".encode()[:-1], "not_utf8", 2, 8),
+        (b"junk \xff", "not_utf8", 1, 6),
+        (b"ball x 1\n", "bad_header", 1, 1),
+        (b" @ <a> 0\n", "bad_header", 1, 1),
+        (b"@<a> 0\n", "bad_header", 1, 2),
+        (b"@", "bad_header", 1, 2),
+        (b"@ 0\n", "bad_header", 1, 3),
+        (b"@ \n", "bad_header", 1, 3),
+        (b"@ <a> <b 0\nx y >\n", "bad_header", 1, 7),
+        (b"@ <a><b> 0\n", "bad_header", 1, 6),
+        (b"@ <a>0\n", "bad_header", 1, 6),
+        (b"@ <a>\nball x 1\n", "bad_header", 1, 6),
+        (b"@ <a>", "bad_header", 1, 6),
+        (b"@ <a> \n", "bad_header", 1, 7),
+        (b"@ <a> 0 x\n", "bad_header", 1, 8),
+        (b"@ <a> 0 <b>\n", "bad_header", 1, 8),
+        (b'@ <a> "0"\n', "bad_header", 1, 7),
+        (b"@ <vision out> 0\n", "bad_subject", 1, 3),
+        (b"@ <> 0\n", "bad_subject", 1, 3),
+        (b"@ <a> <b*c> 0\n", "bad_subject", 1, 7),
+        (_b("@ <%s> 0\n" % ("s" * 65)), "bad_subject", 1, 3),
+        (b"@ <a> <b> <a> 0\n", "duplicate_subject", 1, 11),
+        (b"@ <a> 2147483648\n", "bad_priority", 1, 7),
+        (b"@ <a> -2147483649\n", "bad_priority", 1, 7),
+        (b"@ <a> 1.5\n", "bad_priority", 1, 7),
+        (b"@ <a> high\n", "bad_priority", 1, 7),
+        (b"@ <a>  -\n", "bad_priority", 1, 8),
+        (b"@ <a> 0\nball x 1\ry 2\n", "control_char", 2, 9),
+        (b"@ <a> 0\r", "control_char", 1, 8),
+        (b"@ <a> 0\nball x\x01 1\n", "control_char", 2, 7),
+        (b"@ <a> 0\nball x 1\n\x00\n", "control_char", 3, 1),
+        (b"@ <a> 0\nball x 1\x7f\n", "control_char", 2, 9),
+        (b"@ <a> 0\x1b\n", "control_char", 1, 8),
+        (b'@ <a> 0\nnote text "a\x01b"\n', "control_char", 2, 13),
+        (b'@ <a> 0\nnote text "a\x7fb"\n', "control_char", 2, 13),
+        (b"@ <a> 0\n(x 1)\n", "expected_label", 2, 1),
+        (b'@ <a> 0\nball x 1\n  "ball" x 1\n', "expected_label", 3, 3),
+        (b"@ <a> 0\n)\n", "expected_label", 2, 1),
+        (b'@ <a> 0\nball x 1 "y" 2\n', "expected_name", 2, 10),
+        (b"@ <a> 0\nball x 1 (y 2)\n", "expected_name", 2, 10),
+        (b'@ <a> 0\nball g ("y" 2)\n', "expected_name", 2, 9),
+        (b"@ <a> 0\nball x 1 y\nblue x 2\n", "missing_value", 2, 10),
+        (b"@ <a> 0\nball x 1 y", "missing_value", 2, 10),
+        (b"@ <a> 0\r\nball x 1 y  \r\n", "missing_value", 2, 10),
+        (b"@ <a> 0\nball g (x 1 y) z 2\n", "missing_value", 2, 13),
+        (b"@ <a> 0\nball x )\n", "missing_value", 2, 6),
+        (b"@ <a> 0\nball x 1 y 2 x 3\n", "duplicate_name", 2, 14),
+        (b"@ <a> 0\nball g (x 1 x 2)\n", "duplicate_name", 2, 13),
+        (b"@ <a> 0\nl g (x 1\nm y 2\n", "unclosed_group", 2, 9),
+        (b"@ <a> 0\nl g (x 1", "unclosed_group", 2, 9),
+        (b"@ <a> 0\nl g (x 1 h (y 2)\r\n", "unclosed_group", 2, 17),
+        (b"@ <a> 0\nl x 1 )\n", "unmatched_close", 2, 7),
+        (b"@ <a> 0\nl g (x 1)) y 2\n", "unmatched_close", 2, 10),
+        (b'@ <a> 0\nnote text "abc\nnext x 1\n', "unterminated_string", 2, 11),
+        (b'@ <a> 0\nnote text "abc', "unterminated_string", 2, 11),
+        (b'@ <a> 0\nnote text "abc\r\n', "unterminated_string", 2, 11),
+        (b'@ <a> 0\nnote text "abc\\"\n', "unterminated_string", 2, 11),
+        (b'@ <a> 0\nnote text "abc\\\n', "unterminated_string", 2, 11),
+        (b'@ <a> 0\nnote text "abc\\', "unterminated_string", 2, 11),
+        (b'@ <a> 0\nnote text "ab\\qc"\n', "bad_escape", 2, 14),
+        ('@ <a> 0\nnote text "\\é"\n'.encode(), "bad_escape", 2, 12),
+        (b'@ <a> 0\nnote text "\\u0041"\n', "bad_escape", 2, 12),
+    ]
+
+    def check(self, data, kind, line, column):
+        with self.assertRaises(ParseError, msg=repr(data[:80])) as cm:
+            parse(data)
+        e = cm.exception
+        self.assertEqual((e.kind, e.line, e.column), (kind, line, column), "for %r: %s" % (data[:80], e))
+        self.assertIsInstance(e, ValueError)
+        self.assertTrue(str(e).startswith("line %d, column %d: " % (line, column)))
+        self.assertTrue(e.message and e.message in str(e))
+
+    def test_every_error_kind_at_its_line_and_column(self):
+        kinds = set()
+        for data, kind, line, column in self.CASES:
+            with self.subTest(data=data[:60]):
+                self.check(data, kind, line, column)
+            kinds.add(kind)
+        # too_deep and the 17th subject are built below.
+        self.assertEqual(len(kinds), 16)
+
+    def test_too_deep_at_its_paren(self):
+        text = nested(33)
+        column = [i for i, c in enumerate(text.split(b"\n")[1]) if c == ord("(")][32] + 1
+        self.check(text, "too_deep", 2, column)
+
+    def test_seventeenth_subject(self):
+        names = " ".join("<s%02d>" % i for i in range(16))
+        text = "@ %s <s99> 0\n" % names
+        self.check(text.encode(), "bad_header", 1, text.index("<s99>") + 1)
+
+    def test_duplicate_far_along_a_wide_line(self):
+        line = "wide" + "".join(" f%d %d" % (i, i) for i in range(40))
+        column = len(line) + 2
+        self.check(("@ <a> 0\n%s f3 0\n" % line).encode(), "duplicate_name", 2, column)
+
+    def test_columns_count_bytes(self):
+        self.check("@ <a> 0\nnote é 1 x 1 x 2\n".encode(), "duplicate_name", 2, 15)
+
+    def test_limits_of_size(self):
+        p = parse(packet_of_len(65507))
+        self.assertEqual(len(p.line("pad")["s"]), 65507 - 17)
+        bad = bytearray(packet_of_len(65507))
+        bad[-2] = ord("y")
+        self.check(bytes(bad), "unterminated_string", 2, 7)
+        text = b"@ <a> 0\n"
+        text += b"l x 1\n" * ((65507 - len(text)) // 6)
+        self.assertEqual(len(parse(text).lines), (65507 - 8) // 6)
+
+    def test_messages_are_rusts(self):
+        cases = [
+            (b"@ <a> 0\nball x 1 y 2 x 3\n", "line 2, column 14: duplicate name `x`: a name may appear once per line or group"),
+            (b"@ <a> 0\nl g (x 1\n", "line 2, column 9: unbalanced parentheses: `(` not closed before the end of the line"),
+            (b"", "line 1, column 1: empty packet: expected a header `@ <subject> priority`"),
+            (b'@ <a> 0\nnote t "\\q"\n', "line 2, column 9: unknown escape `\\q` (known: \\\" \\\\ \\n \\r \\t)"),
+            (b"@ <a> x\n", "line 1, column 7: priority `x` is not a 32-bit integer"),
+            (b"@ <a> 0\nball\x07\n", "line 2, column 5: control character 0x07 is not allowed"),
+            (b"@ <a>\n", "line 1, column 6: bad header: expected an integer priority after the subjects"),
+            (b"@ <a> 0\nball x )\n", "line 2, column 6: field `x` has no value"),
+            (b"@ <a> 0\n(x 1)\n", "line 2, column 1: expected a line label, found `(`"),
+            (b"\xff" * 70000, "line 1, column 1: packet is 70000 bytes, more than the 65507 a UDP datagram can carry"),
+        ]
+        for data, message in cases:
+            with self.assertRaises(ParseError) as cm:
+                parse(data)
+            self.assertEqual(str(cm.exception), message)
+        with self.assertRaises(ParseError) as cm:
+            parse(b"@ <a> 0\nball x )\n")
+        self.assertEqual(cm.exception.detail, {"name": "x"})
+
+    def test_not_bytes_is_a_type_error(self):
+        with self.assertRaises(TypeError):
+            parse(12)
+
+    @unittest.skipUnless(os.path.isdir(CORPUS), "no fuzz seed corpus")
+    def test_fuzz_seed_corpus_meets_its_names(self):
+        files = sorted(glob.glob(os.path.join(CORPUS, "*")))
+        for path in files:
+            stem = os.path.basename(path).split(".")[0]
+            with open(path, "rb") as f:
+                data = f.read()
+            with self.subTest(seed=stem):
+                if stem.startswith("ok-"):
+                    p = parse(data)
+                    self.assertEqual(str(parse(str(p).encode())), str(p))
+                elif stem.startswith("bad-"):
+                    want = stem[4:].split("--")[0].replace("-", "_")
+                    with self.assertRaises(ParseError) as cm:
+                        parse(data)
+                    self.assertEqual(cm.exception.kind, want)
+
+
+# =========================================================================== writer
+
+
+class Writing(unittest.TestCase):
+    def test_build_writes_the_papers_packet(self):
+        data = build(
+            "vision_out",
+            0,
+            [
+                ("ball", {"x": 5.3, "y": -2.5}),
+                ("blue", {"id": 0, "x": 15.2, "y": -98.3, "xh": 1.0, "yh": 0.0}),
+                ("blue", {"id": 1, "x": -40.5, "y": 12.0, "xh": 0.0, "yh": 1.0}),
+                ("yellow", {"id": 0, "x": 80.1, "y": 3.25, "xh": -1.0, "yh": 0.0}),
+                ("latency", {"millis": 152}),
+            ],
+        )
+        self.assertEqual(data, VISION)
+        self.assertEqual(format_packet(["vision_out"], 0, parse(VISION).lines), VISION.decode())
+
+    def test_round_trip_of_every_kind_of_value(self):
+        lines = [
+            ("note", {"text": 'kick "off"\\ \n\r\t end', "empty": "", "word": "fast", "uni": "漢字 🤖 é"}),
+            ("looks", {"n": "5", "f": "5.3", "i": "inf", "nan": "NaN", "e": "1e5", "paren": "(x)", "q": '"', "at": "@"}),
+            ("nums", {"i": -(2 ** 63), "j": 2 ** 63 - 1, "z": 0, "f": 0.1, "g": -0.0, "h": 1e300, "k": 5e-324, "big": 1.5e22, "inf": math.inf, "ninf": -math.inf}),
+            ("flags", {"on": True, "off": False}),
+            ("pose", {"p": {"x": 1.5, "h": {"c": 1.0, "s": 0.0}, "empty": {}}, "name": "b0"}),
+            ("bare", {}),
+            ("bare", None),
+        ]
+        data = build(["task", "robot:7"], -3, lines)
+        p = parse(data)
+        self.assertEqual(p.subjects, ["task", "robot:7"])
+        self.assertEqual(p.priority, -3)
+        want = [(l, f if f is not None else {}) for l, f in lines]
+        want[3] = ("flags", {"on": "true", "off": "false"})
+        self.assertEqual(p.lines, want)
+        nums = p.line("nums")
+        self.assertEqual(math.copysign(1, nums["g"]), -1.0, "-0.0 keeps its sign")
+        self.assertIsInstance(nums["z"], int)
+        self.assertEqual(parse(p.to_bytes()), p)
+
+    def test_floats_round_trip_exactly(self):
+        import random
+
+        rnd = random.Random(7)
+        values = [rnd.uniform(-1e6, 1e6) for _ in range(300)]
+        values += [rnd.random() * 10 ** rnd.randint(-300, 300) for _ in range(300)]
+        values += [float(i) for i in range(-5, 5)] + [0.1 + 0.2, 1 / 3, 2.0 ** -1074, 1.7976931348623157e308]
+        fields = {"v%d" % i: v for i, v in enumerate(values)}
+        got = parse(build("a", 0, [("f", fields)])).line("f")
+        for k, v in fields.items():
+            self.assertIsInstance(got[k], float)
+            self.assertEqual(got[k], v, k)
+        nan = parse(build("a", 0, [("f", {"n": math.nan})])).line("f")["n"]
+        self.assertTrue(math.isnan(nan))
+
+    def test_strings_are_bare_only_when_they_read_back_the_same(self):
+        text = format_packet("a", 0, [("l", {"w": "fast", "n": "5", "s": "a b", "e": ""})])
+        self.assertEqual(text, '@ <a> 0\nl w fast n "5" s "a b" e ""\n')
+
+    def test_other_ways_to_give_lines(self):
+        self.assertEqual(build("<a>", 1, ["ball x 1 y 2", "status\n"]), b"@ <a> 1\nball x 1 y 2\nstatus\n")
+        self.assertEqual(
+            build("a", 0, {"ball": {"x": 1}, "blue": [{"id": 0}, {"id": 1}]}),
+            b"@ <a> 0\nball x 1\nblue id 0\nblue id 1\n",
+        )
+        self.assertEqual(build("a", 0, [("l", [("x", 1), ("y", "z")])]), b"@ <a> 0\nl x 1 y z\n")
+        self.assertEqual(build("a"), b"@ <a> 0\n")
+
+    def test_control_characters_become_replacement_characters(self):
+        p = parse(build("a", 0, [("l", {"s": "a\x00b\x7f"})]))
+        self.assertEqual(p.line("l")["s"], "a\ufffdb\ufffd")
+
+    def test_what_cannot_be_written_is_refused(self):
+        with self.assertRaises(ValueError):
+            build("no spaces", 0, [])
+        with self.assertRaises(ValueError):
+            build([], 0, [])
+        with self.assertRaises(ValueError):
+            build("a", 2 ** 31, [])
+        with self.assertRaises(TypeError):
+            build("a", 1.5, [])
+        with self.assertRaises(ValueError):
+            build("a", 0, [("two words", {})])
+        with self.assertRaises(ValueError):
+            build("a", 0, [("l", {"a b": 1})])
+        with self.assertRaises(ValueError):
+            build("a", 0, [("l", {"(": 1})])
+        with self.assertRaises(ValueError):
+            build("a", 0, [("l", [("x", 1), ("x", 2)])])
+        with self.assertRaises(ValueError):
+            build("a", 0, [("l", {"x": 2 ** 63})])
+        with self.assertRaises(TypeError):
+            build("a", 0, [("l", {"x": [1, 2]})])
+        with self.assertRaises(TypeError):
+            build("a", 0, [("l", {"x": None})])
+        deep = {}
+        g = deep
+        for _ in range(33):
+            g["g"] = {}
+            g = g["g"]
+        with self.assertRaises(ValueError):
+            build("a", 0, [("l", deep)])
+        with self.assertRaises(ParseError) as cm:
+            build("a", 0, [("pad", {"s": "x" * 65500})])
+        self.assertEqual(cm.exception.kind, "too_large")
+        with self.assertRaises(ParseError) as cm:
+            build("a", 0, ["ball x 1 x 2"])
+        self.assertEqual((cm.exception.kind, cm.exception.line), ("duplicate_name", 2))
+
+
+# =========================================================================== session timing
+
+
+class SessionTiming(unittest.TestCase):
+    """The refresh rule of crates/client/src/session.rs, on a clock we drive."""
+
+    def sent(self, s):
+        out = []
+        while True:
+            d = s.poll_transmit()
+            if d is None:
+                return out
+            out.append(d)
+
+    def test_new_then_silent_then_flowing(self):
+        s = cc.Session(now=100.0)
+        self.assertIsNone(s.poll_timeout())
+        s.subscribe(100.0, "a")
+        self.assertEqual(s.poll_timeout(), 100.0, "a new subscription is asked for at once")
+        s.handle_timeout(100.0)
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nsubscribe ch a\n"])
+        self.assertEqual(s.poll_timeout(), 101.0, "silent: again after 1 s")
+        s.handle_timeout(100.9)
+        self.assertEqual(self.sent(s), [])
+        s.handle_timeout(101.0)
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nsubscribe ch a\n"])
+        data = parse(b"@ <a> 0\nx y 1\n")
+        # Data every half second: the refresh waits for 3 s after the last request.
+        for t in (101.5, 102.0, 102.5, 103.0, 103.5):
+            s.note_data(t, data)
+            s.handle_timeout(t)
+            self.assertEqual(self.sent(s), [], t)
+        self.assertEqual(s.poll_timeout(), 104.0)
+        s.handle_timeout(104.0)
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nsubscribe ch a\n"])
+        # Silence again: resubscribe 1 s after the last request.
+        self.assertEqual(s.poll_timeout(), 105.0)
+
+    def test_subject_sets_count_as_data_for_each_subject(self):
+        s = cc.Session(now=0.0)
+        s.subscribe(0.0, "a")
+        s.subscribe(0.0, "b")
+        s.subscribe(0.0, "c")
+        s.handle_timeout(0.0)
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nsubscribe ch a\nsubscribe ch b\nsubscribe ch c\n"])
+        s.note_data(0.8, parse(b"@ <a> <b> 0\n"))
+        s.handle_timeout(1.0)
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nsubscribe ch c\n"])
+        self.assertEqual(s.poll_timeout(), 1.8)
+
+    def test_replies_and_unsubscribe(self):
+        s = cc.Session(now=0.0)
+        s.subscribe(0.0, "a")
+        self.assertEqual(s.hub_state(0.0), "unknown")
+        self.assertEqual(s.handle_datagram(0.1, b"@ <hub> 0\nlease ms 10000\n"), ("lease", 10000))
+        self.assertEqual(s.lease_ms, 10000)
+        self.assertEqual(s.hub_state(0.2), "alive")
+        kind, p = s.handle_datagram(0.2, b"@ <hub> 0\nstatus uptime_ms 1 lease_ms 2 min_priority 3 clients 0 truncated 0\n")
+        self.assertEqual(kind, "status")
+        kind, p = s.handle_datagram(0.3, b"@ <a> 0\nx y 1\n")
+        self.assertEqual((kind, p.line("x")), ("packet", {"y": 1}))
+        with self.assertRaises(ParseError):
+            s.handle_datagram(0.4, b"junk")
+        self.assertEqual(s.hub_state(10.39), "alive")
+        self.assertEqual(s.hub_state(10.41), "unreachable")
+        self.assertTrue(s.unsubscribe("a"))
+        self.assertFalse(s.unsubscribe("a"))
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nunsubscribe ch a\n"])
+        self.assertIsNone(s.poll_timeout())
+        self.assertEqual(s.hub_state(100.0), "alive", "unreachable only while subscribed")
+        s.unsubscribe_all()
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nunsubscribe_all\n"])
+
+    def test_status_report_parsing(self):
+        data = (
+            b"@ <hub> 0\nstatus uptime_ms 123456 lease_ms 5000 min_priority -2 clients 2 truncated 0\n"
+            b'drop reason "malformed" count 4\nchannel ch "task robot:7" packets 3 bytes 99\n'
+            b'client addr "127.0.0.1:40001" idle_ms 12 subs (vision_out 4900 radio 10)\n'
+            b'client addr "[::1]:40002" idle_ms 0 subs ()\n'
+        )
+        r = cc.parse_status(parse(data))
+        self.assertEqual(r["uptime_ms"], 123456)
+        self.assertEqual(r["lease_ms"], 5000)
+        self.assertEqual(r["min_priority"], -2)
+        self.assertEqual(r["client_count"], 2)
+        self.assertFalse(r["truncated"])
+        self.assertEqual(r["drops"], {"malformed": 4})
+        self.assertEqual(r["channels"], [{"ch": "task robot:7", "packets": 3, "bytes": 99}])
+        self.assertEqual(
+            r["clients"],
+            [
+                {"addr": "127.0.0.1:40001", "idle_ms": 12, "subs": {"vision_out": 4900, "radio": 10}},
+                {"addr": "[::1]:40002", "idle_ms": 0, "subs": {}},
+            ],
+        )
+
+
+# =========================================================================== client vs a fake hub
+
+
+def readable(socks, timeout):
+    r, _, _ = select.select(socks, [], [], max(0.0, timeout))
+    return r
+
+
+class FakeHub(unittest.TestCase):
+    """The client's socket behaviour against a plain UDP socket playing the hub."""
+
+    def setUp(self):
+        self.hub = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.addCleanup(self.hub.close)
+        self.hub.bind(("127.0.0.1", 0))
+        self.hub.settimeout(2.0)
+        self.client = cc.Client(self.hub.getsockname())
+        self.addCleanup(self.client.close)
+
+    def hub_recv(self):
+        return self.hub.recvfrom(70000)
+
+    def hub_silent(self, wait=0.1):
+        return not readable([self.hub], wait)
+
+    def client_recv(self, timeout=2.0):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            readable([self.client], deadline - time.monotonic())
+            p = self.client.recv()
+            if p is not None:
+                return p
+        return None
+
+    def test_subscribe_asks_at_once_and_replies_are_swallowed(self):
+        c = self.client
+        self.assertEqual(c.hub, self.hub.getsockname())
+        self.assertEqual(c.local_addr[0], "127.0.0.1", "a local hub keeps the client on loopback")
+        self.assertFalse(c.hub_alive())
+        self.assertEqual(c.hub_state(), "unknown")
+        self.assertIsNone(c.next_deadline())
+        c.subscribe("vision_out")
+        data, addr = self.hub_recv()
+        self.assertEqual(data, b"@ <hub> 0\nsubscribe ch vision_out\n")
+        self.assertEqual(addr, c.local_addr)
+        self.hub.sendto(b"@ <hub> 0\nlease ms 10000\n", addr)
+        self.hub.sendto(b"@ <vision_out> 0\nball x 1\n", addr)
+        p = self.client_recv()
+        self.assertEqual(p.line("ball"), {"x": 1}, "the lease reply was taken in, not returned")
+        self.assertEqual(c.lease_ms, 10000)
+        self.assertTrue(c.hub_alive())
+        self.assertEqual(c.hub_state(), "alive")
+        self.assertIsNone(c.recv(), "recv never blocks")
+        # Data just arrived: the next request comes after 1 s of silence (or
+        # 3 s after the first, had data kept flowing).
+        d = c.next_deadline()
+        self.assertTrue(0.5 < d - time.monotonic() <= 1.0, d - time.monotonic())
+        c.poll(d - 0.01)
+        self.assertTrue(self.hub_silent())
+        c.poll(d)
+        self.assertEqual(self.hub_recv()[0], b"@ <hub> 0\nsubscribe ch vision_out\n")
+        self.assertAlmostEqual(c.next_deadline(), d + 1.0, places=6)
+
+    def test_garbage_from_the_hub_is_counted_and_skipped(self):
+        c = self.client
+        c.subscribe("a")
+        _, addr = self.hub_recv()
+        self.hub.sendto(b"not a packet", addr)
+        self.hub.sendto(b"@ <a> 0\nok x 1\n", addr)
+        p = self.client_recv()
+        self.assertEqual(p.line("ok"), {"x": 1})
+        self.assertEqual(c.malformed, 1)
+
+    def test_publish_checks_before_sending(self):
+        c = self.client
+        sent = c.publish(["a", "b"], 3, [("ball", {"x": 1.5})])
+        self.assertEqual(self.hub_recv()[0], sent)
+        self.assertEqual(sent, b"@ <a> <b> 3\nball x 1.5\n")
+        raw = b"@ <a> 0\r\nnote t \"x\"\r\n"
+        self.assertEqual(c.publish_raw(raw), raw)
+        self.assertEqual(self.hub_recv()[0], raw)
+        with self.assertRaises(ParseError):
+            c.publish_raw(b"@ <a> 0\nball x 1 x 2\n")
+        with self.assertRaises(ValueError):
+            c.publish("hub", 0, [("status", {})])
+        with self.assertRaises(ValueError):
+            c.subscribe("hub")
+        with self.assertRaises(ValueError):
+            c.subscribe("no spaces")
+        self.assertTrue(self.hub_silent(), "nothing bad was sent")
+
+    def test_unsubscribe_and_requests(self):
+        c = self.client
+        c.subscribe("a")
+        self.hub_recv()
+        c.unsubscribe("a")
+        self.assertEqual(self.hub_recv()[0], b"@ <hub> 0\nunsubscribe ch a\n")
+        self.assertIsNone(c.next_deadline())
+        c.set_min_priority(-4)
+        self.assertEqual(self.hub_recv()[0], b"@ <hub> 0\nmin_priority value -4\n")
+        c.unsubscribe_all()
+        self.assertEqual(self.hub_recv()[0], b"@ <hub> 0\nunsubscribe_all\n")
+
+    def test_status_waits_for_a_lease_then_asks(self):
+        c = self.client
+        c.subscribe("a")
+        _, addr = self.hub_recv()
+        # The client asks by itself; answer from here, on the fake hub's side, step by step.
+        import threading  # only the test's fake hub uses a thread; the client never does
+
+        answers = []
+
+        def fake():
+            try:
+                data, a = self.hub_recv()
+                answers.append(data)
+                self.hub.sendto(b"@ <hub> 0\nlease ms 5000\n", a)
+                while True:
+                    data, a = self.hub_recv()
+                    answers.append(data)
+                    if data == b"@ <hub> 0\nstatus\n":
+                        self.hub.sendto(b"@ <a> 0\nmeanwhile x 1\n", a)
+                        self.hub.sendto(
+                            b"@ <hub> 0\nstatus uptime_ms 5 lease_ms 5000 min_priority 0 clients 1 truncated 0\n"
+                            b'client addr "127.0.0.1:1" idle_ms 0 subs (a 4999)\n',
+                            a,
+                        )
+                        return
+            except OSError:
+                pass
+
+        t = threading.Thread(target=fake, daemon=True)
+        t.start()
+        r = c.status(timeout=3.0)
+        t.join(3.0)
+        self.assertEqual(answers[0], b"@ <hub> 0\nsubscribe ch a\n")
+        self.assertIn(b"@ <hub> 0\nstatus\n", answers)
+        self.assertEqual(r["clients"][0]["subs"], {"a": 4999})
+        self.assertEqual(c.recv().line("meanwhile"), {"x": 1}, "data that came meanwhile is kept")
+
+    def test_status_times_out(self):
+        self.hub.close()
+        t0 = time.monotonic()
+        with self.assertRaises(TimeoutError):
+            self.client.status(timeout=0.5)
+        self.assertLess(time.monotonic() - t0, 2.0)
+        self.assertEqual(self.client.subscriptions(), [], "the status channel was given up again")
+
+    def test_hub_address_forms(self):
+        port = self.hub.getsockname()[1]
+        for hub in ["127.0.0.1:%d" % port, ("127.0.0.1", port), ("127.0.0.1", str(port))]:
+            with cc.Client(hub) as c:
+                self.assertEqual(c.hub[1], port)
+        old = os.environ.get("COLONY_HUB")
+        os.environ["COLONY_HUB"] = "127.0.0.1:%d" % port
+        try:
+            with cc.Client() as c:
+                self.assertEqual(c.hub, ("127.0.0.1", port))
+        finally:
+            if old is None:
+                del os.environ["COLONY_HUB"]
+            else:
+                os.environ["COLONY_HUB"] = old
+        for bad in ["nope", "127.0.0.1:", ":7400", "127.0.0.1:x"]:
+            with self.assertRaises(ValueError):
+                cc.Client(bad)
+
+
+# =========================================================================== the real hub
+
+
+def colony_bin():
+    path = os.environ.get("COLONY_BIN")
+    if path:
+        return path, True
+    return os.path.join(ROOT, "target", "debug", "colony"), False
+
+
+def free_udp_port():
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+    finally:
+        s.close()
+
+
+def _die_with_parent():
+    # A hub must not outlive a test run that was killed (Linux only; harmless elsewhere).
+    try:
+        import ctypes
+
+        ctypes.CDLL(None).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except Exception:
+        pass
+
+
+def _child_env():
+    env = dict(os.environ)
+    env["COLONY_LOG"] = "info"
+    env.pop("COLONY_HUB", None)
+    return env
+
+
+def run_colony(args, timeout=10.0, **kw):
+    """Runs a short `colony` command; never waits longer than `timeout`."""
+    path, _ = colony_bin()
+    return subprocess.run(
+        [path] + args,
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        timeout=timeout,
+        env=_child_env(),
+        preexec_fn=_die_with_parent if sys.platform.startswith("linux") else None,
+        **kw
+    )
+
+
+class Hub:
+    """A `colony hub` subprocess on a fixed port, which can be killed and started again."""
+
+    def __init__(self, port=None):
+        self.port = port or free_udp_port()
+        self.proc = None
+        self.log = tempfile.TemporaryFile()
+
+    @property
+    def addr(self):
+        return ("127.0.0.1", self.port)
+
+    @property
+    def addr_text(self):
+        return "127.0.0.1:%d" % self.port
+
+    def start(self, timeout=10.0):
+        path, _ = colony_bin()
+        self.log.seek(0)
+        self.log.truncate()
+        self.proc = subprocess.Popen(
+            [path, "hub", "--bind", self.addr_text],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=self.log,
+            env=_child_env(),
+            preexec_fn=_die_with_parent if sys.platform.startswith("linux") else None,
+        )
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if b"hub listening" in self.log_text():
+                return
+            if self.proc.poll() is not None:
+                break
+            time.sleep(0.02)
+        text = self.log_text().decode("utf-8", "replace")
+        self.stop()
+        raise AssertionError("the hub did not start on %s:\n%s" % (self.addr_text, text))
+
+    def log_text(self):
+        self.log.seek(0)
+        return self.log.read()
+
+    def stop(self):
+        if self.proc is not None:
+            if self.proc.poll() is None:
+                self.proc.kill()
+            try:
+                self.proc.wait(timeout=5.0)
+            except subprocess.TimeoutExpired:
+                pass
+            self.proc = None
+
+    def close(self):
+        self.stop()
+        self.log.close()
+
+
+class Pump:
+    """Drives clients the way a program's own loop would: select until the
+    earliest deadline, poll, recv; collects what each one receives."""
+
+    def __init__(self, *clients):
+        self.clients = list(clients)
+        self.got = {id(c): [] for c in self.clients}
+
+    def received(self, client):
+        return self.got[id(client)]
+
+    def step(self, max_wait=0.05):
+        waits = [max_wait] + [c.timeout() for c in self.clients if c.timeout() is not None]
+        readable(self.clients, min(waits))
+        for c in self.clients:
+            c.poll()
+            for p in c:
+                self.got[id(c)].append(p)
+
+    def until(self, cond, timeout, every=None, action=None):
+        """Steps until cond() is true; runs action() every `every` seconds. False on timeout."""
+        deadline = time.monotonic() + timeout
+        next_action = time.monotonic()
+        while time.monotonic() < deadline:
+            if cond():
+                return True
+            if action is not None and time.monotonic() >= next_action:
+                action()
+                next_action = time.monotonic() + every
+            self.step()
+        return cond()
+
+
+def leased(pump, *clients, timeout=5.0):
+    return pump.until(lambda: all(c.lease_ms is not None for c in clients), timeout)
+
+
+class RealHub(unittest.TestCase):
+    """The client against `colony hub`, `colony pub` and `colony sub`."""
+
+    @classmethod
+    def setUpClass(cls):
+        path, required = colony_bin()
+        if not (os.path.isfile(path) and os.access(path, os.X_OK)):
+            if required:
+                raise AssertionError("COLONY_BIN=%s is not an executable" % path)
+            raise unittest.SkipTest("no colony binary at %s (run `cargo build -p colony`)" % path)
+
+    def setUp(self):
+        self.hub = Hub()
+        self.addCleanup(self.hub.close)
+        self.hub.start()
+
+    def client(self):
+        c = cc.Client(self.hub.addr)
+        self.addCleanup(c.close)
+        return c
+
+    def test_python_publishes_and_python_receives(self):
+        sub, pub = self.client(), self.client()
+        sub.subscribe("vision_out")
+        pump = Pump(sub, pub)
+        self.assertTrue(leased(pump, sub), "no lease from the hub")
+        self.assertEqual(sub.lease_ms, 10000)
+        lines = [("ball", {"x": 5.3, "y": -2.5}), ("blue", {"id": 0, "pose": {"xh": 1.0, "yh": 0.0}}), ("note", {"text": 'kick "off"'})]
+        ok = pump.until(lambda: pump.received(sub), 5.0, every=0.2, action=lambda: pub.publish("vision_out", 0, lines))
+        self.assertTrue(ok, "nothing arrived")
+        p = pump.received(sub)[0]
+        self.assertEqual(p.subjects, ["vision_out"])
+        self.assertEqual(p.lines, lines)
+        self.assertEqual(pump.received(pub), [], "a publisher that subscribes to nothing gets nothing")
+        self.assertTrue(sub.hub_alive())
+
+    def test_colony_pub_reaches_python(self):
+        sub = self.client()
+        sub.subscribe("radio")
+        pump = Pump(sub)
+        self.assertTrue(leased(pump, sub))
+
+        def publish():
+            r = run_colony(["pub", "--hub", self.hub.addr_text, "-p", "3", "radio", "cmd id 3 vl 0.2 vr -0.2", 'say text "hi there"'])
+            self.assertEqual(r.returncode, 0, r.stderr)
+
+        self.assertTrue(pump.until(lambda: pump.received(sub), 8.0, every=1.0, action=publish))
+        p = pump.received(sub)[0]
+        self.assertEqual(p.priority, 3)
+        self.assertEqual(p.lines, [("cmd", {"id": 3, "vl": 0.2, "vr": -0.2}), ("say", {"text": "hi there"})])
+
+    def test_python_publishes_and_colony_sub_receives_the_canonical_text(self):
+        path, _ = colony_bin()
+        proc = subprocess.Popen(
+            [path, "sub", "--hub", self.hub.addr_text, "-n", "1", "chat"],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            env=_child_env(),
+            preexec_fn=_die_with_parent if sys.platform.startswith("linux") else None,
+        )
+        self.addCleanup(lambda: proc.poll() is None and proc.kill())
+        pub = self.client()
+        messy = b'@\t<chat>  7\r\n\r\n  note   text "a \\"b\\" \\\\ \\n"  g( x 1  y (z 2.50) )\r\nball x .5 y 5.\n'
+        deadline = time.monotonic() + 10.0
+        while proc.poll() is None and time.monotonic() < deadline:
+            pub.publish_raw(messy)
+            try:
+                proc.wait(timeout=0.2)
+            except subprocess.TimeoutExpired:
+                pass
+        if proc.poll() is None:
+            proc.kill()
+        out, err = proc.communicate(timeout=5.0)
+        self.assertEqual(proc.returncode, 0, err)
+        self.assertEqual(out.decode(), str(parse(messy)))
+        self.assertEqual(out, b'@ <chat> 7\nnote text "a \\"b\\" \\\\ \\n" g (x 1 y (z 2.50))\nball x .5 y 5.\n')
+
+    def test_forged_datagram_reaches_python(self):
+        # What `printf '@ <chat> 0\nnote text "hi"\n' | nc -u 127.0.0.1 PORT` does.
+        sub = self.client()
+        sub.subscribe("chat")
+        pump = Pump(sub)
+        self.assertTrue(leased(pump, sub))
+        raw = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.addCleanup(raw.close)
+        forged = b'@ <chat> 0\r\nnote text "hi\\tthere" id 12\r\n'
+        ok = pump.until(lambda: pump.received(sub), 5.0, every=0.2, action=lambda: raw.sendto(forged, self.hub.addr))
+        self.assertTrue(ok)
+        p = pump.received(sub)[0]
+        self.assertEqual(p.line("note"), {"text": "hi\tthere", "id": 12})
+        self.assertEqual(bytes(p), forged, "the hub repeats the bytes unchanged")
+
+    def test_subject_sets_reach_clients_subscribed_to_all_of_them(self):
+        both, task_only, robot_only = self.client(), self.client(), self.client()
+        both.subscribe("task")
+        both.subscribe("robot:7")
+        task_only.subscribe("task")
+        robot_only.subscribe("robot:7")
+        pub = self.client()
+        pump = Pump(both, task_only, robot_only, pub)
+        self.assertTrue(leased(pump, both, task_only, robot_only))
+        sent = []
+
+        def announce():
+            sent.append(pub.publish(["task", "robot:7"], 2, [("announce", {"id": len(sent)})]))
+
+        self.assertTrue(pump.until(lambda: pump.received(both), 5.0, every=0.2, action=announce))
+        # Give a wrongly routed copy time to arrive before looking.
+        pump.until(lambda: False, 0.3)
+        self.assertEqual(pump.received(both)[0].subjects, ["task", "robot:7"])
+        self.assertEqual(pump.received(task_only), [])
+        self.assertEqual(pump.received(robot_only), [])
+        # Both partial subscribers are live: a packet to their own channel reaches them.
+        n = len(pump.received(both))
+        pub.publish("task", 0, [("one", {})])
+        self.assertTrue(pump.until(lambda: pump.received(task_only) and len(pump.received(both)) > n, 5.0))
+        self.assertEqual(pump.received(robot_only), [])
+        self.assertEqual(pump.received(task_only)[0].line("one"), {})
+
+    def test_unsubscribe_stops_delivery(self):
+        sub, pub = self.client(), self.client()
+        sub.subscribe("a")
+        sub.subscribe("b")
+        pump = Pump(sub)
+        self.assertTrue(leased(pump, sub))
+        self.assertTrue(pump.until(lambda: pump.received(sub), 5.0, every=0.2, action=lambda: pub.publish("a", 0, [("x", {"n": 1})])))
+        sub.unsubscribe("a")
+        # The hub handles the unsubscribe before any later datagram; prove it with one to b.
+        pump.got[id(sub)].clear()
+        self.assertTrue(
+            pump.until(
+                lambda: any(p.subjects == ["b"] for p in pump.received(sub)),
+                5.0,
+                every=0.2,
+                action=lambda: (pub.publish("a", 0, [("x", {"n": 2})]), pub.publish("b", 0, [("y", {})])),
+            )
+        )
+        pump.until(lambda: False, 0.2)
+        self.assertEqual([p for p in pump.received(sub) if p.subjects == ["a"]], [])
+
+    def test_hub_restart_on_the_same_port_is_survived(self):
+        sub, pub = self.client(), self.client()
+        sub.subscribe("vision_out")
+        pump = Pump(sub, pub)
+        self.assertTrue(leased(pump, sub))
+        seq = [0]
+
+        def tick():
+            seq[0] += 1
+            pub.publish("vision_out", 0, [("tick", {"n": seq[0]})])
+
+        self.assertTrue(pump.until(lambda: pump.received(sub), 5.0, every=0.1, action=tick))
+        self.hub.stop()
+        # The client keeps polling (and publishing goes on) while the hub is down.
+        pump.until(lambda: False, 1.5, every=0.1, action=tick)
+        pump.got[id(sub)].clear()
+        self.hub.start()
+        restarted = time.monotonic()
+        ok = pump.until(lambda: pump.received(sub), 6.0, every=0.1, action=tick)
+        took = time.monotonic() - restarted
+        self.assertTrue(ok, "nothing arrived after the hub restarted")
+        self.assertLess(took, 2.5, "resubscribed after %.2f s" % took)
+        self.assertTrue(sub.hub_alive())
+
+    def test_status_lists_the_clients(self):
+        a, b = self.client(), self.client()
+        a.subscribe("vision_out")
+        a.subscribe("radio")
+        b.subscribe("radio")
+        pump = Pump(a, b)
+        self.assertTrue(leased(pump, a, b))
+        pub = self.client()
+        self.assertTrue(pump.until(lambda: pump.received(b), 5.0, every=0.2, action=lambda: pub.publish("radio", 0, [("cmd", {"id": 1})])))
+        r = a.status(timeout=3.0)
+        self.assertEqual(r["lease_ms"], 10000)
+        self.assertEqual(r["client_count"], 2)
+        self.assertFalse(r["truncated"])
+        addrs = {c["addr"]: c for c in r["clients"]}
+        me = "%s:%d" % a.local_addr
+        other = "%s:%d" % b.local_addr
+        self.assertEqual(set(addrs), {me, other})
+        self.assertEqual(sorted(addrs[me]["subs"]), ["radio", "vision_out"])
+        self.assertEqual(sorted(addrs[other]["subs"]), ["radio"])
+        for ms in addrs[me]["subs"].values():
+            self.assertTrue(0 < ms <= 10000, ms)
+        radio = [ch for ch in r["channels"] if ch["ch"] == "radio"]
+        self.assertTrue(radio and radio[0]["packets"] >= 1 and radio[0]["bytes"] > 0, r["channels"])
+        self.assertGreater(r["uptime_ms"], 0)
+
+    def test_status_from_a_client_without_subscriptions(self):
+        c = self.client()
+        r = c.status(timeout=3.0)
+        self.assertEqual([list(x["subs"]) for x in r["clients"]], [["colony-status"]])
+        self.assertEqual(c.subscriptions(), [])
+        self.assertTrue(c.hub_alive())
+
+    def test_the_hub_drops_what_python_rejects(self):
+        # Differential check of the two parsers through the hub: the hub repeats
+        # exactly the datagrams Python accepts and counts the others as malformed.
+        sub = self.client()
+        sub.subscribe("d")
+        pump = Pump(sub)
+        self.assertTrue(leased(pump, sub))
+        good = [
+            b"@ <d> 0\nball x 5.3\n",
+            b"@ <d> 0",
+            b"@ <d>\t-0\r\n\r\nl g(  k 1 )z\"q\" \r\n",
+            b'@ <d> 0\nnote t "a\tb" u "\\\\"\n',
+            nested(32).replace(b"<a>", b"<d>"),
+            "@ <d> 0\nroböter größe 1,5\n".encode(),
+        ]
+        bad = [b"@ <d> 0\nball x 1 x 2\n", b"@ <d> 0\nl g (x 1\n", b"@ <d> 2147483648\n", b'@ <d> 0\nt s "\\q"\n', b"@ <d> 0\n\xff\n",
+               b"@ <d> 0\nball x 1\ry 2\n", nested(33).replace(b"<a>", b"<d>"), b"@<d> 0\n", b""]
+        for data in bad:
+            self.assertRaises(ParseError, parse, data)
+        raw = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.addCleanup(raw.close)
+        for data in bad + good:
+            raw.sendto(data, self.hub.addr)
+            time.sleep(0.002)
+        self.assertTrue(pump.until(lambda: len(pump.received(sub)) >= len(good), 5.0))
+        pump.until(lambda: False, 0.2)
+        self.assertEqual([bytes(p) for p in pump.received(sub)], good)
+        r = sub.status(timeout=3.0)
+        self.assertEqual(r["drops"].get("malformed"), len(bad), r["drops"])
+
+    def test_min_priority(self):
+        sub, pub = self.client(), self.client()
+        sub.subscribe("a")
+        pump = Pump(sub)
+        self.assertTrue(leased(pump, sub))
+        sub.set_min_priority(5)
+        # The request and a status travel on one socket, in order: once the status
+        # shows the minimum, it is in force.
+        self.assertEqual(sub.status()["min_priority"], 5)
+        pub.publish("a", 4, [("low", {})])
+        pub.publish("a", 5, [("high", {})])
+        self.assertTrue(pump.until(lambda: pump.received(sub), 5.0))
+        pump.until(lambda: False, 0.2)
+        self.assertEqual([p.labels() for p in pump.received(sub)], [["high"]])
+        self.assertEqual(sub.status()["drops"].get("below_min_priority"), 1)
+
+    def test_python_cli_sub_with_colony_hub_from_the_environment(self):
+        env = _child_env()
+        env["COLONY_HUB"] = self.hub.addr_text
+        env["PYTHONDONTWRITEBYTECODE"] = "1"
+        proc = subprocess.Popen(
+            [sys.executable, os.path.join(PYTHON_DIR, "colony_client.py"), "sub", "cli", "-n", "1"],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            env=env,
+        )
+        self.addCleanup(lambda: proc.poll() is None and proc.kill())
+        pub = self.client()
+        deadline = time.monotonic() + 10.0
+        while proc.poll() is None and time.monotonic() < deadline:
+            pub.publish("cli", 0, [("hello", {"who": "python"})])
+            try:
+                proc.wait(timeout=0.2)
+            except subprocess.TimeoutExpired:
+                pass
+        if proc.poll() is None:
+            proc.kill()
+        out, err = proc.communicate(timeout=5.0)
+        self.assertEqual(proc.returncode, 0, err)
+        self.assertEqual(out, b"@ <cli> 0\nhello who python\n")
+
+
+if __name__ == "__main__":
+    unittest.main()
