@@ -171,20 +171,28 @@ impl UdpClient {
         self.session.hub_state(Instant::now())
     }
 
-    /// Datagrams received that did not parse (the hub checks what it repeats,
-    /// so this stays zero unless something else speaks from the hub's address).
+    /// Datagrams received that did not parse and were skipped (the hub checks
+    /// what it repeats, so this stays zero unless something else speaks from
+    /// the hub's address).
     pub fn malformed_count(&self) -> u64 {
         self.malformed
     }
 
     /// The next packet published on a subscribed channel, or `None` when none
-    /// is waiting. Replies from the hub are taken in along the way.
+    /// is waiting. Replies from the hub are taken in along the way, and a
+    /// datagram that does not parse is counted ([`malformed_count`](Self::malformed_count))
+    /// and skipped: one bad datagram must not end a subscriber's loop.
     pub fn recv(&mut self) -> io::Result<Option<Packet<'_>>> {
         let len = loop {
             match self.recv_one()? {
                 None => return Ok(None),
-                Some(Received::Data(len)) => break len,
                 Some(Received::Reply(_)) => continue,
+                // The borrow checker will not let a packet borrowed from
+                // `buf` leave this loop, which receives into `buf` again, so
+                // a valid packet is checked here and parsed once more below
+                // (about 0.8 us for a 478-byte vision packet).
+                Some(Received::Data(len)) if Packet::parse(&self.buf[..len]).is_ok() => break len,
+                Some(Received::Data(_)) => self.malformed += 1,
             }
         };
         let packet = Packet::parse(&self.buf[..len])

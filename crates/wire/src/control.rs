@@ -168,7 +168,11 @@ pub enum Reply {
 }
 
 impl Reply {
-    /// The lease acknowledgement, as small as the smallest subscribe request.
+    /// The lease acknowledgement: as small as the smallest subscribe request
+    /// while the lease is under 100 s. (The hub never answers a new address
+    /// with more than it sent, so with a longer lease a client subscribing to
+    /// a one-character channel gets its first acknowledgement only on its
+    /// next refresh.)
     pub fn lease_packet(ms: u64) -> Vec<u8> {
         format!("@ <{HUB_SUBJECT}> 0\nlease ms {ms}\n").into_bytes()
     }
