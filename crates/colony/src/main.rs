@@ -30,6 +30,9 @@ enum Command {
     Log(cmd::traffic::LogArgs),
     /// Publish a traffic log again with its original timing.
     Replay(cmd::traffic::ReplayArgs),
+    /// Swarm sorting: experiments, the paper's reproduction, live mode.
+    #[command(subcommand)]
+    Sort(cmd::sort::SortCommand),
 }
 
 fn main() -> ExitCode {
@@ -49,6 +52,7 @@ fn main() -> ExitCode {
         Command::Status(a) => cmd::status::run(a),
         Command::Log(a) => cmd::traffic::list(a),
         Command::Replay(a) => cmd::traffic::replay(a),
+        Command::Sort(c) => cmd::sort::run(c),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -86,7 +86,9 @@ pub struct RobotId(pub usize);
 pub struct PuckId(pub usize);
 
 /// A puck's type (its colour), 0-based.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
 pub struct PuckKind(pub u8);
 
 /// A puck as the world (the "global map") knows it.
@@ -116,7 +118,10 @@ pub struct WheelCommand {
 }
 
 impl WheelCommand {
-    pub const STOP: WheelCommand = WheelCommand { forward: 0.0, turn: 0.0 };
+    pub const STOP: WheelCommand = WheelCommand {
+        forward: 0.0,
+        turn: 0.0,
+    };
 }
 
 /// A puck the forward camera sees, in the robot frame.

@@ -4,6 +4,41 @@
 //! robot's [`Observation`] to a [`WheelCommand`] each control step. The same
 //! controllers run in batch experiments (in-process, no hub) and in live
 //! mode (one hub client per robot).
+//!
+//! The controllers' parts, one idea per module: [`params`] (every value the
+//! paper leaves open, `configs/sort.toml`), [`perception`] (the local map,
+//! on [`cluster`]'s graph clusters), [`vfh`] (VFH+ and the steering law),
+//! [`deneubourg`] (pick-up and deposit probabilities), [`methods`] (BHD,
+//! PROBSEEK, CACHECONS and its variants as explicit state machines) and
+//! [`metrics`] (PC, STC, TWC, cache convergence).
+//!
+//! ```
+//! use colony_sim::Observation;
+//! use colony_sort::{build, Method, SortParams};
+//! use rand::SeedableRng;
+//! let params = SortParams::default(); // or SortParams::load("configs/sort.toml")?
+//! let mut robot = build("probseek".parse::<Method>().unwrap(), &params, 2, 187.0);
+//! let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+//! let command = robot.step(&Observation::default(), &mut rng);
+//! assert_eq!((robot.state(), command.forward), ("PU_SCAN", 1.0));
+//! ```
+
+pub mod experiment;
+pub mod live;
+pub mod plot;
+pub mod report;
+pub mod stats;
+
+pub mod cluster;
+pub mod deneubourg;
+pub mod methods;
+pub mod metrics;
+pub mod params;
+pub mod perception;
+pub mod vfh;
+
+pub use methods::{build, Method, UnknownMethod};
+pub use params::{ParamsError, SortParams};
 
 use colony_sim::{Observation, PuckKind, Vec2, WheelCommand};
 use rand_chacha::ChaCha8Rng;

@@ -3,6 +3,7 @@
 pub mod demo;
 pub mod hub;
 pub mod pubsub;
+pub mod sort;
 pub mod status;
 pub mod traffic;
 

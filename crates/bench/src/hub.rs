@@ -1,0 +1,111 @@
+//! A colony hub (`colony_hub::Server`) on its own thread, and subscribing to it.
+
+use std::io;
+use std::net::{SocketAddr, UdpSocket};
+use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
+use std::sync::Arc;
+use std::thread::{self, JoinHandle};
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context};
+use colony_hub::{DropReason, HubConfig, Server};
+use colony_wire::{Packet, Reply, Request, Subject};
+
+use crate::sys;
+
+/// A hub serving on 127.0.0.1 from a thread of this process.
+pub struct HubThread {
+    pub addr: SocketAddr,
+    tid: Arc<AtomicI32>,
+    stop: Arc<AtomicBool>,
+    handle: JoinHandle<io::Result<Server>>,
+}
+
+/// What the hub counted, read after it stopped.
+pub struct HubDrops {
+    pub send_failed: u64,
+    pub total: u64,
+}
+
+impl HubThread {
+    /// Starts a hub on a thread of its own, kept on `cpu` if one is given.
+    pub fn start(config: HubConfig, cpu: Option<usize>) -> anyhow::Result<HubThread> {
+        let mut server = Server::bind("127.0.0.1:0", config).context("binding the hub")?;
+        let addr = server.local_addr()?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let tid = Arc::new(AtomicI32::new(0));
+        let handle = {
+            let stop = stop.clone();
+            let tid = tid.clone();
+            thread::Builder::new().name("hub".into()).spawn(move || {
+                let pinned = sys::pin_self(cpu.as_ref().map(std::slice::from_ref));
+                tid.store(sys::gettid(), Ordering::SeqCst);
+                pinned?;
+                server.run(&stop)?;
+                Ok(server)
+            })?
+        };
+        while tid.load(Ordering::SeqCst) == 0 {
+            thread::yield_now();
+        }
+        Ok(HubThread {
+            addr,
+            tid,
+            stop,
+            handle,
+        })
+    }
+
+    /// CPU time the hub's thread has used so far.
+    pub fn cpu(&self) -> Option<Duration> {
+        sys::thread_cpu(self.tid.load(Ordering::SeqCst))
+    }
+
+    pub fn stop(self) -> anyhow::Result<HubDrops> {
+        self.stop.store(true, Ordering::SeqCst);
+        let server = self
+            .handle
+            .join()
+            .map_err(|_| anyhow::anyhow!("hub thread panicked"))??;
+        let hub = server.hub();
+        Ok(HubDrops {
+            send_failed: hub.drops(DropReason::SendFailed),
+            total: DropReason::ALL.iter().map(|&r| hub.drops(r)).sum(),
+        })
+    }
+}
+
+/// Subscribes a UDP socket (connected to the hub) to `channel` and waits for the lease.
+/// Leaves the socket blocking with no read timeout.
+pub fn subscribe_udp(sock: &UdpSocket, channel: &str) -> anyhow::Result<()> {
+    let request = Request::to_packet(&[Request::Subscribe(Subject::new(channel)?)]);
+    sock.set_nonblocking(false)?;
+    sock.set_read_timeout(Some(Duration::from_millis(200)))?;
+    let mut buf = [0u8; 2048];
+    let deadline = Instant::now() + Duration::from_secs(3);
+    'attempt: while Instant::now() < deadline {
+        sock.send(&request)?;
+        loop {
+            match sock.recv(&mut buf) {
+                Ok(n) => {
+                    if let Ok(p) = Packet::parse(&buf[..n]) {
+                        if let Some(Ok(Reply::Lease { .. })) = Reply::parse(&p) {
+                            sock.set_read_timeout(None)?;
+                            return Ok(());
+                        }
+                    }
+                }
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                    ) =>
+                {
+                    continue 'attempt
+                }
+                Err(e) => return Err(e.into()),
+            }
+        }
+    }
+    bail!("the hub at {:?} sent no lease", sock.peer_addr().ok())
+}

@@ -1,0 +1,372 @@
+//! `hub-bench`: the colony hub on loopback against a raw UDP relay and
+//! Mosquitto, in one run. Latency of a 100-byte packet (one in flight) and
+//! delivered throughput at several fan-outs. Prints a markdown report and can
+//! write it into BENCHMARKS.md under `## Hub on loopback`.
+
+mod hub;
+mod latency;
+mod mqtt;
+mod payload;
+mod relay;
+mod report;
+mod sys;
+mod throughput;
+
+use std::net::UdpSocket;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::Context;
+use clap::Parser;
+use colony_hub::HubConfig;
+
+use crate::hub::{subscribe_udp, HubThread};
+use crate::throughput::{CpuProbe, Fanout, MqttPub, MqttSub, Subscriber, UdpPub, UdpSub};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "hub-bench",
+    about = "colony hub vs raw UDP and Mosquitto on 127.0.0.1: latency and fan-out throughput"
+)]
+struct Args {
+    /// Recorded latency samples per system.
+    #[arg(long, default_value_t = 20_000)]
+    samples: usize,
+    /// Unrecorded latency samples first.
+    #[arg(long, default_value_t = 2_000)]
+    warmup: usize,
+    /// Measured seconds per throughput run.
+    #[arg(long, default_value_t = 3.0)]
+    duration: f64,
+    /// Unmeasured seconds before each throughput run is measured.
+    #[arg(long, default_value_t = 0.3)]
+    settle: f64,
+    /// Fan-outs (subscriber counts) for the throughput runs.
+    #[arg(long, value_delimiter = ',', default_value = "1,10,100")]
+    fanouts: Vec<usize>,
+    /// Packets the publisher may have in flight beyond the slowest subscriber.
+    #[arg(long, default_value_t = 128)]
+    window: u64,
+    /// Thread placement for the throughput runs: `none` lets the scheduler
+    /// place everything; `split` keeps the broker on CPU 1 and the publisher
+    /// and receivers on CPU 0.
+    #[arg(long, value_enum, default_value = "split")]
+    throughput_pin: Pin,
+    /// Receiver threads the subscribers are spread over.
+    #[arg(long, default_value_t = 2)]
+    recv_threads: usize,
+    /// Receive buffer asked for on every UDP subscriber socket, in bytes.
+    #[arg(long, default_value_t = 4 << 20)]
+    rcvbuf: usize,
+    /// The Mosquitto broker to start (it is stopped again at the end).
+    #[arg(long, default_value = "mosquitto")]
+    mosquitto: PathBuf,
+    /// Skip Mosquitto (no comparison, so no verdict on the targets).
+    #[arg(long)]
+    no_mosquitto: bool,
+    /// Throughput rounds; each system's best round is reported.
+    #[arg(long, default_value_t = 3)]
+    rounds: usize,
+    /// Skip the raw UDP relay in the throughput runs.
+    #[arg(long)]
+    no_relay: bool,
+    /// Run the latency part only (for profiling).
+    #[arg(long)]
+    latency_only: bool,
+    /// Also write the report into this markdown file, replacing its
+    /// `## Hub on loopback` section (or adding one) and keeping the rest.
+    #[arg(long)]
+    markdown: Option<PathBuf>,
+    /// The command recorded in the report as the way to reproduce it.
+    #[arg(long, default_value = "scripts/bench-hub.sh")]
+    command: String,
+}
+
+const MQTT_DEFAULT: &str = "Mosquitto, Nagle on (default)";
+const MQTT_NODELAY: &str = "Mosquitto, set_tcp_nodelay true";
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum Pin {
+    None,
+    Split,
+}
+
+fn main() -> anyhow::Result<()> {
+    let args = Args::parse();
+    let machine = report::Machine::probe();
+    eprintln!(
+        "hub-bench: {} cores, {}, load {}",
+        machine.cores, machine.cpu, machine.load_before
+    );
+    // Leases outlive any run, so no refresh traffic mixes in with the measurement.
+    let config = HubConfig {
+        lease: Duration::from_secs(600),
+        ..HubConfig::default()
+    };
+
+    // Mosquitto twice: as shipped (Nagle on, so its writes to a busy
+    // subscriber coalesce) and tuned for latency (`set_tcp_nodelay true`).
+    // Each comparison is with whichever does better on it.
+    let brokers: Vec<(&str, mqtt::Mosquitto)> = if args.no_mosquitto {
+        Vec::new()
+    } else {
+        let program = find_program(&args.mosquitto).with_context(|| {
+            format!(
+                "mosquitto not found (`{}`): install it with `apt-get install mosquitto`, \
+                 or pass --no-mosquitto",
+                args.mosquitto.display()
+            )
+        })?;
+        vec![
+            (MQTT_DEFAULT, mqtt::Mosquitto::start(&program, false)?),
+            (MQTT_NODELAY, mqtt::Mosquitto::start(&program, true)?),
+        ]
+    };
+
+    // Where threads run changes latency more than any broker does on a VM
+    // (waking an idle vCPU costs tens of µs), so every path is measured with
+    // the same explicit placement: all on one core, then broker on its own core.
+    let mut placements = vec![("one core", 0usize)];
+    if machine.cores >= 2 {
+        placements.push(("two cores", 1));
+    }
+    let pids: Vec<u32> = brokers.iter().map(|(_, b)| b.pid()).collect();
+    let foreign = sys::Foreign::start(&pids);
+    let mut lat = Vec::new();
+    for &(placement, broker_cpu) in &placements {
+        sys::pin_self(Some(&[0]))?;
+        for (_, b) in &brokers {
+            sys::pin_process(b.pid(), Some(&[broker_cpu]))?;
+        }
+        let cpu = Some(broker_cpu);
+        eprintln!("latency ({placement}): raw UDP relay");
+        let mut runs = vec![latency::raw_udp(args.warmup, args.samples, cpu)?];
+        eprintln!("latency ({placement}): colony hub");
+        runs.push(latency::hub_raw(args.warmup, args.samples, &config, cpu)?);
+        eprintln!("latency ({placement}): colony hub via colony-client");
+        runs.push(latency::hub_client(
+            args.warmup,
+            args.samples,
+            &config,
+            cpu,
+        )?);
+        for (name, b) in &brokers {
+            eprintln!("latency ({placement}): {name}");
+            runs.push(latency::mosquitto(name, args.warmup, args.samples, b.addr)?);
+        }
+        for r in &mut runs {
+            r.placement = placement.to_owned();
+        }
+        lat.extend(runs);
+    }
+    let foreign_latency = foreign.percent(&pids);
+    // Throughput: as configured (by default the scheduler places everything).
+    let (bench_cpus, broker_cpus): (Option<Vec<usize>>, Option<Vec<usize>>) =
+        match args.throughput_pin {
+            Pin::None => (None, None),
+            Pin::Split if machine.cores >= 2 => (Some(vec![0]), Some(vec![1])),
+            Pin::Split => (None, None),
+        };
+    sys::pin_self(bench_cpus.as_deref())?;
+    for (_, b) in &brokers {
+        sys::pin_process(b.pid(), broker_cpus.as_deref())?;
+    }
+    let broker_cpu = broker_cpus.as_ref().map(|c| c[0]);
+
+    let foreign = sys::Foreign::start(&pids);
+    let settle = Duration::from_secs_f64(args.settle);
+    let duration = Duration::from_secs_f64(args.duration);
+    let mut rows = Vec::new();
+    let fanouts = if args.latency_only {
+        &[][..]
+    } else {
+        &args.fanouts[..]
+    };
+    // Rounds interleave the systems, so a disturbance from outside hits all of
+    // them alike; each system keeps its best round (losses: its worst).
+    for round in 1..=args.rounds {
+        for (k, &n) in fanouts.iter().enumerate() {
+            let tag = format!("round {round}/{}, fan-out {n}", args.rounds);
+            let mut runs = Vec::new();
+            if !args.no_relay {
+                eprintln!("throughput ({tag}): raw UDP relay");
+                let f = relay_fanout(&args, n, settle, duration, broker_cpu)?;
+                runs.push(report::Run::new(report::RELAY, report::Kind::Relay, f));
+            }
+            eprintln!("throughput ({tag}): colony hub");
+            let (hub, hub_drops) = hub_fanout(&args, &config, n, settle, duration, broker_cpu)?;
+            runs.push(report::Run::new(report::HUB, report::Kind::Hub, hub));
+            for (name, b) in &brokers {
+                eprintln!("throughput ({tag}): {name}");
+                let f = mqtt_fanout(&args, b, n, settle, duration)?;
+                runs.push(report::Run::new(name, report::Kind::Mqtt, f));
+            }
+            let row = report::Row {
+                subscribers: n,
+                runs,
+                hub_drops,
+            };
+            if round == 1 {
+                rows.push(row);
+            } else {
+                rows[k].merge(row);
+            }
+        }
+    }
+
+    let foreign_throughput = foreign.percent(&pids);
+    let load_after = report::loadavg();
+    let text = report::render(&report::Report {
+        command: &args.command,
+        machine: &machine,
+        load_after: &load_after,
+        foreign: [foreign_latency, foreign_throughput],
+        mosquitto: brokers.first().map(|(_, b)| b.version.as_str()),
+        samples: args.samples,
+        warmup: args.warmup,
+        duration: args.duration,
+        rounds: args.rounds,
+        window: args.window,
+        recv_threads: args.recv_threads,
+        rcvbuf: args.rcvbuf,
+        placement: match (args.throughput_pin, machine.cores >= 2) {
+            (Pin::Split, true) => {
+                "The broker runs on CPU 1 and the publisher and receivers on CPU 0, so each \
+                 single-threaded broker has one core to itself"
+            }
+            _ => "The scheduler places all threads",
+        },
+        latency: &lat,
+        fanout: &rows,
+    });
+    drop(brokers);
+    print!("{text}");
+    if let Some(path) = &args.markdown {
+        report::write_section(path, &text)
+            .with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// `program` if it names a file, else the first match on `PATH`, else /usr/sbin.
+fn find_program(program: &std::path::Path) -> Option<PathBuf> {
+    if program.components().count() > 1 {
+        return program.is_file().then(|| program.to_owned());
+    }
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    std::env::split_paths(&path)
+        .chain([PathBuf::from("/usr/sbin"), PathBuf::from("/usr/local/sbin")])
+        .map(|d| d.join(program))
+        .find(|p| p.is_file())
+}
+
+fn hub_fanout(
+    args: &Args,
+    config: &HubConfig,
+    n: usize,
+    settle: Duration,
+    duration: Duration,
+    cpu: Option<usize>,
+) -> anyhow::Result<(Fanout, hub::HubDrops)> {
+    let hub = HubThread::start(config.clone(), cpu)?;
+    let mut subs: Vec<Box<dyn Subscriber>> = Vec::with_capacity(n);
+    for _ in 0..n {
+        let sock = UdpSocket::bind("127.0.0.1:0")?;
+        sys::set_rcvbuf(&sock, args.rcvbuf)?;
+        sock.connect(hub.addr)?;
+        subscribe_udp(&sock, payload::CHANNEL)?;
+        subs.push(Box::new(UdpSub::new(sock)?));
+    }
+    let mut publisher = UdpPub::new(hub.addr)?;
+    let cpu = || hub.cpu();
+    let probe = CpuProbe {
+        broker: &cpu,
+        broker_in_process: true,
+    };
+    let run = throughput::run(
+        &mut publisher,
+        subs,
+        args.recv_threads,
+        args.window,
+        settle,
+        duration,
+        &probe,
+    )?;
+    let drops = hub.stop()?;
+    Ok((run, drops))
+}
+
+fn mqtt_fanout(
+    args: &Args,
+    broker: &mqtt::Mosquitto,
+    n: usize,
+    settle: Duration,
+    duration: Duration,
+) -> anyhow::Result<Fanout> {
+    let mut subs: Vec<Box<dyn Subscriber>> = Vec::with_capacity(n);
+    for i in 0..n {
+        let mut conn = mqtt::Conn::connect(broker.addr, &format!("bench-sub-{n}-{i}"))?;
+        conn.subscribe(payload::CHANNEL)?;
+        subs.push(Box::new(MqttSub::new(conn)?));
+    }
+    let mut publisher = MqttPub::new(mqtt::Conn::connect(broker.addr, &format!("bench-pub-{n}"))?);
+    let pid = broker.pid();
+    let cpu = move || sys::process_cpu(pid);
+    let probe = CpuProbe {
+        broker: &cpu,
+        broker_in_process: false,
+    };
+    Ok(throughput::run(
+        &mut publisher,
+        subs,
+        args.recv_threads,
+        args.window,
+        settle,
+        duration,
+        &probe,
+    )?)
+}
+
+fn relay_fanout(
+    args: &Args,
+    n: usize,
+    settle: Duration,
+    duration: Duration,
+    cpu: Option<usize>,
+) -> anyhow::Result<Fanout> {
+    let socks = (0..n)
+        .map(|_| {
+            let sock = UdpSocket::bind("127.0.0.1:0")?;
+            sys::set_rcvbuf(&sock, args.rcvbuf)?;
+            Ok(sock)
+        })
+        .collect::<std::io::Result<Vec<_>>>()?;
+    let dests = socks
+        .iter()
+        .map(|s| s.local_addr())
+        .collect::<std::io::Result<Vec<_>>>()?;
+    let relay = relay::RelayThread::start(dests, cpu)?;
+    let mut subs: Vec<Box<dyn Subscriber>> = Vec::with_capacity(n);
+    for sock in socks {
+        sock.connect(relay.addr)?;
+        subs.push(Box::new(UdpSub::new(sock)?));
+    }
+    let mut publisher = UdpPub::new(relay.addr)?;
+    let cpu = || relay.cpu();
+    let probe = CpuProbe {
+        broker: &cpu,
+        broker_in_process: true,
+    };
+    let run = throughput::run(
+        &mut publisher,
+        subs,
+        args.recv_threads,
+        args.window,
+        settle,
+        duration,
+        &probe,
+    )?;
+    relay.stop()?;
+    Ok(run)
+}

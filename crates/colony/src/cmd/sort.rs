@@ -1,0 +1,353 @@
+//! `colony sort`: swarm-sorting experiments, the paper's reproduction, and live mode.
+
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::Ordering;
+
+use anyhow::Context as _;
+use colony_sim::SceneConfig;
+use colony_sort::experiment::{run_trials, write_csv, StepCounter, TrialSpec};
+use colony_sort::methods::{build, Method};
+use colony_sort::params::SortParams;
+use colony_sort::report;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use super::HubAddr;
+
+#[derive(clap::Subcommand, Debug)]
+pub enum SortCommand {
+    /// Run trials of one method and write per-trial CSV files.
+    Run(RunArgs),
+    /// Run the paper's experiments and write plots, tables and statistics.
+    Reproduce(ReproduceArgs),
+    /// Run the simulator live over the hub, each robot's controller a hub client.
+    Live(LiveArgs),
+    /// Run one robot's controller over the hub (started by `colony sort live`).
+    Robot(RobotArgs),
+}
+
+/// Scene and controller settings shared by the commands.
+#[derive(clap::Args, Debug, Clone)]
+pub struct Setup {
+    /// Scene file (TOML); default: the paper's standard configuration (see configs/scene.toml).
+    #[arg(long, value_name = "FILE")]
+    pub scene: Option<PathBuf>,
+    /// Sorting parameters (TOML); default: configs/sort.toml's values.
+    #[arg(long, value_name = "FILE")]
+    pub params: Option<PathBuf>,
+}
+
+impl Setup {
+    fn load(&self) -> anyhow::Result<(SceneConfig, SortParams)> {
+        let scene = match &self.scene {
+            Some(p) => SceneConfig::from_file(p)?,
+            None => SceneConfig::default(),
+        };
+        let params = match &self.params {
+            Some(p) => SortParams::load(p)?,
+            None => SortParams::default(),
+        };
+        Ok((scene, params))
+    }
+}
+
+#[derive(clap::Args, Debug)]
+pub struct RunArgs {
+    #[command(flatten)]
+    pub setup: Setup,
+    /// bhd, probseek, cachecons, cachecons-informed, cachecons-ignore or cachecons-erase.
+    #[arg(long)]
+    pub method: String,
+    /// Puck types (default: the scene's).
+    #[arg(long)]
+    pub types: Option<usize>,
+    /// Robots (default: the scene's).
+    #[arg(long)]
+    pub robots: Option<usize>,
+    /// Pucks (default: the scene's).
+    #[arg(long)]
+    pub pucks: Option<usize>,
+    #[arg(long, default_value_t = 5)]
+    pub trials: u64,
+    /// Control steps per trial (the paper: 100,000).
+    #[arg(long, default_value_t = 100_000)]
+    pub steps: u64,
+    /// Trial t uses seed + t.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Where the CSV files go.
+    #[arg(long, default_value = "sort-results")]
+    pub out: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ReproduceArgs {
+    #[command(flatten)]
+    pub setup: Setup,
+    #[arg(long, default_value_t = 100_000)]
+    pub steps: u64,
+    #[arg(long, default_value_t = 20)]
+    pub trials: u64,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Where the report, figures and CSV files go.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct LiveArgs {
+    #[command(flatten)]
+    pub hub: HubAddr,
+    #[command(flatten)]
+    pub setup: Setup,
+    #[arg(long, default_value = "cachecons")]
+    pub method: String,
+    /// How many times faster than real time.
+    #[arg(long, default_value_t = 1.0)]
+    pub speed: f64,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Stop after this many steps (default: until Ctrl-C).
+    #[arg(long)]
+    pub steps: Option<u64>,
+    /// Run the controllers as threads of this process instead of one process per robot.
+    #[arg(long)]
+    pub robots_in_process: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct RobotArgs {
+    #[command(flatten)]
+    pub hub: HubAddr,
+    #[command(flatten)]
+    pub setup: Setup,
+    /// Which robot this controller drives.
+    #[arg(long)]
+    pub id: usize,
+    #[arg(long, default_value = "cachecons")]
+    pub method: String,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+}
+
+pub fn run(cmd: SortCommand) -> anyhow::Result<()> {
+    match cmd {
+        SortCommand::Run(a) => run_cmd(a),
+        SortCommand::Reproduce(a) => reproduce(a),
+        SortCommand::Live(a) => live(a),
+        SortCommand::Robot(a) => robot(a),
+    }
+}
+
+fn method(name: &str) -> anyhow::Result<Method> {
+    Ok(name.parse::<Method>()?)
+}
+
+fn progress_bar(total: u64) -> ProgressBar {
+    let bar = ProgressBar::new(total);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{bar:40} {percent:>3}% {human_pos}/{human_len} steps, {per_sec}, eta {eta}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+/// Runs specs in parallel behind a progress bar.
+fn execute(specs: &[TrialSpec]) -> anyhow::Result<Vec<colony_sort::experiment::TrialResult>> {
+    let total: u64 = specs.iter().map(|s| s.steps).sum();
+    let bar = progress_bar(total);
+    let counter = StepCounter::default();
+    let results = run_trials(specs, &|n| {
+        counter.add(n);
+        bar.set_position(counter.0.load(Ordering::Relaxed));
+    })?;
+    bar.finish_and_clear();
+    Ok(results)
+}
+
+fn run_cmd(a: RunArgs) -> anyhow::Result<()> {
+    let method = method(&a.method)?;
+    let (mut scene, params) = a.setup.load()?;
+    if let Some(t) = a.types {
+        scene.pucks.kinds = t;
+    }
+    if let Some(r) = a.robots {
+        scene.robots.count = r;
+    }
+    if let Some(p) = a.pucks {
+        scene.pucks.count = p;
+    }
+    scene.validate().context("invalid scene")?;
+    if a.trials == 0 || a.steps == 0 {
+        anyhow::bail!("--trials and --steps must be at least 1");
+    }
+    if method == Method::Bhd && scene.pucks.kinds > 1 {
+        anyhow::bail!(
+            "BHD only clusters; it cannot sort {} puck types (use --types 1)",
+            scene.pucks.kinds
+        );
+    }
+    let specs: Vec<TrialSpec> = (0..a.trials)
+        .map(|t| TrialSpec {
+            method,
+            scene: scene.clone(),
+            params: params.clone(),
+            steps: a.steps,
+            seed: a.seed + t,
+            sample_every: 100.min(a.steps),
+            snapshot_at: Vec::new(),
+        })
+        .collect();
+    let results = execute(&specs)?;
+    write_csv(&a.out, &results)?;
+    for (t, r) in results.iter().enumerate() {
+        let stc = r.stc.map_or("not reached".to_string(), |s| s.to_string());
+        println!(
+            "trial {t:>2} seed {:>4}: STC {stc:>11}  TWC {:.4}  final PC {:5.1} %",
+            r.seed,
+            r.twc,
+            r.final_pc()
+        );
+    }
+    println!("CSV files in {}", a.out.display());
+    Ok(())
+}
+
+fn reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
+    let (scene, params) = a.setup.load()?;
+    if a.trials == 0 || a.steps == 0 {
+        anyhow::bail!("--trials and --steps must be at least 1");
+    }
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    let specs = report::specs(&scene, &params, a.steps, a.trials, a.seed);
+    eprintln!(
+        "colony: {} trials of {} steps on {} threads",
+        specs.len(),
+        a.steps,
+        rayon::current_num_threads()
+    );
+    let results = execute(&specs)?;
+    let command = format!(
+        "colony sort reproduce --steps {} --trials {} --seed {} --out {}",
+        a.steps,
+        a.trials,
+        a.seed,
+        a.out.display()
+    );
+    report::write(&a.out, &results, &scene, &command)?;
+    println!("report: {}", a.out.join("report.md").display());
+    Ok(())
+}
+
+/// Child processes that are killed when this value drops, however we leave.
+struct Children(Vec<Child>);
+
+impl Drop for Children {
+    fn drop(&mut self) {
+        for c in &mut self.0 {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+fn setup_args(setup: &Setup) -> Vec<String> {
+    let mut v = Vec::new();
+    if let Some(p) = &setup.scene {
+        v.extend(["--scene".to_string(), p.display().to_string()]);
+    }
+    if let Some(p) = &setup.params {
+        v.extend(["--params".to_string(), p.display().to_string()]);
+    }
+    v
+}
+
+fn live(a: LiveArgs) -> anyhow::Result<()> {
+    let method = method(&a.method)?;
+    let (scene, params) = a.setup.load()?;
+    let mut world = colony_sim::World::new(&scene, a.seed)?;
+    let stop = super::stop_flag()?;
+    let n = world.robot_count();
+    let mut children = Children(Vec::new());
+    let mut threads = Vec::new();
+    if a.robots_in_process {
+        for id in 0..n {
+            let mut controller = build(method, &params, scene.pucks.kinds, scene.arena.width);
+            let mut client = a.hub.connect()?;
+            let (stop, seed) = (stop.clone(), a.seed);
+            threads.push(std::thread::spawn(move || {
+                colony_sort::live::robot::run(id, controller.as_mut(), &mut client, seed, &stop)
+            }));
+        }
+    } else {
+        let exe = std::env::current_exe()
+            .context("cannot find the colony executable to start robot processes")?;
+        for id in 0..n {
+            let child = Command::new(&exe)
+                .args([
+                    "sort",
+                    "robot",
+                    "--hub",
+                    &a.hub.addr,
+                    "--id",
+                    &id.to_string(),
+                    "--method",
+                    &a.method,
+                    "--seed",
+                    &a.seed.to_string(),
+                ])
+                .args(setup_args(&a.setup))
+                .stdin(Stdio::null())
+                .spawn()
+                .with_context(|| format!("cannot start the controller of robot {id}"))?;
+            children.0.push(child);
+        }
+    }
+    let mut client = a.hub.connect()?;
+    let options = colony_sort::live::world::WorldOptions {
+        step_seconds: scene.physics.dt * scene.physics.substeps as f64,
+        speed: a.speed,
+        command_timeout_steps: 10,
+        max_steps: a.steps,
+    };
+    eprintln!(
+        "colony: live {} with {n} robots on the hub at {} ({}x real time)",
+        method, a.hub.addr, a.speed
+    );
+    let threshold = params.perception.cluster_threshold_cm;
+    let result = colony_sort::live::world::run(&mut world, &mut client, &options, &stop, |w| {
+        if w.step_count() % 500 == 0 {
+            let pc = colony_sort::metrics::percentage_completion(&w.pucks(), threshold);
+            eprintln!("colony: step {} PC {pc:.1} %", w.step_count());
+        }
+    });
+    stop.store(true, Ordering::Relaxed);
+    for t in threads {
+        let _ = t.join();
+    }
+    drop(children);
+    result?;
+    Ok(())
+}
+
+fn robot(a: RobotArgs) -> anyhow::Result<()> {
+    let method = method(&a.method)?;
+    let (scene, params) = a.setup.load()?;
+    if a.id >= scene.robots.count {
+        anyhow::bail!(
+            "--id {} is out of range: the scene has {} robots (0 to {})",
+            a.id,
+            scene.robots.count,
+            scene.robots.count.saturating_sub(1)
+        );
+    }
+    let mut controller = build(method, &params, scene.pucks.kinds, scene.arena.width);
+    let mut client = a.hub.connect()?;
+    let stop = super::stop_flag()?;
+    colony_sort::live::robot::run(a.id, controller.as_mut(), &mut client, a.seed, &stop)?;
+    Ok(())
+}

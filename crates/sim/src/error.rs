@@ -1,0 +1,72 @@
+//! The one error type of this crate.
+
+use std::fmt;
+use std::path::PathBuf;
+
+/// Everything that can go wrong when building or loading a world.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// A scene configuration could not be parsed or holds an impossible value.
+    #[error("{0}")]
+    Config(ConfigError),
+    /// A configuration file could not be read.
+    #[error("cannot read scene configuration {path}: {source}", path = .path.display())]
+    Io {
+        /// The file that could not be read.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// Robots or pucks could not be placed (arena too crowded, or a chosen
+    /// position outside the arena).
+    #[error("layout: {0}")]
+    Layout(String),
+}
+
+/// A bad scene configuration: where it is and what is wrong.
+///
+/// Displayed as `origin:line: field `name`: message`, for example
+/// `configs/scene.toml:7: field `robots.count`: must be at least 1`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ConfigError {
+    /// The file name, or `<string>` for text given directly.
+    pub origin: String,
+    /// 1-based line of the offending text, when it is known.
+    pub line: Option<usize>,
+    /// 1-based column of the offending text, when it is known.
+    pub column: Option<usize>,
+    /// The dotted field name (`pucks.kinds`), when it is known.
+    pub field: Option<String>,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.origin)?;
+        if let Some(line) = self.line {
+            write!(f, ":{line}")?;
+            if let Some(column) = self.column {
+                write!(f, ":{column}")?;
+            }
+        }
+        write!(f, ": ")?;
+        if let Some(field) = &self.field {
+            write!(f, "field `{field}`: ")?;
+        }
+        write!(f, "{}", self.message)
+    }
+}
+
+impl SimError {
+    /// A configuration error about one field, not yet tied to a source text.
+    pub(crate) fn invalid(field: &str, message: impl Into<String>) -> SimError {
+        SimError::Config(ConfigError {
+            origin: "<config>".to_string(),
+            line: None,
+            column: None,
+            field: Some(field.to_string()),
+            message: message.into(),
+        })
+    }
+}

@@ -1,0 +1,229 @@
+//! The rapier2d world behind a [`crate::World`]: every set rapier needs, one step function.
+//!
+//! Lengths are centimetres throughout, and rapier is told so
+//! (`IntegrationParameters::length_unit = 100`, i.e. 100 units per metre), which
+//! scales its internal tolerances. Masses are grams; gravity is zero (a top view).
+
+use rapier2d::prelude::*;
+
+use crate::arena::Arena;
+use crate::body::{Part, RobotGeometry};
+use crate::config::SceneConfig;
+use crate::types::{Pose as WorldPose, Vec2};
+
+/// Collision groups: walls, robot bodies (with their grippers), gripper bows, pucks.
+const WALL: Group = Group::GROUP_1;
+const ROBOT: Group = Group::GROUP_2;
+const BOW: Group = Group::GROUP_3;
+const PUCK: Group = Group::GROUP_4;
+
+fn groups(member: Group, filter: Group) -> InteractionGroups {
+    InteractionGroups::new(member, filter, InteractionTestMode::And)
+}
+
+/// All of rapier's state for one world.
+pub(crate) struct Physics {
+    pub bodies: RigidBodySet,
+    colliders: ColliderSet,
+    params: IntegrationParameters,
+    pipeline: PhysicsPipeline,
+    islands: IslandManager,
+    broad_phase: BroadPhaseBvh,
+    narrow_phase: NarrowPhase,
+    impulse_joints: ImpulseJointSet,
+    multibody_joints: MultibodyJointSet,
+    soft_bodies: SoftBodySet,
+    ccd: CCDSolver,
+}
+
+fn v(p: Vec2) -> Vector {
+    Vector::new(p.x as f32, p.y as f32)
+}
+
+impl Physics {
+    pub fn new(cfg: &SceneConfig, arena: &Arena) -> Physics {
+        let params = IntegrationParameters {
+            dt: cfg.physics.dt as f32,
+            length_unit: 100.0,
+            num_solver_iterations: cfg.physics.solver_iterations as usize,
+            // rapier reuses a pair's contacts until the bodies have moved
+            // `normalized_contact_recycle_distance * length_unit` relative to each other:
+            // 5 cm by default, as much as a puck's radius, which holds a puck at the
+            // gripper's mouth on stale contacts. 0.05 cm keeps the savings for resting pucks.
+            normalized_contact_recycle_distance: 0.0005,
+            // No continuous collision detection: nothing moves more than 1.5 cm per
+            // physics step and the walls are 10 cm thick, so nothing can tunnel; CCD's
+            // sweeps would otherwise cost about an eighth of the step.
+            max_ccd_substeps: 0,
+            ..IntegrationParameters::default()
+        };
+        let mut physics = Physics {
+            bodies: RigidBodySet::new(),
+            colliders: ColliderSet::new(),
+            params,
+            pipeline: PhysicsPipeline::new(),
+            islands: IslandManager::new(),
+            broad_phase: BroadPhaseBvh::new(),
+            narrow_phase: NarrowPhase::new(),
+            impulse_joints: ImpulseJointSet::new(),
+            multibody_joints: MultibodyJointSet::new(),
+            soft_bodies: SoftBodySet::new(),
+            ccd: CCDSolver::new(),
+        };
+        let walls = physics.bodies.insert(RigidBodyBuilder::fixed());
+        for b in arena.wall_boxes() {
+            let collider =
+                ColliderBuilder::cuboid(b.half_extents.x as f32, b.half_extents.y as f32)
+                    .translation(v(b.centre))
+                    .rotation(b.angle as f32)
+                    .friction(cfg.robots.friction as f32)
+                    .collision_groups(groups(WALL, ROBOT | BOW | PUCK));
+            physics
+                .colliders
+                .insert_with_parent(collider, walls, &mut physics.bodies);
+        }
+        physics
+    }
+
+    /// Adds a robot at `pose`; its centre of mass is the body rectangle's centre,
+    /// so it turns on the spot like a tracked vehicle.
+    pub fn add_robot(
+        &mut self,
+        cfg: &SceneConfig,
+        geom: &RobotGeometry,
+        pose: WorldPose,
+    ) -> RigidBodyHandle {
+        let m = cfg.robots.mass as f32;
+        let (l, w) = (cfg.robots.length as f32, cfg.robots.width as f32);
+        let inertia = m * (l * l + w * w) / 12.0;
+        let body = RigidBodyBuilder::dynamic()
+            .pose(rapier_pose(pose))
+            .additional_mass_properties(MassProperties::new(Vector::ZERO, m, inertia))
+            .can_sleep(false);
+        let handle = self.bodies.insert(body);
+        let shapes: Vec<(Pose, SharedShape)> = geom
+            .parts()
+            .into_iter()
+            .filter_map(|part| {
+                let shape = match part {
+                    Part::Rectangle { half_extents } => {
+                        SharedShape::cuboid(half_extents.x as f32, half_extents.y as f32)
+                    }
+                    Part::Polygon(points) => {
+                        let pts: Vec<Vector> = points.into_iter().map(v).collect();
+                        SharedShape::convex_hull(&pts)?
+                    }
+                };
+                Some((Pose::IDENTITY, shape))
+            })
+            .collect();
+        let solid = ColliderBuilder::new(SharedShape::compound(shapes))
+            .density(0.0)
+            .friction(cfg.robots.friction as f32)
+            .collision_groups(groups(ROBOT, WALL | ROBOT | BOW | PUCK));
+        self.colliders
+            .insert_with_parent(solid, handle, &mut self.bodies);
+        let bow = ColliderBuilder::ball(geom.pocket_radius as f32)
+            .translation(v(geom.pocket))
+            .density(0.0)
+            .friction(cfg.robots.friction as f32)
+            .collision_groups(groups(BOW, WALL | ROBOT | BOW));
+        self.colliders
+            .insert_with_parent(bow, handle, &mut self.bodies);
+        handle
+    }
+
+    /// Adds a puck: a disc with floor friction modelled as damping.
+    pub fn add_puck(&mut self, cfg: &SceneConfig, pos: Vec2) -> RigidBodyHandle {
+        let dt = cfg.physics.dt;
+        let body = RigidBodyBuilder::dynamic()
+            .translation(v(pos))
+            .linear_damping(rapier_damping(cfg.pucks.linear_damping, dt) as f32)
+            .angular_damping(rapier_damping(cfg.pucks.angular_damping, dt) as f32);
+        let handle = self.bodies.insert(body);
+        let collider = ColliderBuilder::ball(cfg.puck_radius() as f32)
+            .mass(cfg.pucks.mass as f32)
+            .friction(cfg.pucks.friction as f32)
+            .collision_groups(groups(PUCK, WALL | ROBOT | PUCK));
+        self.colliders
+            .insert_with_parent(collider, handle, &mut self.bodies);
+        handle
+    }
+
+    /// Sets a robot's velocity for the next physics step: `speed` cm/s along its
+    /// heading (nothing sideways: tracks do not slide) and `turn` rad/s.
+    pub fn drive(&mut self, handle: RigidBodyHandle, speed: f64, turn: f64) {
+        let rb = &mut self.bodies[handle];
+        let rot = *rb.rotation();
+        let s = speed as f32;
+        rb.set_linvel(Vector::new(rot.re * s, rot.im * s), true);
+        rb.set_angvel(turn as f32, true);
+    }
+
+    /// Moves a body to a new place at rest (a disturbance, not physics).
+    pub fn teleport(&mut self, handle: RigidBodyHandle, pos: Vec2) {
+        let rb = &mut self.bodies[handle];
+        rb.set_translation(v(pos), true);
+        rb.set_linvel(Vector::ZERO, true);
+        rb.set_angvel(0.0, true);
+    }
+
+    /// A body's position, and for robots its heading as (cos, sin).
+    pub fn pose_of(&self, handle: RigidBodyHandle) -> (Vec2, f64, f64) {
+        let rb = &self.bodies[handle];
+        let t = rb.translation();
+        let r = rb.rotation();
+        // Renormalise in f64 so headings stay unit vectors to the last bit we use.
+        let (c, s) = (r.re as f64, r.im as f64);
+        let n = c.hypot(s);
+        (Vec2::new(t.x as f64, t.y as f64), c / n, s / n)
+    }
+
+    /// Bodies awake (debug).
+    pub fn awake(&self) -> usize {
+        self.islands.num_active_bodies()
+    }
+
+    /// One physics step of `params.dt`.
+    pub fn step(&mut self) {
+        self.pipeline.step(
+            Vector::ZERO,
+            &self.params,
+            &mut self.islands,
+            &mut self.broad_phase,
+            &mut self.narrow_phase,
+            &mut self.bodies,
+            &mut self.colliders,
+            &mut self.impulse_joints,
+            &mut self.multibody_joints,
+            &mut self.soft_bodies,
+            &mut self.ccd,
+            &(),
+            &(),
+        );
+    }
+}
+
+/// Converts a damping coefficient from Box2D's convention (the authors' JBox2D
+/// simulator: velocity times `max(0, 1 - c dt)` each step) to rapier's (velocity
+/// times `1 / (1 + c' dt)`), so a puck loses the same share of its speed per physics
+/// step. At dt = 1/14, Box2D's 10 keeps 28.6 % per step and becomes rapier's 35.
+pub(crate) fn rapier_damping(box2d: f64, dt: f64) -> f64 {
+    let keep = (1.0 - box2d * dt).clamp(0.0, 1.0);
+    if keep <= 1e-3 {
+        // Box2D would stop the body dead each step; rapier's nearest is "very large".
+        return 999.0 / dt;
+    }
+    (1.0 / keep - 1.0) / dt
+}
+
+fn rapier_pose(p: WorldPose) -> Pose {
+    let (s, c) = libm::sincos(p.theta);
+    Pose::from_parts(
+        Vector::new(p.x as f32, p.y as f32),
+        Rotation {
+            re: c as f32,
+            im: s as f32,
+        },
+    )
+}

@@ -1,0 +1,91 @@
+//! What a robot's sensors report, computed from the geometry (no rendering).
+//!
+//! The camera sees the ground inside its footprint ([`crate::CameraConfig`]). A puck
+//! is seen when its centre (the centroid of its colour blob) is inside; another
+//! robot when its centre is; obstacles are points about `camera.obstacle_spacing`
+//! apart on the walls' inner surface and on other robots' body outlines (their
+//! grippers are not reported, as in the authors' simulator). There is no
+//! occlusion: a puck behind another robot is still seen. The pose is exact (the
+//! overhead tracker).
+
+use crate::types::{Observation, PuckId, RobotId, SeenPuck, Vec2};
+use crate::world::World;
+
+impl World {
+    /// What robot `id` senses now. An id out of range gives an empty observation.
+    pub fn observe(&self, id: RobotId) -> Observation {
+        let mut out = Observation::default();
+        self.observe_into(id, &mut out);
+        out
+    }
+
+    /// [`World::observe`] into a reused value, to spare allocations in long runs.
+    pub fn observe_into(&self, id: RobotId, out: &mut Observation) {
+        out.gripper = None;
+        out.pucks.clear();
+        out.robots.clear();
+        out.obstacles.clear();
+        let Some(me) = self.robots.get(id.0) else {
+            out.pose = Default::default();
+            return;
+        };
+        out.pose = me.pose;
+        let fp = &self.footprint;
+        if let Some(c) = me.carrying {
+            let p = &self.pucks[c.0];
+            out.gripper = Some(SeenPuck {
+                kind: p.kind,
+                pos: me.to_local(p.pos),
+                held_by_other: false,
+            });
+        }
+        // The footprint's bounding box in the world frame.
+        let (mut lo, mut hi) = (Vec2::new(f64::MAX, f64::MAX), Vec2::new(f64::MIN, f64::MIN));
+        for c in fp.corners() {
+            let w = me.to_world(c);
+            lo = Vec2::new(lo.x.min(w.x), lo.y.min(w.y));
+            hi = Vec2::new(hi.x.max(w.x), hi.y.max(w.y));
+        }
+        self.puck_grid.query(lo, hi, |j| {
+            if me.carrying == Some(PuckId(j as usize)) {
+                return;
+            }
+            let p = &self.pucks[j as usize];
+            let local = me.to_local(p.pos);
+            if fp.contains(local) {
+                let other = |r: Option<RobotId>| r.is_some_and(|r| r != id);
+                let held_by_other = other(p.carried_by) || other(p.in_pocket_of);
+                out.pucks.push(SeenPuck {
+                    kind: p.kind,
+                    pos: local,
+                    held_by_other,
+                });
+            }
+        });
+        self.wall_grid.query(lo, hi, |j| {
+            let local = me.to_local(self.wall_points[j as usize]);
+            if fp.contains(local) {
+                out.obstacles.push(local);
+            }
+        });
+        let near = fp.reach() + self.geometry.bounding_radius;
+        for (k, other) in self.robots.iter().enumerate() {
+            if k == id.0 {
+                continue;
+            }
+            let centre = me.to_local(other.pose.position());
+            if centre.length() > near {
+                continue;
+            }
+            if fp.contains(centre) {
+                out.robots.push(centre);
+            }
+            for &q in &self.geometry.outline {
+                let local = me.to_local(other.to_world(q));
+                if fp.contains(local) {
+                    out.obstacles.push(local);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,68 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use colony_sim::{Pose, PuckKind, SceneConfig, Vec2, WheelCommand, World};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Random commands for `n` robots, each held for a few steps, like a wandering controller.
+pub struct RandomDriver {
+    rng: ChaCha8Rng,
+    commands: Vec<WheelCommand>,
+}
+
+impl RandomDriver {
+    pub fn new(seed: u64, n: usize) -> RandomDriver {
+        RandomDriver {
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            commands: vec![WheelCommand::STOP; n],
+        }
+    }
+
+    pub fn next(&mut self) -> &[WheelCommand] {
+        for c in &mut self.commands {
+            if self.rng.random_bool(0.2) {
+                *c = WheelCommand {
+                    forward: self.rng.random_range(-1.0..1.0),
+                    turn: self.rng.random_range(-1.0..1.0),
+                };
+            }
+        }
+        &self.commands
+    }
+}
+
+pub fn pose(x: f64, y: f64, theta: f64) -> Pose {
+    Pose { x, y, theta }
+}
+
+/// One robot at `robot` and pucks of type 0 at `pucks`, standard configuration otherwise.
+pub fn scene(robot: Pose, pucks: &[Vec2]) -> World {
+    let pucks: Vec<(PuckKind, Vec2)> = pucks.iter().map(|&p| (PuckKind(0), p)).collect();
+    World::with_layout(&SceneConfig::default(), &[robot], &pucks).unwrap()
+}
+
+pub const FORWARD: WheelCommand = WheelCommand {
+    forward: 1.0,
+    turn: 0.0,
+};
+pub const BACK: WheelCommand = WheelCommand {
+    forward: -1.0,
+    turn: 0.0,
+};
+pub const LEFT: WheelCommand = WheelCommand {
+    forward: 0.0,
+    turn: 1.0,
+};
+
+/// Smallest signed difference between two angles.
+pub fn angle_diff(a: f64, b: f64) -> f64 {
+    let mut d = (a - b) % std::f64::consts::TAU;
+    if d > std::f64::consts::PI {
+        d -= std::f64::consts::TAU;
+    }
+    if d < -std::f64::consts::PI {
+        d += std::f64::consts::TAU;
+    }
+    d
+}

@@ -1,0 +1,167 @@
+//! Clusters: connected components of the graph that joins same-type pucks
+//! closer than a threshold (the paper's Sect. 2.2).
+//!
+//! The same function serves a robot's local map (robot frame) and the global
+//! map the metrics read (world frame). Single pucks are clusters of size 1.
+//!
+//! ```
+//! use colony_sim::{PuckKind, Vec2};
+//! use colony_sort::cluster::find_clusters;
+//! let a = PuckKind(0);
+//! let pucks = [(a, Vec2::new(0.0, 0.0)), (a, Vec2::new(9.0, 0.0)), (a, Vec2::new(30.0, 0.0))];
+//! let clusters = find_clusters(&pucks, 9.45);
+//! assert_eq!(clusters.iter().map(|c| c.size()).collect::<Vec<_>>(), vec![2, 1]);
+//! ```
+
+use colony_sim::{PuckKind, Vec2};
+
+/// One puck of a cluster.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Member {
+    /// Index of the puck in the slice the clusters were built from.
+    pub index: usize,
+    pub pos: Vec2,
+    /// Number of edges at this puck in the cluster graph.
+    pub degree: usize,
+}
+
+/// A connected component of one puck type.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cluster {
+    pub kind: PuckKind,
+    /// Members in increasing `index` order.
+    pub members: Vec<Member>,
+    pub centroid: Vec2,
+}
+
+impl Cluster {
+    /// Number of pucks: the paper's size(G).
+    pub fn size(&self) -> usize {
+        self.members.len()
+    }
+
+    /// Whether the puck at `index` belongs to this cluster.
+    pub fn contains(&self, index: usize) -> bool {
+        self.members.iter().any(|m| m.index == index)
+    }
+
+    /// Distance from `p` to the nearest member (infinite for an empty cluster).
+    pub fn nearest_member_distance(&self, p: Vec2) -> f64 {
+        self.members
+            .iter()
+            .map(|m| m.pos.distance(p))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// The puck to target for pick-up: of the left-most (largest y) and the
+    /// right-most (smallest y) member, the one of lower degree, the left-most
+    /// on a tie (the paper's Sect. 2.5; frame: robot, y to the left).
+    pub fn end_puck(&self) -> Option<&Member> {
+        let mut left = self.members.first()?;
+        let mut right = left;
+        for m in &self.members {
+            if m.pos.y > left.pos.y {
+                left = m;
+            }
+            if m.pos.y < right.pos.y {
+                right = m;
+            }
+        }
+        Some(if left.degree <= right.degree {
+            left
+        } else {
+            right
+        })
+    }
+}
+
+/// Which end of the size order to pick.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Extreme {
+    Smallest,
+    Largest,
+}
+
+/// The smallest or largest cluster (eq. 1-4); ties go to the cluster whose
+/// centroid is nearer the robot's mid-line (smaller |y|), then to the first.
+pub fn extreme<'a, I>(clusters: I, which: Extreme) -> Option<&'a Cluster>
+where
+    I: IntoIterator<Item = &'a Cluster>,
+{
+    let mut best: Option<&Cluster> = None;
+    for c in clusters {
+        best = match best {
+            None => Some(c),
+            Some(b) => {
+                let better = match which {
+                    Extreme::Smallest => c.size() < b.size(),
+                    Extreme::Largest => c.size() > b.size(),
+                };
+                let tie_nearer = c.size() == b.size() && c.centroid.y.abs() < b.centroid.y.abs();
+                if better || tie_nearer {
+                    Some(c)
+                } else {
+                    Some(b)
+                }
+            }
+        };
+    }
+    best
+}
+
+/// Clusters of `pucks` (kind and position): two pucks of the same kind are
+/// joined when strictly closer than `threshold`. Clusters come in order of
+/// their first member's index; every puck is in exactly one cluster.
+pub fn find_clusters(pucks: &[(PuckKind, Vec2)], threshold: f64) -> Vec<Cluster> {
+    let n = pucks.len();
+    let mut parent: Vec<usize> = (0..n).collect();
+    let mut degree = vec![0usize; n];
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let t2 = threshold * threshold;
+    for i in 0..n {
+        for j in (i + 1)..n {
+            if pucks[i].0 != pucks[j].0 {
+                continue;
+            }
+            let d = pucks[i].1 - pucks[j].1;
+            if d.x * d.x + d.y * d.y < t2 {
+                degree[i] += 1;
+                degree[j] += 1;
+                let (ri, rj) = (root(&mut parent, i), root(&mut parent, j));
+                if ri != rj {
+                    // The smaller index becomes the root, so roots are first members.
+                    parent[ri.max(rj)] = ri.min(rj);
+                }
+            }
+        }
+    }
+    let mut slot = vec![usize::MAX; n];
+    let mut clusters: Vec<Cluster> = Vec::new();
+    for i in 0..n {
+        let r = root(&mut parent, i);
+        if slot[r] == usize::MAX {
+            slot[r] = clusters.len();
+            clusters.push(Cluster {
+                kind: pucks[i].0,
+                members: Vec::new(),
+                centroid: Vec2::ZERO,
+            });
+        }
+        clusters[slot[r]].members.push(Member {
+            index: i,
+            pos: pucks[i].1,
+            degree: degree[i],
+        });
+    }
+    for c in &mut clusters {
+        let sum = c.members.iter().fold(Vec2::ZERO, |s, m| s + m.pos);
+        c.centroid = sum * (1.0 / c.members.len() as f64);
+    }
+    clusters
+}

@@ -1,0 +1,327 @@
+//! Observations, wheel commands and intentions as hub packets.
+//!
+//! ```text
+//! @ <camera.2> 0                       what robot 2's sensors report
+//! step n 1200
+//! pose x 12.5 y -40.1 theta 1.57
+//! gripper kind 0 x 8.1 y 0.0
+//! puck kind 1 x 20.3 y -4.0 held 0
+//! robot x 30.0 y 10.0
+//! obstacle x 35.0 y -12.0
+//!
+//! @ <radio> 0                          a controller's command for robot 2
+//! cmd id 2 forward 0.8 turn -0.25
+//!
+//! @ <debug> 0                          what robot 2 intends (for the monitor)
+//! robot id 2 state "HOMING" tx 40.0 ty 20.0
+//! cache id 2 kind 0 x 40.0 y 20.0
+//! ```
+
+use colony_sim::{Observation, Pose, PuckKind, SeenPuck, Vec2, WheelCommand};
+use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
+
+/// The channel a robot's camera view is published on.
+pub fn camera_channel(robot: usize) -> String {
+    format!("camera.{robot}")
+}
+
+/// The channel wheel commands travel on, as in the Broker paper's system.
+pub const RADIO: &str = "radio";
+/// The channel the world's global state is published on.
+pub const VISION: &str = "vision";
+/// The channel controllers publish their intentions on, for the monitor.
+pub const DEBUG: &str = "debug";
+
+/// Rounds to 0.01 cm or rad: finer than any sensor, and keeps packets short.
+fn r(v: f64) -> f64 {
+    (v * 100.0).round() / 100.0
+}
+
+/// Writes one robot's observation at control step `step`.
+pub fn observation_packet(
+    robot: usize,
+    step: u64,
+    obs: &Observation,
+) -> Result<Vec<u8>, ParseError> {
+    let mut p = PacketBuilder::new([camera_channel(robot)], Priority(0));
+    p.line("step").field("n", step);
+    p.line("pose")
+        .field("x", r(obs.pose.x))
+        .field("y", r(obs.pose.y))
+        .field("theta", r(obs.pose.theta));
+    if let Some(g) = &obs.gripper {
+        p.line("gripper")
+            .field("kind", g.kind.0)
+            .field("x", r(g.pos.x))
+            .field("y", r(g.pos.y));
+    }
+    for s in &obs.pucks {
+        p.line("puck")
+            .field("kind", s.kind.0)
+            .field("x", r(s.pos.x))
+            .field("y", r(s.pos.y))
+            .field("held", s.held_by_other as u8);
+    }
+    for v in &obs.robots {
+        p.line("robot").field("x", r(v.x)).field("y", r(v.y));
+    }
+    for v in &obs.obstacles {
+        p.line("obstacle").field("x", r(v.x)).field("y", r(v.y));
+    }
+    p.finish()
+}
+
+/// A packet's content did not make sense as what it claimed to be.
+#[derive(Debug, thiserror::Error)]
+pub enum DecodeError {
+    #[error(transparent)]
+    Field(#[from] colony_wire::FieldError),
+    #[error("line {line}: {what} {value} is out of range")]
+    OutOfRange {
+        line: u32,
+        what: &'static str,
+        value: i64,
+    },
+    #[error("the packet has no `{0}` line")]
+    Missing(&'static str),
+}
+
+fn kind(line: &colony_wire::Line<'_>) -> Result<PuckKind, DecodeError> {
+    let k = line.i64("kind")?;
+    u8::try_from(k)
+        .map(PuckKind)
+        .map_err(|_| DecodeError::OutOfRange {
+            line: line.number(),
+            what: "kind",
+            value: k,
+        })
+}
+
+fn point(line: &colony_wire::Line<'_>) -> Result<Vec2, DecodeError> {
+    Ok(Vec2::new(line.f64("x")?, line.f64("y")?))
+}
+
+/// Reads an observation packet back: `(step, observation)`.
+pub fn parse_observation(packet: &Packet<'_>) -> Result<(u64, Observation), DecodeError> {
+    let mut obs = Observation::default();
+    let mut step = None;
+    for line in packet.lines() {
+        match line.label() {
+            "step" => step = Some(line.i64("n")?.max(0) as u64),
+            "pose" => {
+                obs.pose = Pose {
+                    x: line.f64("x")?,
+                    y: line.f64("y")?,
+                    theta: line.f64("theta")?,
+                }
+            }
+            "gripper" => {
+                obs.gripper = Some(SeenPuck {
+                    kind: kind(&line)?,
+                    pos: point(&line)?,
+                    held_by_other: false,
+                })
+            }
+            "puck" => obs.pucks.push(SeenPuck {
+                kind: kind(&line)?,
+                pos: point(&line)?,
+                held_by_other: line.i64("held")? != 0,
+            }),
+            "robot" => obs.robots.push(point(&line)?),
+            "obstacle" => obs.obstacles.push(point(&line)?),
+            _ => {}
+        }
+    }
+    Ok((step.ok_or(DecodeError::Missing("step"))?, obs))
+}
+
+/// A wheel command for one robot.
+pub fn command_packet(
+    robot: usize,
+    cmd: WheelCommand,
+    priority: Priority,
+) -> Result<Vec<u8>, ParseError> {
+    let mut p = PacketBuilder::new([RADIO], priority);
+    p.line("cmd")
+        .field("id", robot)
+        .field("forward", r(cmd.forward))
+        .field("turn", r(cmd.turn));
+    p.finish()
+}
+
+/// Every `cmd` line of a radio packet, as `(robot, command)`; values are clamped to [-1, 1].
+pub fn parse_commands(packet: &Packet<'_>) -> Result<Vec<(usize, WheelCommand)>, DecodeError> {
+    packet
+        .lines_labelled("cmd")
+        .map(|line| {
+            let id = line.i64("id")?;
+            let id = usize::try_from(id).map_err(|_| DecodeError::OutOfRange {
+                line: line.number(),
+                what: "id",
+                value: id,
+            })?;
+            let clamp = |v: f64| {
+                if v.is_finite() {
+                    v.clamp(-1.0, 1.0)
+                } else {
+                    0.0
+                }
+            };
+            Ok((
+                id,
+                WheelCommand {
+                    forward: clamp(line.f64("forward")?),
+                    turn: clamp(line.f64("turn")?),
+                },
+            ))
+        })
+        .collect()
+}
+
+/// What a controller intends, for the monitor's superimposed graphics.
+pub fn debug_packet(
+    robot: usize,
+    state: &str,
+    target: Option<Vec2>,
+    caches: &[(PuckKind, Vec2)],
+) -> Result<Vec<u8>, ParseError> {
+    let mut p = PacketBuilder::new([DEBUG], Priority(0));
+    {
+        let mut l = p.line("robot");
+        l.field("id", robot).field("state", state);
+        if let Some(t) = target {
+            l.field("tx", r(t.x)).field("ty", r(t.y));
+        }
+    }
+    for (k, c) in caches {
+        p.line("cache")
+            .field("id", robot)
+            .field("kind", k.0)
+            .field("x", r(c.x))
+            .field("y", r(c.y));
+    }
+    p.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_observation_survives_the_trip_through_a_packet() {
+        let obs = Observation {
+            pose: Pose {
+                x: 12.5,
+                y: -40.1,
+                theta: 1.57,
+            },
+            gripper: Some(SeenPuck {
+                kind: PuckKind(0),
+                pos: Vec2::new(8.1, 0.0),
+                held_by_other: false,
+            }),
+            pucks: vec![SeenPuck {
+                kind: PuckKind(1),
+                pos: Vec2::new(20.3, -4.0),
+                held_by_other: true,
+            }],
+            robots: vec![Vec2::new(30.0, 10.0)],
+            obstacles: vec![Vec2::new(35.0, -12.0), Vec2::new(35.0, -11.0)],
+        };
+        let bytes = observation_packet(2, 1200, &obs).unwrap();
+        let packet = Packet::parse(&bytes).unwrap();
+        assert!(packet.has_subject("camera.2"));
+        assert_eq!(parse_observation(&packet).unwrap(), (1200, obs));
+    }
+
+    #[test]
+    fn commands_are_clamped_and_bad_ids_are_errors() {
+        let p = Packet::parse(
+            b"@ <radio> 5\ncmd id 1 forward 3 turn -0.5\ncmd id 2 forward 0.1 turn nan\n",
+        )
+        .unwrap();
+        let cmds = parse_commands(&p).unwrap();
+        assert_eq!(
+            cmds[0],
+            (
+                1,
+                WheelCommand {
+                    forward: 1.0,
+                    turn: -0.5
+                }
+            )
+        );
+        assert_eq!(
+            cmds[1],
+            (
+                2,
+                WheelCommand {
+                    forward: 0.1,
+                    turn: 0.0
+                }
+            )
+        );
+        let bad = Packet::parse(b"@ <radio> 0\ncmd id -1 forward 0 turn 0\n").unwrap();
+        assert!(parse_commands(&bad)
+            .unwrap_err()
+            .to_string()
+            .contains("id -1"));
+        let missing = Packet::parse(b"@ <radio> 0\ncmd id 1 forward 0\n").unwrap();
+        assert!(parse_commands(&missing)
+            .unwrap_err()
+            .to_string()
+            .contains("turn"));
+    }
+
+    #[test]
+    fn a_command_round_trips() {
+        let bytes = command_packet(
+            3,
+            WheelCommand {
+                forward: 0.5,
+                turn: -0.25,
+            },
+            Priority(0),
+        )
+        .unwrap();
+        let p = Packet::parse(&bytes).unwrap();
+        assert_eq!(
+            parse_commands(&p).unwrap(),
+            [(
+                3,
+                WheelCommand {
+                    forward: 0.5,
+                    turn: -0.25
+                }
+            )]
+        );
+    }
+}
+
+/// The world's global state for one step, as an overhead camera would publish it.
+pub fn vision_packet(
+    step: u64,
+    robots: &[colony_sim::RobotState],
+    pucks: &[colony_sim::Puck],
+) -> Result<Vec<u8>, ParseError> {
+    let mut p = PacketBuilder::new([VISION], Priority(0));
+    p.line("step").field("n", step);
+    for rb in robots {
+        let mut l = p.line("robot");
+        l.field("id", rb.id.0)
+            .field("x", r(rb.pose.x))
+            .field("y", r(rb.pose.y))
+            .field("theta", r(rb.pose.theta));
+        if let Some(c) = rb.carrying {
+            l.field("carrying", c.0);
+        }
+    }
+    for pk in pucks {
+        p.line("puck")
+            .field("id", pk.id.0)
+            .field("kind", pk.kind.0)
+            .field("x", r(pk.pos.x))
+            .field("y", r(pk.pos.y));
+    }
+    p.finish()
+}
