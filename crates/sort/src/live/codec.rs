@@ -203,6 +203,34 @@ pub fn debug_packet(
     p.finish()
 }
 
+/// The world's global state for one step, as an overhead camera would publish it.
+pub fn vision_packet(
+    step: u64,
+    robots: &[colony_sim::RobotState],
+    pucks: &[colony_sim::Puck],
+) -> Result<Vec<u8>, ParseError> {
+    let mut p = PacketBuilder::new([VISION], Priority(0));
+    p.line("step").field("n", step);
+    for rb in robots {
+        let mut l = p.line("robot");
+        l.field("id", rb.id.0)
+            .field("x", r(rb.pose.x))
+            .field("y", r(rb.pose.y))
+            .field("theta", r(rb.pose.theta));
+        if let Some(c) = rb.carrying {
+            l.field("carrying", c.0);
+        }
+    }
+    for pk in pucks {
+        p.line("puck")
+            .field("id", pk.id.0)
+            .field("kind", pk.kind.0)
+            .field("x", r(pk.pos.x))
+            .field("y", r(pk.pos.y));
+    }
+    p.finish()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -296,32 +324,4 @@ mod tests {
             )]
         );
     }
-}
-
-/// The world's global state for one step, as an overhead camera would publish it.
-pub fn vision_packet(
-    step: u64,
-    robots: &[colony_sim::RobotState],
-    pucks: &[colony_sim::Puck],
-) -> Result<Vec<u8>, ParseError> {
-    let mut p = PacketBuilder::new([VISION], Priority(0));
-    p.line("step").field("n", step);
-    for rb in robots {
-        let mut l = p.line("robot");
-        l.field("id", rb.id.0)
-            .field("x", r(rb.pose.x))
-            .field("y", r(rb.pose.y))
-            .field("theta", r(rb.pose.theta));
-        if let Some(c) = rb.carrying {
-            l.field("carrying", c.0);
-        }
-    }
-    for pk in pucks {
-        p.line("puck")
-            .field("id", pk.id.0)
-            .field("kind", pk.kind.0)
-            .field("x", r(pk.pos.x))
-            .field("y", r(pk.pos.y));
-    }
-    p.finish()
 }
