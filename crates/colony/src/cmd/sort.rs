@@ -111,9 +111,17 @@ pub struct LiveArgs {
     /// Stop after this many steps (default: until Ctrl-C).
     #[arg(long)]
     pub steps: Option<u64>,
-    /// Run the controllers as threads of this process instead of one process per robot.
-    #[arg(long)]
-    pub robots_in_process: bool,
+    /// Where the robots' controllers run: one child process per robot, threads of
+    /// this process, or nowhere (`external`: start them with `colony sort robot`).
+    #[arg(long, value_enum, default_value_t = Controllers::Process)]
+    pub controllers: Controllers,
+}
+
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Controllers {
+    Process,
+    Thread,
+    External,
 }
 
 #[derive(clap::Args, Debug)]
@@ -274,7 +282,7 @@ fn live(a: LiveArgs) -> anyhow::Result<()> {
     let n = world.robot_count();
     let mut children = Children(Vec::new());
     let mut threads = Vec::new();
-    if a.robots_in_process {
+    if a.controllers == Controllers::Thread {
         for id in 0..n {
             let mut controller = build(method, &params, scene.pucks.kinds, scene.arena.width);
             let mut client = a.hub.connect()?;
@@ -283,7 +291,7 @@ fn live(a: LiveArgs) -> anyhow::Result<()> {
                 colony_sort::live::robot::run(id, controller.as_mut(), &mut client, seed, &stop)
             }));
         }
-    } else {
+    } else if a.controllers == Controllers::Process {
         let exe = std::env::current_exe()
             .context("cannot find the colony executable to start robot processes")?;
         for id in 0..n {

@@ -1,0 +1,230 @@
+//! `colony sort`: experiments from the command line, and live mode over a real hub.
+
+mod common;
+
+use std::process::{Child, Stdio};
+use std::time::{Duration, Instant};
+
+use common::{colony, drain_until, subscribed, HubProcess};
+
+fn stderr_of(args: &[&str]) -> (bool, String) {
+    let o = colony().args(args).stdin(Stdio::null()).output().unwrap();
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn bad_inputs_give_clear_errors() {
+    let (ok, e) = stderr_of(&[
+        "sort",
+        "run",
+        "--method",
+        "quicksort",
+        "--steps",
+        "10",
+        "--trials",
+        "1",
+    ]);
+    assert!(
+        !ok && e.contains("unknown method `quicksort`") && e.contains("cachecons"),
+        "{e}"
+    );
+    let (ok, e) = stderr_of(&[
+        "sort", "run", "--method", "bhd", "--robots", "0", "--steps", "10", "--trials", "1",
+    ]);
+    assert!(!ok && e.contains("robots.count"), "{e}");
+    let (ok, e) = stderr_of(&[
+        "sort", "run", "--method", "bhd", "--types", "2", "--steps", "10", "--trials", "1",
+    ]);
+    assert!(!ok && e.contains("BHD"), "{e}");
+    let (ok, e) = stderr_of(&[
+        "sort",
+        "run",
+        "--method",
+        "cachecons",
+        "--scene",
+        "/nonexistent/scene.toml",
+    ]);
+    assert!(!ok && e.contains("/nonexistent/scene.toml"), "{e}");
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, "[robots]\ncount = \"four\"\n").unwrap();
+    let (ok, e) = stderr_of(&[
+        "sort",
+        "run",
+        "--method",
+        "cachecons",
+        "--scene",
+        bad.to_str().unwrap(),
+    ]);
+    assert!(!ok && e.contains("bad.toml") && e.contains("count"), "{e}");
+    let (ok, e) = stderr_of(&["sort", "run", "--method", "cachecons", "--trials", "0"]);
+    assert!(!ok && e.contains("--trials"), "{e}");
+}
+
+#[test]
+fn a_short_run_writes_deterministic_csv_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |out: &str| {
+        let o = colony()
+            .args([
+                "sort", "run", "--method", "probseek", "--trials", "2", "--steps", "300", "--seed",
+                "5", "--out",
+            ])
+            .arg(dir.path().join(out))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    run("a");
+    run("b");
+    for f in [
+        "summary.csv",
+        "probseek-types2-trial00.csv",
+        "probseek-types2-trial01.csv",
+    ] {
+        let a = std::fs::read_to_string(dir.path().join("a").join(f)).unwrap();
+        let b = std::fs::read_to_string(dir.path().join("b").join(f)).unwrap();
+        assert_eq!(a, b, "{f}");
+        assert!(a.lines().count() >= 2, "{f}: {a}");
+    }
+}
+
+#[test]
+fn reproduce_writes_a_report_with_figures_and_tests() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = colony()
+        .args([
+            "sort",
+            "reproduce",
+            "--trials",
+            "2",
+            "--steps",
+            "200",
+            "--out",
+        ])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report = std::fs::read_to_string(dir.path().join("report.md")).unwrap();
+    for needle in [
+        "## 1 puck type",
+        "Repeated-measures ANOVA",
+        "Tukey",
+        "Paired t-test",
+        "## 8 puck types",
+        "Cache-point convergence",
+    ] {
+        assert!(report.contains(needle), "report lacks {needle}");
+    }
+    for png in [
+        "pc_types1.png",
+        "stc_types1.png",
+        "twc_types1.png",
+        "pc_types4.png",
+        "cache_convergence.png",
+        "snap_types1_cachecons_step0.png",
+    ] {
+        let bytes = std::fs::read(dir.path().join(png)).unwrap_or_else(|e| panic!("{png}: {e}"));
+        assert_eq!(&bytes[1..4], b"PNG", "{png}");
+    }
+}
+
+struct Robot(Child);
+
+impl Drop for Robot {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn robot(hub: &HubProcess, id: usize) -> Robot {
+    Robot(
+        colony()
+            .args([
+                "sort",
+                "robot",
+                "--hub",
+                &hub.addr.to_string(),
+                "--id",
+                &id.to_string(),
+            ])
+            .stdin(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    )
+}
+
+/// Which robots' commands appear on `radio` within `window`.
+fn commanding(
+    radio: &mut colony_client::UdpClient,
+    window: Duration,
+) -> std::collections::BTreeSet<i64> {
+    let got = drain_until(radio, Instant::now() + window, |_| false);
+    got.iter()
+        .filter_map(|t| {
+            colony_wire::Packet::parse(t.as_bytes())
+                .ok()
+                .and_then(|p| p.line("cmd").and_then(|l| l.i64("id").ok()))
+        })
+        .collect()
+}
+
+#[test]
+fn a_robot_controller_can_be_killed_and_restarted_while_the_others_sort_on() {
+    let hub = HubProcess::start(&[]);
+    let mut world = colony()
+        .args([
+            "sort",
+            "live",
+            "--hub",
+            &hub.addr.to_string(),
+            "--controllers",
+            "external",
+            "--speed",
+            "10",
+        ])
+        .stdin(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut vision = subscribed(hub.addr, &["vision"]);
+    let first = drain_until(&mut vision, Instant::now() + Duration::from_secs(10), |g| {
+        !g.is_empty()
+    });
+    assert!(
+        first[0].contains("robot id 3") && first[0].matches("puck id").count() == 40,
+        "{}",
+        first[0]
+    );
+
+    let mut robots: Vec<Robot> = (0..4).map(|i| robot(&hub, i)).collect();
+    let mut radio = subscribed(hub.addr, &["radio"]);
+    let all: std::collections::BTreeSet<i64> = (0..4).collect();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while commanding(&mut radio, Duration::from_millis(500)) != all {
+        assert!(Instant::now() < deadline, "not every robot was commanded");
+    }
+    // Kill robot 2's controller: the others keep going.
+    drop(robots.remove(2));
+    std::thread::sleep(Duration::from_millis(300));
+    let without = commanding(&mut radio, Duration::from_secs(1));
+    assert_eq!(
+        without,
+        [0, 1, 3].into_iter().collect(),
+        "only robot 2 stops"
+    );
+    // Restart it: it picks up from the next observation.
+    robots.push(robot(&hub, 2));
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while commanding(&mut radio, Duration::from_millis(500)) != all {
+        assert!(Instant::now() < deadline, "robot 2 never came back");
+    }
+    let _ = world.kill();
+    let _ = world.wait();
+}
