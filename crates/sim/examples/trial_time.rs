@@ -80,6 +80,17 @@ fn main() {
         seen_obstacles as f64 / n,
         100.0 * carrying as f64 / n
     );
+    let outside = world
+        .pucks()
+        .iter()
+        .filter(|p| !world.arena_contains(p.pos))
+        .count()
+        + world
+            .robots()
+            .iter()
+            .filter(|r| !world.arena_contains(r.pose.position()))
+            .count();
+    println!("bodies outside the arena at the end: {outside}");
     let s = world.snapshot();
     let checksum: f64 = s.pucks.iter().map(|p| p.pos.x * 3.0 + p.pos.y).sum::<f64>()
         + s.robots

@@ -52,9 +52,10 @@ impl Arena {
         outside + qx.max(qy).min(0.0) - self.r
     }
 
-    /// Whether a disc of radius `margin` around `p` lies wholly inside.
+    /// Whether a disc of radius `margin` around `p` lies wholly inside (never for a
+    /// non-finite point).
     pub fn contains(&self, p: Vec2, margin: f64) -> bool {
-        self.signed_distance(p) <= -margin
+        p.x.is_finite() && p.y.is_finite() && self.signed_distance(p) <= -margin
     }
 
     /// The nearest point at least `margin` inside the walls (`p` itself if it already is).

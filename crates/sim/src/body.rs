@@ -1,30 +1,41 @@
 //! A robot's shape: the body rectangle and the passive C-shaped gripper.
 //!
-//! Robot frame: origin at the body rectangle's centre, x forward, y left.
+//! Robot frame: origin at the body rectangle's centre, x forward, y left. With the
+//! standard values (body 12.5 x 10.8 cm, pocket radius 3.6, mouth 130 degrees):
 //!
 //! ```text
-//!            y
-//!            ^        shoulder
-//!   +--------+--.__
-//!   |        |  (  `-.   mouth (130 degrees, about 6.5 cm wide)
-//!   |  body  | (  o  )  <- pocket: disc of radius 3.6 centred 3.6 cm ahead of the front
-//!   |        |  (  .-'
-//!   +--------+--'
+//!                 y
+//!   +---------+   ^  shoulder
+//!   |         |\__      lip (x 11.4, y +-3.3)
+//!   |         |   ' .
+//!   |  body   |  .-.  )   <- pocket: a disc of radius 3.6 centred at (9.85, 0),
+//!   |    +----|-( o )-(--> x  its back on the body's front (x 6.25)
+//!   |         |  '-'  )   mouth about 6.5 cm wide, 130 degrees seen from the centre
+//!   |         | __. '
+//!   +---------+/
 //! ```
 //!
-//! The gripper is an arc of short capsules whose inner surface lies on the pocket's
-//! circle, open over the mouth angle at the front, plus two shoulder triangles joining
-//! the arc's lips to the body's front corners. A puck (radius 3.15) passes through
-//! the mouth when the robot drives over it and is then held: it can only leave
-//! through the mouth again, which happens when the robot backs away from it.
+//! The pocket's back is the body's front; its sides run straight along `y = +-3.6`
+//! to the pocket centre's x, and then curve inwards along the pocket's circle to the
+//! lips, as PuckSwarm's arc does. A puck (radius 3.15) passes through the mouth when
+//! the robot drives over it and is then held, turns included: it leaves only
+//! through the mouth, which happens when the robot backs away from it. The curved
+//! lips matter: with straight jaws a turning robot flings its puck out (a pushed
+//! puck coasts a little, and nothing with an inward-facing normal stops it).
 //! A "bow" disc filling the pocket collides with walls and robots but not with
 //! pucks, so other robots cannot poke into the pocket (as in PuckSwarm).
 
+use crate::arena::polar;
 use crate::config::SceneConfig;
 use crate::types::Vec2;
 
 /// Thickness of the gripper's lips, cm.
 pub(crate) const ARC_THICKNESS: f64 = 0.5;
+
+/// Capsules per lip. One lets a puck work loose after about two and a half full
+/// turns on the spot; two hold it however long the robot spins, for 15 % more
+/// physics time than one (and 25 % less than a full twelve-piece arc).
+pub(crate) const LIP_SEGMENTS: usize = 2;
 
 /// A robot's shape, in the robot frame.
 #[derive(Debug, Clone)]
@@ -49,6 +60,7 @@ pub(crate) struct RobotGeometry {
 #[derive(Debug, Clone)]
 pub(crate) enum Part {
     Rectangle { half_extents: Vec2 },
+    Capsule { a: Vec2, b: Vec2, radius: f64 },
     Polygon(Vec<Vec2>),
 }
 
@@ -82,7 +94,7 @@ impl RobotGeometry {
             pocket,
             pocket_radius: rg,
             mouth_half_angle: cfg.robots.gripper_mouth_deg.to_radians() / 2.0,
-            bounding_radius: hl.hypot(hw).max(pocket.x + rg),
+            bounding_radius: hl.hypot(hw).max(pocket.x + rg + ARC_THICKNESS),
             outline,
             carry_start_distance: start,
             carry_keep_distance: keep,
@@ -90,39 +102,40 @@ impl RobotGeometry {
     }
 
     /// The solid parts, robot frame: the body and the gripper's two jaws.
+    ///
+    /// Each jaw is a convex side piece, whose inner face runs straight along
+    /// `y = +-r` from the body's front to the pocket centre's x and whose outer face
+    /// (the shoulder) runs from the lip back to the body's front corner, plus a lip:
+    /// [`LIP_SEGMENTS`] capsules whose inner surface follows the pocket's circle from
+    /// 90 degrees to half the mouth angle.
     pub fn parts(&self) -> Vec<Part> {
         let r = self.pocket_radius;
         let m = self.mouth_half_angle;
         let t = ARC_THICKNESS;
-        let n: usize = std::env::var("CHORDS")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(2);
+        let c = self.pocket;
+        let rc = r + t / 2.0;
+        let outer = self.half_width.max(r + t);
+        let quarter = std::f64::consts::FRAC_PI_2;
         let mut parts = vec![Part::Rectangle {
             half_extents: Vec2::new(self.half_length, self.half_width),
         }];
-        let c = self.pocket;
-        let pi = std::f64::consts::PI;
         for s in [1.0, -1.0] {
-            for k in 0..n {
-                let a0 = pi - (pi - m) * k as f64 / n as f64;
-                let a1 = pi - (pi - m) * (k + 1) as f64 / n as f64;
-                let p0 = c + crate::arena::polar(r, a0);
-                let p1 = c + crate::arena::polar(r, a1);
-                let q0 = c + crate::arena::polar(r + t, a0);
-                let q1 = c + crate::arena::polar(r + t, a1);
-                let flip = |p: Vec2| Vec2::new(p.x, s * p.y);
-                parts.push(Part::Polygon(vec![flip(p0), flip(p1), flip(q1), flip(q0)]));
+            let flip = |p: Vec2| Vec2::new(p.x, s * p.y);
+            for j in 0..LIP_SEGMENTS {
+                let a0 = quarter - (quarter - m) * j as f64 / LIP_SEGMENTS as f64;
+                let a1 = quarter - (quarter - m) * (j + 1) as f64 / LIP_SEGMENTS as f64;
+                parts.push(Part::Capsule {
+                    a: flip(c + polar(rc, a0)),
+                    b: flip(c + polar(rc, a1)),
+                    radius: t / 2.0,
+                });
             }
-            let ro = r + t;
-            if self.half_width > ro {
-                let lip = c + crate::arena::polar(ro, m);
-                parts.push(Part::Polygon(vec![
-                    Vec2::new(self.half_length, s * self.half_width),
-                    Vec2::new(self.half_length, s * ro),
-                    Vec2::new(lip.x, s * lip.y),
-                ]));
-            }
+            parts.push(Part::Polygon(vec![
+                flip(Vec2::new(self.half_length, r)),
+                flip(Vec2::new(c.x, r)),
+                flip(c + polar(r + t, m)),
+                flip(Vec2::new(self.half_length, outer)),
+            ]));
         }
         parts
     }

@@ -14,22 +14,36 @@
 //!
 //! # The model
 //!
-//! It reproduces the simulator of the cache-consensus paper (Vardy, Vorobyev and
-//! Banzhaf 2014) on rapier2d: a rounded-square arena (187 cm, corner radius 15),
-//! SRV-1 robots (12.5 x 10.8 cm) with a passive C-shaped gripper that holds one
-//! puck, and pucks 6.3 cm across whose floor friction is modelled as damping. A
-//! control step is 3 physics steps of 1/14 s. [`SceneConfig`] holds every value,
-//! with its source; `configs/scene.toml` is the standard configuration.
+//! It reproduces the simulator behind the cache-consensus paper (Vardy, Vorobyev
+//! and Banzhaf 2014) on rapier2d: a rounded-square arena (187 cm, corner radius
+//! 15), SRV-1 robots (12.5 x 10.8 cm) with a passive C-shaped gripper that holds
+//! one puck, and pucks 6.3 cm across whose floor friction is modelled as damping.
+//! A control step is 3 physics steps of 1/14 s. [`SceneConfig`] holds every value
+//! with its source; `configs/scene.toml` is the standard configuration written out.
 //!
-//! - Driving: at each physics step a robot's velocity is set from its command,
-//!   `forward * full_speed` along its heading and `turn * full_turn_rate`; contacts
-//!   then act within the step, so robots push pucks and clusters, are stopped by
-//!   walls and shove each other.
-//! - Physics runs in centimetres (rapier's `length_unit` is 100) and grams, in f32.
-//!   rapier's `enhanced-determinism` feature is on, and this crate's own trigonometry
-//!   uses `libm`, so a seed fixes a trial bit for bit across machines; rapier's
-//!   `parallel` feature is off, so the thread count cannot matter.
-//! - Sensing is computed from the geometry, not by rendering (see [`World::observe`]).
+//! - **Units.** Centimetres, seconds, grams, everywhere, rapier included: its
+//!   `length_unit` is 100 (units per metre), which scales its tolerances. Two of
+//!   those tolerances are changed for bodies this small: contact recycling keeps a
+//!   pair's contacts until the bodies moved 0.05 cm (rapier's default, scaled, would
+//!   be 5 cm) and continuous collision detection is off (nothing moves 1.5 cm in a
+//!   physics step; walls are 10 cm thick).
+//! - **Driving.** At each physics step a robot's velocity is set from its command:
+//!   `forward * full_speed` along its heading, nothing sideways (tracks do not slide),
+//!   and `turn * full_turn_rate`. Contacts act within the step, so robots push pucks
+//!   and clusters (and break them), are stopped by walls and shove each other. A
+//!   robot's centre of mass is its body's centre, so it turns on the spot.
+//! - **Gripper.** A pocket of radius 3.6 in front of the body, open over 130
+//!   degrees at the front (see the `body` module's picture): driving over a puck
+//!   captures it, turning keeps it, backing away leaves it. A puck counts as carried
+//!   when it covers more than 0.4 of the pocket's disc and stays carried while it
+//!   covers more than 0.1 ([`CarryingConfig`]).
+//! - **Determinism.** rapier's `enhanced-determinism` feature is on (libm and scalar
+//!   maths in rapier, parry and glam; it cost about 1 % here) and this crate's own
+//!   trigonometry uses `libm`, so a seed fixes a trial bit for bit across machines;
+//!   rapier's `parallel` feature is off, so the thread count cannot matter. All
+//!   randomness comes from `ChaCha8Rng::seed_from_u64(seed)`.
+//! - **Sensing** is computed from the geometry, not by rendering (see
+//!   [`World::observe`]): a few hundred nanoseconds per robot.
 //!
 //! ```
 //! use colony_sim::{RobotId, SceneConfig, WheelCommand, World};
@@ -41,11 +55,15 @@
 //! println!("robot 0 at {:?} sees {} pucks", obs.pose, obs.pucks.len());
 //! ```
 
+#![warn(missing_docs)]
+
 mod arena;
 mod body;
 mod config;
+mod config_load;
 mod error;
 mod grid;
+mod layout;
 mod physics;
 mod sense;
 mod snapshot;
@@ -54,7 +72,7 @@ mod world;
 
 pub use config::{
     ArenaConfig, CameraConfig, CarryingConfig, Footprint, PhysicsConfig, PuckConfig, RobotConfig,
-    SceneConfig,
+    SceneConfig, MAX_ARENA_SIDE,
 };
 pub use error::{ConfigError, SimError};
 pub use snapshot::{PuckSnapshot, RobotSnapshot, WorldSnapshot};

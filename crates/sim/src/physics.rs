@@ -109,6 +109,9 @@ impl Physics {
                     Part::Rectangle { half_extents } => {
                         SharedShape::cuboid(half_extents.x as f32, half_extents.y as f32)
                     }
+                    Part::Capsule { a, b, radius } => {
+                        SharedShape::capsule(v(a), v(b), radius as f32)
+                    }
                     Part::Polygon(points) => {
                         let pts: Vec<Vector> = points.into_iter().map(v).collect();
                         SharedShape::convex_hull(&pts)?
@@ -177,11 +180,6 @@ impl Physics {
         let (c, s) = (r.re as f64, r.im as f64);
         let n = c.hypot(s);
         (Vec2::new(t.x as f64, t.y as f64), c / n, s / n)
-    }
-
-    /// Bodies awake (debug).
-    pub fn awake(&self) -> usize {
-        self.islands.num_active_bodies()
     }
 
     /// One physics step of `params.dt`.

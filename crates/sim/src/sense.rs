@@ -13,6 +13,25 @@ use crate::world::World;
 
 impl World {
     /// What robot `id` senses now. An id out of range gives an empty observation.
+    ///
+    /// Everything but the pose is in the robot frame (origin at the body's centre,
+    /// x forward, y left); the camera sits `camera.offset` (3.75 cm) ahead of the
+    /// centre and its footprint is measured from there, so the standard footprint
+    /// spans x = 6.25 to 39.35 in the robot frame.
+    ///
+    /// - `pose`: exact, world frame (the overhead tracker).
+    /// - `gripper`: the puck this robot carries (by the carrying hysteresis), where it
+    ///   really is; a seated puck is at about (9.4, 0), the pocket's centre being
+    ///   (9.85, 0) ([`World::robot_shape`]).
+    /// - `pucks`: every other puck whose centre is in the footprint;
+    ///   `held_by_other` when another robot carries it or its centre is in another
+    ///   robot's pocket.
+    /// - `robots`: centres of the other robots that are in the footprint.
+    /// - `obstacles`: points in the footprint on the walls' inner surface (spaced
+    ///   `camera.obstacle_spacing`, precomputed) and on the outlines of other robots'
+    ///   bodies (same spacing; grippers are not reported, as in the authors' simulator).
+    ///
+    /// No occlusion is modelled: what lies behind another robot is still seen.
     pub fn observe(&self, id: RobotId) -> Observation {
         let mut out = Observation::default();
         self.observe_into(id, &mut out);

@@ -3,21 +3,27 @@
 /// A point or vector in the plane, in centimetres.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Vec2 {
+    /// x, cm.
     pub x: f64,
+    /// y, cm.
     pub y: f64,
 }
 
 impl Vec2 {
+    /// The origin.
     pub const ZERO: Vec2 = Vec2 { x: 0.0, y: 0.0 };
 
+    /// The vector (x, y).
     pub fn new(x: f64, y: f64) -> Vec2 {
         Vec2 { x, y }
     }
 
+    /// Euclidean length.
     pub fn length(self) -> f64 {
         self.x.hypot(self.y)
     }
 
+    /// Euclidean distance to `other`.
     pub fn distance(self, other: Vec2) -> f64 {
         (self - other).length()
     }
@@ -52,13 +58,16 @@ impl std::ops::Mul<f64> for Vec2 {
 /// Where a robot is and which way it faces, in the world frame.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Pose {
+    /// x of the robot's centre, cm.
     pub x: f64,
+    /// y of the robot's centre, cm.
     pub y: f64,
     /// Heading, radians counter-clockwise from +x.
     pub theta: f64,
 }
 
 impl Pose {
+    /// The position, without the heading.
     pub fn position(&self) -> Vec2 {
         Vec2::new(self.x, self.y)
     }
@@ -94,15 +103,20 @@ pub struct PuckKind(pub u8);
 /// A puck as the world (the "global map") knows it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Puck {
+    /// Which puck.
     pub id: PuckId,
+    /// Its type (colour).
     pub kind: PuckKind,
+    /// World-frame position of its centre, cm.
     pub pos: Vec2,
 }
 
 /// A robot as the world knows it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RobotState {
+    /// Which robot.
     pub id: RobotId,
+    /// Where it is, world frame.
     pub pose: Pose,
     /// The puck in its gripper, if any.
     pub carrying: Option<PuckId>,
@@ -118,6 +132,7 @@ pub struct WheelCommand {
 }
 
 impl WheelCommand {
+    /// Stand still.
     pub const STOP: WheelCommand = WheelCommand {
         forward: 0.0,
         turn: 0.0,
@@ -127,7 +142,9 @@ impl WheelCommand {
 /// A puck the forward camera sees, in the robot frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SeenPuck {
+    /// Its type (colour).
     pub kind: PuckKind,
+    /// Its centre in the robot frame, cm.
     pub pos: Vec2,
     /// It lies in another robot's gripper (the paper's perception drops such pucks).
     pub held_by_other: bool,

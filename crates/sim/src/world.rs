@@ -9,18 +9,15 @@ use crate::body::RobotGeometry;
 use crate::config::{Footprint, SceneConfig};
 use crate::error::SimError;
 use crate::grid::Grid;
+use crate::layout::{crowded, sample, sample_pucks, LAYOUT_GAP};
 use crate::physics::Physics;
 use crate::snapshot::{PuckSnapshot, RobotSnapshot, WorldSnapshot};
 use crate::types::{Pose, Puck, PuckId, PuckKind, RobotId, RobotState, Vec2, WheelCommand};
 
-/// Gap kept between bodies (and between bodies and walls) by random layouts, cm.
-const LAYOUT_GAP: f64 = 0.5;
-
-/// Tries per body before a random layout gives up.
-const LAYOUT_TRIES: usize = 10_000;
-
-/// Side of the cells of the grids that speed up sensing, cm.
+/// Side of the cells of the grids that speed up sensing, cm (larger in arenas wider
+/// than `GRID_CELL * GRID_MAX_CELLS`, so a grid never has more than that many cells a side).
 const GRID_CELL: f64 = 10.0;
+const GRID_MAX_CELLS: f64 = 256.0;
 
 /// A simulated arena with robots and pucks, deterministic for a seed.
 ///
@@ -113,7 +110,7 @@ impl World {
         let arena = Arena::new(&config.arena);
         let geometry = RobotGeometry::new(config);
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut robots = Vec::with_capacity(config.robots.count);
+        let mut robots = Vec::new();
         for i in 0..config.robots.count {
             let r = geometry.bounding_radius;
             let p = sample(&arena, r, &mut rng, |p| {
@@ -160,9 +157,7 @@ impl World {
         cfg.validate_geometry()?;
         let arena = Arena::new(&cfg.arena);
         for (i, r) in robots.iter().enumerate() {
-            if !(r.x.is_finite() && r.y.is_finite() && r.theta.is_finite())
-                || !arena.contains(r.position(), 0.0)
-            {
+            if !(r.theta.is_finite() && arena.contains(r.position(), 0.0)) {
                 return Err(SimError::Layout(format!(
                     "robot {i} at ({}, {}, {}) is not a finite pose inside the arena",
                     r.x, r.y, r.theta
@@ -176,7 +171,7 @@ impl World {
                     kind.0, cfg.pucks.kinds
                 )));
             }
-            if !(p.x.is_finite() && p.y.is_finite()) || !arena.contains(*p, 0.0) {
+            if !arena.contains(*p, 0.0) {
                 return Err(SimError::Layout(format!(
                     "puck {i} at ({}, {}) is not inside the arena",
                     p.x, p.y
@@ -217,8 +212,9 @@ impl World {
             .collect();
         // Grids a little larger than the arena: bodies pressed into a wall stay in range.
         let half = Vec2::new(arena.half_width() + 1.0, arena.half_height() + 1.0);
+        let cell = GRID_CELL.max(2.0 * half.x.max(half.y) / GRID_MAX_CELLS);
         let wall_points = arena.wall_points(config.camera.obstacle_spacing);
-        let mut wall_grid = Grid::new(half, GRID_CELL);
+        let mut wall_grid = Grid::new(half, cell);
         wall_grid.rebuild(wall_points.iter().copied());
         let mut world = World {
             footprint: config.camera.footprint(),
@@ -228,7 +224,7 @@ impl World {
             physics,
             robots,
             pucks,
-            puck_grid: Grid::new(half, GRID_CELL),
+            puck_grid: Grid::new(half, cell),
             wall_points,
             wall_grid,
             step: 0,
@@ -265,11 +261,6 @@ impl World {
         }
         self.step += 1;
         self.refresh();
-    }
-
-    #[doc(hidden)]
-    pub fn debug_awake(&self) -> usize {
-        self.physics.awake()
     }
 
     /// Control steps taken since the world was made.
@@ -500,48 +491,4 @@ fn unit(x: f64) -> f64 {
     } else {
         x.clamp(-1.0, 1.0)
     }
-}
-
-fn crowded(what: &str, i: usize, n: usize) -> SimError {
-    SimError::Layout(format!(
-        "could not place {what} {} of {n} clear of the walls and the others after {LAYOUT_TRIES} tries: the arena is too crowded",
-        i + 1
-    ))
-}
-
-/// A uniformly random point at least `radius` (+ a gap) inside the walls that `ok` accepts.
-fn sample<R: Rng + ?Sized>(
-    arena: &Arena,
-    radius: f64,
-    rng: &mut R,
-    ok: impl Fn(Vec2) -> bool,
-) -> Option<Vec2> {
-    let (hw, hh) = (arena.half_width(), arena.half_height());
-    (0..LAYOUT_TRIES).find_map(|_| {
-        let p = Vec2::new(rng.random_range(-hw..hw), rng.random_range(-hh..hh));
-        (arena.contains(p, radius + LAYOUT_GAP) && ok(p)).then_some(p)
-    })
-}
-
-/// Random puck positions clear of the walls, of robots (as bounding circles) and of each other.
-fn sample_pucks<R: Rng + ?Sized>(
-    cfg: &SceneConfig,
-    arena: &Arena,
-    geometry: &RobotGeometry,
-    robots: &[Vec2],
-    rng: &mut R,
-) -> Result<Vec<Vec2>, SimError> {
-    let rp = cfg.puck_radius();
-    let clear_robot = geometry.bounding_radius + rp + LAYOUT_GAP;
-    let clear_puck = 2.0 * rp + LAYOUT_GAP;
-    let mut out: Vec<Vec2> = Vec::with_capacity(cfg.pucks.count);
-    for i in 0..cfg.pucks.count {
-        let p = sample(arena, rp, rng, |p| {
-            robots.iter().all(|r| r.distance(p) >= clear_robot)
-                && out.iter().all(|q| q.distance(p) >= clear_puck)
-        })
-        .ok_or_else(|| crowded("puck", i, cfg.pucks.count))?;
-        out.push(p);
-    }
-    Ok(out)
 }

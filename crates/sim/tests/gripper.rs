@@ -104,15 +104,19 @@ fn the_gripper_holds_one_puck_and_pushes_the_next() {
 
 #[test]
 fn a_pushed_puck_stops_by_floor_friction() {
-    let mut world = scene(pose(-40.0, 0.0, 0.0), &[Vec2::new(0.0, 0.0)]);
-    // Slam into it at full speed and stop dead just after contact.
-    for _ in 0..6 {
-        world.step(&[FORWARD]);
+    // The robot backs into a puck behind it and shoves it with its flat rear.
+    let mut world = scene(pose(0.0, 0.0, 0.0), &[Vec2::new(-20.0, 0.0)]);
+    for _ in 0..8 {
+        world.step(&[BACK]);
     }
+    let pushed = world.pucks()[0].pos;
+    assert!(pushed.x < -22.0, "the puck was not pushed: {pushed:?}");
+    // The robot stops dead; the puck coasts a little and stops.
     for _ in 0..3 {
         world.step(&[WheelCommand::STOP]);
     }
     let a = world.pucks()[0].pos;
+    assert!(a.distance(pushed) < 3.0, "coasted from {pushed:?} to {a:?}");
     for _ in 0..5 {
         world.step(&[WheelCommand::STOP]);
     }
@@ -140,4 +144,56 @@ fn a_free_puck_hit_at_speed_coasts_only_a_few_centimetres() {
         rest.distance(moved) < 6.0,
         "coasted from {moved:?} to {rest:?}"
     );
+}
+
+#[test]
+fn driving_through_a_cluster_pushes_and_breaks_it() {
+    // A tight 3 x 3 cluster, 7 cm apart, in the robot's way.
+    let mut pucks = Vec::new();
+    for i in 0..3 {
+        for j in 0..3 {
+            pucks.push(Vec2::new(i as f64 * 7.0, (j as f64 - 1.0) * 7.0));
+        }
+    }
+    let mut world = scene(pose(-40.0, 0.0, 0.0), &pucks);
+    for _ in 0..25 {
+        world.step(&[FORWARD]);
+    }
+    let after = world.pucks();
+    let moved = after
+        .iter()
+        .zip(&pucks)
+        .filter(|(a, b)| a.pos.distance(**b) > 3.0)
+        .count();
+    assert!(moved >= 3, "only {moved} pucks moved: {after:?}");
+    // The robot got through or at least deep into it, pushing as it went.
+    assert!(
+        world.robots()[0].pose.x > 0.0,
+        "robot stuck at {:?}",
+        world.robots()[0].pose
+    );
+    // No two pucks overlap after the shove.
+    for a in &after {
+        for b in &after {
+            assert!(
+                a.id == b.id || a.pos.distance(b.pos) > 6.0,
+                "{a:?} overlaps {b:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn robots_driving_head_on_do_not_pass_through_each_other() {
+    let cfg = colony_sim::SceneConfig::default();
+    let robots = [pose(-30.0, 0.0, 0.0), pose(30.0, 0.0, std::f64::consts::PI)];
+    let mut world = colony_sim::World::with_layout(&cfg, &robots, &[]).unwrap();
+    for _ in 0..20 {
+        world.step(&[FORWARD, FORWARD]);
+    }
+    let r = world.robots();
+    assert!(r[0].pose.x < r[1].pose.x, "{r:?}");
+    // Their bows meet: the centres stay at least two gripper reaches apart, less a little give.
+    let reach = world.robot_shape().gripper_centre.x + world.robot_shape().gripper_radius;
+    assert!(r[1].pose.x - r[0].pose.x > 2.0 * reach - 1.0, "{r:?}");
 }

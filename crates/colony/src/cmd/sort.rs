@@ -321,6 +321,8 @@ fn live(a: LiveArgs) -> anyhow::Result<()> {
         speed: a.speed,
         command_timeout_steps: 10,
         max_steps: a.steps,
+        metrics_every: 10,
+        cluster_threshold: params.perception.cluster_threshold_cm,
     };
     eprintln!(
         "colony: live {} with {n} robots on the hub at {} ({}x real time)",

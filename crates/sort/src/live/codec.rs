@@ -15,7 +15,18 @@
 //! @ <debug> 0                          what robot 2 intends (for the monitor)
 //! robot id 2 state "HOMING" tx 40.0 ty 20.0
 //! cache id 2 kind 0 x 40.0 y 20.0
+//!
+//! @ <vision> 0                         the whole world (split into parts for big swarms)
+//! step n 1200 part 0 parts 1
+//! robot id 0 x 12.5 y -40.1 theta 1.57 carrying 7
+//! puck id 7 kind 0 x 20.0 y -38.0
+//!
+//! @ <metrics> 0                        sorting progress
+//! sort step 1200 pc 87.5
 //! ```
+//!
+//! A `cmd` of higher priority (an operator's) holds its robot until it
+//! lapses; see [`super::world::Commands`].
 
 use colony_sim::{Observation, Pose, PuckKind, SeenPuck, Vec2, WheelCommand};
 use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
@@ -31,6 +42,15 @@ pub const RADIO: &str = "radio";
 pub const VISION: &str = "vision";
 /// The channel controllers publish their intentions on, for the monitor.
 pub const DEBUG: &str = "debug";
+/// The channel the world publishes sorting progress on.
+pub const METRICS: &str = "metrics";
+
+/// Sorting progress at `step`: `sort step N pc X`.
+pub fn metrics_packet(step: u64, pc: f64) -> Result<Vec<u8>, ParseError> {
+    let mut p = PacketBuilder::new([METRICS], Priority(0));
+    p.line("sort").field("step", step).field("pc", r(pc));
+    p.finish()
+}
 
 /// Rounds to 0.01 cm or rad: finer than any sensor, and keeps packets short.
 fn r(v: f64) -> f64 {
@@ -203,32 +223,66 @@ pub fn debug_packet(
     p.finish()
 }
 
-/// The world's global state for one step, as an overhead camera would publish it.
-pub fn vision_packet(
+/// Largest vision part we write: well inside one datagram.
+const VISION_PART_BUDGET: usize = 60_000;
+
+/// The world's global state for one step, as an overhead camera would
+/// publish it: one packet, or several when a large swarm would not fit in a
+/// datagram. Each part starts `step n N part I parts P` and stands alone.
+pub fn vision_packets(
     step: u64,
     robots: &[colony_sim::RobotState],
     pucks: &[colony_sim::Puck],
-) -> Result<Vec<u8>, ParseError> {
-    let mut p = PacketBuilder::new([VISION], Priority(0));
-    p.line("step").field("n", step);
+) -> Result<Vec<Vec<u8>>, ParseError> {
+    let mut lines: Vec<String> = Vec::with_capacity(robots.len() + pucks.len());
     for rb in robots {
-        let mut l = p.line("robot");
-        l.field("id", rb.id.0)
-            .field("x", r(rb.pose.x))
-            .field("y", r(rb.pose.y))
-            .field("theta", r(rb.pose.theta));
+        let mut l = format!(
+            "robot id {} x {} y {} theta {}",
+            rb.id.0,
+            r(rb.pose.x),
+            r(rb.pose.y),
+            r(rb.pose.theta)
+        );
         if let Some(c) = rb.carrying {
-            l.field("carrying", c.0);
+            l.push_str(&format!(" carrying {}", c.0));
         }
+        lines.push(l);
     }
     for pk in pucks {
-        p.line("puck")
-            .field("id", pk.id.0)
-            .field("kind", pk.kind.0)
-            .field("x", r(pk.pos.x))
-            .field("y", r(pk.pos.y));
+        lines.push(format!(
+            "puck id {} kind {} x {} y {}",
+            pk.id.0,
+            pk.kind.0,
+            r(pk.pos.x),
+            r(pk.pos.y)
+        ));
     }
-    p.finish()
+    let mut chunks: Vec<Vec<&str>> = vec![Vec::new()];
+    let mut size = 0;
+    for l in &lines {
+        if size + l.len() + 1 > VISION_PART_BUDGET && !chunks.last().is_some_and(Vec::is_empty) {
+            chunks.push(Vec::new());
+            size = 0;
+        }
+        size += l.len() + 1;
+        chunks.last_mut().expect("one chunk at least").push(l);
+    }
+    let parts = chunks.len();
+    chunks
+        .iter()
+        .enumerate()
+        .map(|(i, chunk)| {
+            let mut p = PacketBuilder::new([VISION], Priority(0));
+            p.line("step")
+                .field("n", step)
+                .field("part", i)
+                .field("parts", parts);
+            for l in chunk {
+                p.raw_line(l);
+            }
+            p.finish()
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -299,6 +353,47 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("turn"));
+    }
+
+    #[test]
+    fn a_large_swarm_is_split_into_parts_that_each_fit_a_datagram() {
+        let robots: Vec<colony_sim::RobotState> = (0..256)
+            .map(|i| colony_sim::RobotState {
+                id: colony_sim::RobotId(i),
+                pose: Pose {
+                    x: 1.5,
+                    y: -2.5,
+                    theta: 0.25,
+                },
+                carrying: None,
+            })
+            .collect();
+        let pucks: Vec<colony_sim::Puck> = (0..2560)
+            .map(|i| colony_sim::Puck {
+                id: colony_sim::PuckId(i),
+                kind: PuckKind((i % 8) as u8),
+                pos: Vec2::new(-123.45, 67.89),
+            })
+            .collect();
+        let parts = vision_packets(9, &robots, &pucks).unwrap();
+        assert!(parts.len() >= 2);
+        let (mut robots_seen, mut pucks_seen) = (0, 0);
+        for (i, bytes) in parts.iter().enumerate() {
+            assert!(bytes.len() <= colony_wire::MAX_PACKET);
+            let p = Packet::parse(bytes).unwrap();
+            let step = p.line("step").unwrap();
+            assert_eq!(
+                (
+                    step.i64("n").unwrap(),
+                    step.i64("part").unwrap(),
+                    step.i64("parts").unwrap()
+                ),
+                (9, i as i64, parts.len() as i64)
+            );
+            robots_seen += p.lines_labelled("robot").count();
+            pucks_seen += p.lines_labelled("puck").count();
+        }
+        assert_eq!((robots_seen, pucks_seen), (256, 2560));
     }
 
     #[test]
