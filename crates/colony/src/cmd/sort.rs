@@ -35,14 +35,26 @@ pub struct Setup {
     /// Sorting parameters (TOML); default: configs/sort.toml's values.
     #[arg(long, value_name = "FILE")]
     pub params: Option<PathBuf>,
+    /// Scale the standard scene to this many robots, with 10 pucks per robot
+    /// and the arena grown to keep the paper's densities (live mode).
+    #[arg(long = "scale-robots", value_name = "N")]
+    pub scale_robots: Option<usize>,
 }
 
 impl Setup {
     fn load(&self) -> anyhow::Result<(SceneConfig, SortParams)> {
-        let scene = match &self.scene {
+        let mut scene = match &self.scene {
             Some(p) => SceneConfig::from_file(p)?,
             None => SceneConfig::default(),
         };
+        if let Some(n) = self.scale_robots {
+            if n == 0 {
+                anyhow::bail!("--scale-robots must be at least 1");
+            }
+            let kinds = scene.pucks.kinds;
+            scene = SceneConfig::scaled(n);
+            scene.pucks.kinds = kinds;
+        }
         let params = match &self.params {
             Some(p) => SortParams::load(p)?,
             None => SortParams::default(),
@@ -270,6 +282,9 @@ fn setup_args(setup: &Setup) -> Vec<String> {
     }
     if let Some(p) = &setup.params {
         v.extend(["--params".to_string(), p.display().to_string()]);
+    }
+    if let Some(n) = setup.scale_robots {
+        v.extend(["--scale-robots".to_string(), n.to_string()]);
     }
     v
 }
