@@ -5,7 +5,7 @@
 # own Mosquitto on a free loopback port), prints the report and rewrites the
 # "## Hub on loopback" section of BENCHMARKS.md.
 #
-#   scripts/bench-hub.sh                 # the full run (about a minute)
+#   scripts/bench-hub.sh                 # the full run (about three minutes)
 #   scripts/bench-hub.sh --duration 1    # any hub-bench option; see --help
 #   MOSQUITTO=/opt/bin/mosquitto scripts/bench-hub.sh
 set -euo pipefail
@@ -27,4 +27,4 @@ fi
 echo "bench-hub: load average: $(cut -d' ' -f1-3 /proc/loadavg) on $(nproc) cores" >&2
 cargo build --release -p colony-bench
 target_dir="${CARGO_TARGET_DIR:-target}"
-exec "$target_dir/release/hub-bench" --mosquitto "$mosquitto" --markdown BENCHMARKS.md "$@"
+exec "$target_dir/release/hub-bench" --mosquitto "$mosquitto" --relay-gso --markdown BENCHMARKS.md "$@"

@@ -249,3 +249,18 @@ pub fn mosquitto(
     .context("Mosquitto latency")?;
     Ok(result)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn relay_and_hub_deliver_every_sample() {
+        let raw = raw_udp(5, 50, None).unwrap();
+        assert_eq!((raw.ns.len(), raw.lost), (50, 0));
+        let hub = hub_raw(5, 50, &HubConfig::default(), None).unwrap();
+        assert_eq!((hub.ns.len(), hub.lost), (50, 0));
+        assert!(hub.quantile_us(0.5) > 0.0);
+        assert!(hub.quantile_us(0.5) <= hub.quantile_us(0.999));
+    }
+}

@@ -67,6 +67,15 @@ struct Args {
     /// Throughput rounds; each system's best round is reported.
     #[arg(long, default_value_t = 3)]
     rounds: usize,
+    /// Before each throughput run, wait up to this many seconds for other
+    /// processes to use under 10 % of the machine (0: don't wait).
+    #[arg(long, default_value_t = 30.0)]
+    quiet_wait: f64,
+    /// Also run the relay with UDP GSO (`UDP_SEGMENT`), sending each run of
+    /// equal-length packets to a subscriber as one datagram train: an
+    /// experiment showing what fewer trips through the stack would give.
+    #[arg(long)]
+    relay_gso: bool,
     /// Skip the raw UDP relay in the throughput runs.
     #[arg(long)]
     no_relay: bool,
@@ -81,6 +90,54 @@ struct Args {
     #[arg(long, default_value = "scripts/bench-hub.sh")]
     command: String,
 }
+
+/// What every throughput run needs to know.
+struct Ctx<'a> {
+    args: &'a Args,
+    settle: Duration,
+    duration: Duration,
+    /// The CPU the broker under test is kept on, if any.
+    broker_cpu: Option<usize>,
+    /// The brokers we started, whose CPU time is not outside load.
+    pids: &'a [u32],
+}
+
+impl Ctx<'_> {
+    /// Waits for other processes to quieten (builds running beside us), then
+    /// measures one fan-out with `probe` reading the broker's CPU.
+    fn run(
+        &self,
+        publisher: &mut dyn throughput::Publisher,
+        subs: Vec<Box<dyn Subscriber>>,
+        broker: &dyn Fn() -> Option<Duration>,
+        broker_in_process: bool,
+    ) -> std::io::Result<Fanout> {
+        if self.args.quiet_wait > 0.0 {
+            sys::wait_quiet(
+                self.pids,
+                QUIET_BELOW,
+                Duration::from_secs_f64(self.args.quiet_wait),
+            );
+        }
+        let probe = CpuProbe {
+            broker,
+            broker_in_process,
+            pids: self.pids,
+        };
+        throughput::run(
+            publisher,
+            subs,
+            self.args.recv_threads,
+            self.args.window,
+            self.settle,
+            self.duration,
+            &probe,
+        )
+    }
+}
+
+/// Outside CPU use (% of the machine) under which a run may start.
+const QUIET_BELOW: f64 = 10.0;
 
 const MQTT_DEFAULT: &str = "Mosquitto, Nagle on (default)";
 const MQTT_NODELAY: &str = "Mosquitto, set_tcp_nodelay true";
@@ -182,6 +239,13 @@ fn main() -> anyhow::Result<()> {
     } else {
         &args.fanouts[..]
     };
+    let ctx = Ctx {
+        args: &args,
+        settle,
+        duration,
+        broker_cpu,
+        pids: &pids,
+    };
     // Rounds interleave the systems, so a disturbance from outside hits all of
     // them alike; each system keeps its best round (losses: its worst).
     for round in 1..=args.rounds {
@@ -190,15 +254,24 @@ fn main() -> anyhow::Result<()> {
             let mut runs = Vec::new();
             if !args.no_relay {
                 eprintln!("throughput ({tag}): raw UDP relay");
-                let f = relay_fanout(&args, n, settle, duration, broker_cpu)?;
+                let f = relay_fanout(&ctx, n, false)?;
                 runs.push(report::Run::new(report::RELAY, report::Kind::Relay, f));
             }
+            if args.relay_gso {
+                eprintln!("throughput ({tag}): raw UDP relay with GSO");
+                let f = relay_fanout(&ctx, n, true)?;
+                runs.push(report::Run::new(
+                    report::RELAY_GSO,
+                    report::Kind::Experiment,
+                    f,
+                ));
+            }
             eprintln!("throughput ({tag}): colony hub");
-            let (hub, hub_drops) = hub_fanout(&args, &config, n, settle, duration, broker_cpu)?;
+            let (hub, hub_drops) = hub_fanout(&ctx, &config, n)?;
             runs.push(report::Run::new(report::HUB, report::Kind::Hub, hub));
             for (name, b) in &brokers {
                 eprintln!("throughput ({tag}): {name}");
-                let f = mqtt_fanout(&args, b, n, settle, duration)?;
+                let f = mqtt_fanout(&ctx, b, n)?;
                 runs.push(report::Run::new(name, report::Kind::Mqtt, f));
             }
             let row = report::Row {
@@ -226,6 +299,7 @@ fn main() -> anyhow::Result<()> {
         warmup: args.warmup,
         duration: args.duration,
         rounds: args.rounds,
+        quiet_wait: args.quiet_wait,
         window: args.window,
         recv_threads: args.recv_threads,
         rcvbuf: args.rcvbuf,
@@ -262,48 +336,26 @@ fn find_program(program: &std::path::Path) -> Option<PathBuf> {
 }
 
 fn hub_fanout(
-    args: &Args,
+    ctx: &Ctx<'_>,
     config: &HubConfig,
     n: usize,
-    settle: Duration,
-    duration: Duration,
-    cpu: Option<usize>,
 ) -> anyhow::Result<(Fanout, hub::HubDrops)> {
-    let hub = HubThread::start(config.clone(), cpu)?;
+    let hub = HubThread::start(config.clone(), ctx.broker_cpu)?;
     let mut subs: Vec<Box<dyn Subscriber>> = Vec::with_capacity(n);
     for _ in 0..n {
         let sock = UdpSocket::bind("127.0.0.1:0")?;
-        sys::set_rcvbuf(&sock, args.rcvbuf)?;
+        sys::set_rcvbuf(&sock, ctx.args.rcvbuf)?;
         sock.connect(hub.addr)?;
         subscribe_udp(&sock, payload::CHANNEL)?;
         subs.push(Box::new(UdpSub::new(sock)?));
     }
     let mut publisher = UdpPub::new(hub.addr)?;
-    let cpu = || hub.cpu();
-    let probe = CpuProbe {
-        broker: &cpu,
-        broker_in_process: true,
-    };
-    let run = throughput::run(
-        &mut publisher,
-        subs,
-        args.recv_threads,
-        args.window,
-        settle,
-        duration,
-        &probe,
-    )?;
+    let run = ctx.run(&mut publisher, subs, &|| hub.cpu(), true)?;
     let drops = hub.stop()?;
     Ok((run, drops))
 }
 
-fn mqtt_fanout(
-    args: &Args,
-    broker: &mqtt::Mosquitto,
-    n: usize,
-    settle: Duration,
-    duration: Duration,
-) -> anyhow::Result<Fanout> {
+fn mqtt_fanout(ctx: &Ctx<'_>, broker: &mqtt::Mosquitto, n: usize) -> anyhow::Result<Fanout> {
     let mut subs: Vec<Box<dyn Subscriber>> = Vec::with_capacity(n);
     for i in 0..n {
         let mut conn = mqtt::Conn::connect(broker.addr, &format!("bench-sub-{n}-{i}"))?;
@@ -312,33 +364,14 @@ fn mqtt_fanout(
     }
     let mut publisher = MqttPub::new(mqtt::Conn::connect(broker.addr, &format!("bench-pub-{n}"))?);
     let pid = broker.pid();
-    let cpu = move || sys::process_cpu(pid);
-    let probe = CpuProbe {
-        broker: &cpu,
-        broker_in_process: false,
-    };
-    Ok(throughput::run(
-        &mut publisher,
-        subs,
-        args.recv_threads,
-        args.window,
-        settle,
-        duration,
-        &probe,
-    )?)
+    Ok(ctx.run(&mut publisher, subs, &|| sys::process_cpu(pid), false)?)
 }
 
-fn relay_fanout(
-    args: &Args,
-    n: usize,
-    settle: Duration,
-    duration: Duration,
-    cpu: Option<usize>,
-) -> anyhow::Result<Fanout> {
+fn relay_fanout(ctx: &Ctx<'_>, n: usize, gso: bool) -> anyhow::Result<Fanout> {
     let socks = (0..n)
         .map(|_| {
             let sock = UdpSocket::bind("127.0.0.1:0")?;
-            sys::set_rcvbuf(&sock, args.rcvbuf)?;
+            sys::set_rcvbuf(&sock, ctx.args.rcvbuf)?;
             Ok(sock)
         })
         .collect::<std::io::Result<Vec<_>>>()?;
@@ -346,27 +379,14 @@ fn relay_fanout(
         .iter()
         .map(|s| s.local_addr())
         .collect::<std::io::Result<Vec<_>>>()?;
-    let relay = relay::RelayThread::start(dests, cpu)?;
+    let relay = relay::RelayThread::start(dests, ctx.broker_cpu, gso)?;
     let mut subs: Vec<Box<dyn Subscriber>> = Vec::with_capacity(n);
     for sock in socks {
         sock.connect(relay.addr)?;
         subs.push(Box::new(UdpSub::new(sock)?));
     }
     let mut publisher = UdpPub::new(relay.addr)?;
-    let cpu = || relay.cpu();
-    let probe = CpuProbe {
-        broker: &cpu,
-        broker_in_process: true,
-    };
-    let run = throughput::run(
-        &mut publisher,
-        subs,
-        args.recv_threads,
-        args.window,
-        settle,
-        duration,
-        &probe,
-    )?;
+    let run = ctx.run(&mut publisher, subs, &|| relay.cpu(), true)?;
     relay.stop()?;
     Ok(run)
 }

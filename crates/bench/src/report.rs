@@ -15,6 +15,8 @@ pub const RAW: &str = "raw UDP relay (floor)";
 pub const HUB: &str = "colony hub";
 /// The name of the floor row in the throughput table.
 pub const RELAY: &str = "raw UDP relay (floor)";
+/// The name of the GSO experiment's row.
+pub const RELAY_GSO: &str = "raw UDP relay with GSO (experiment)";
 /// A subsection the tool never writes and always keeps: the hand-written analysis.
 const ANALYSIS: &str = "### Analysis";
 
@@ -82,6 +84,8 @@ pub fn loadavg() -> String {
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
     Relay,
+    /// A variant shown for information only (the GSO relay).
+    Experiment,
     Hub,
     Mqtt,
 }
@@ -181,6 +185,7 @@ pub struct Report<'a> {
     pub warmup: usize,
     pub duration: f64,
     pub rounds: usize,
+    pub quiet_wait: f64,
     pub window: u64,
     pub recv_threads: usize,
     pub rcvbuf: usize,
@@ -260,8 +265,9 @@ pub fn render(r: &Report<'_>) -> String {
     let _ = writeln!(
         w,
         "Measured with `{}`, which builds `cargo build --release -p colony-bench`, starts and \
-         stops its own Mosquitto, runs `target/release/hub-bench` and rewrites this section \
-         (the rest of the file is kept).\n",
+         stops its own Mosquitto, runs `target/release/hub-bench` and rewrites this section, \
+         except a hand-written `### Analysis` at its end, which it keeps (the rest of the file \
+         is kept too).\n",
         r.command
     );
     let _ = writeln!(
@@ -359,19 +365,23 @@ pub fn render(r: &Report<'_>) -> String {
          N − packets received, counted after the run. \
          CPU is in % of one core: the broker's (the hub's thread, or the mosquitto process) \
          and the measuring side's (publisher + receivers); CPU per delivery is the broker's \
-         CPU time over packets delivered.\n",
+         CPU time over packets delivered. Each run waits (up to {:.0} s) for other processes to \
+         use under 10 % of the machine before it starts; *outside load* is what they used \
+         during the run, in % of both cores, since on a shared machine that takes cycles \
+         from the pinned threads.\n",
         r.rcvbuf >> 20,
         r.recv_threads,
         r.window,
         r.placement,
         r.duration,
-        r.rounds
+        r.rounds,
+        r.quiet_wait
     );
     let _ = writeln!(
         w,
-        "| fan-out | broker | delivered/s | loss | broker CPU | broker CPU per delivery | measuring side CPU | ÷ best Mosquitto |"
+        "| fan-out | broker | delivered/s | loss | broker CPU | broker CPU per delivery | measuring side CPU | outside load | ÷ best Mosquitto |"
     );
-    let _ = writeln!(w, "|---:|---|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(w, "|---:|---|---:|---:|---:|---:|---:|---:|---:|");
     for row in r.fanout {
         let best = row.best_mqtt();
         for run in &row.runs {
@@ -388,7 +398,7 @@ pub fn render(r: &Report<'_>) -> String {
             };
             let _ = writeln!(
                 w,
-                "| {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 row.subscribers,
                 name,
                 thousands(f.rate),
@@ -396,9 +406,29 @@ pub fn render(r: &Report<'_>) -> String {
                 cpu(f.broker_cpu_pct),
                 per_delivery(run),
                 cpu(f.bench_cpu_pct),
+                f.foreign_pct.map_or("–".into(), |p| format!("{p:.0} %")),
                 ratio
             );
         }
+    }
+    let _ = writeln!(
+        w,
+        "\nRows: *raw UDP relay (floor)* repeats each datagram to a fixed subscriber list with \
+         one `recvmmsg` per batch and one `sendmmsg` for batch × subscribers, no parsing and \
+         no routing: the floor for one datagram per delivery."
+    );
+    if r.fanout
+        .iter()
+        .any(|x| x.runs.iter().any(|run| run.kind == Kind::Experiment))
+    {
+        let _ = writeln!(
+            w,
+            "*{RELAY_GSO}* is not a peer but a what-if: the same relay sending each run of \
+             equal-length datagrams to a subscriber as one UDP GSO send (`UDP_SEGMENT`), which \
+             the kernel splits only when it delivers them. The benchmark's packets all have \
+             the same length, so it gains fully here; real traffic of mixed lengths would gain \
+             less."
+        );
     }
     let send_failed: u64 = r.fanout.iter().map(|x| x.hub_drops.send_failed).sum();
     let hub_drops: u64 = r.fanout.iter().map(|x| x.hub_drops.total).sum();
@@ -558,7 +588,7 @@ fn limits(w: &mut String, r: &Report<'_>) {
             .fanout
             .iter()
             .flat_map(|x| &x.runs)
-            .filter(|run| run.kind != Kind::Relay)
+            .filter(|run| matches!(run.kind, Kind::Hub | Kind::Mqtt))
             .filter_map(|run| f(&run.f))
             .collect();
         let lo = v.iter().cloned().fold(f64::INFINITY, f64::min);

@@ -358,3 +358,17 @@ fn ours(pids: &[u32]) -> Option<Duration> {
     }
     Some(total)
 }
+
+/// Waits, at most `limit`, until processes other than ours used less than
+/// `below` % of the machine over half a second. Returns the last share seen.
+pub fn wait_quiet(pids: &[u32], below: f64, limit: Duration) -> Option<f64> {
+    let end = std::time::Instant::now() + limit;
+    loop {
+        let f = Foreign::start(pids);
+        std::thread::sleep(Duration::from_millis(500));
+        let share = f.percent(pids);
+        if share.is_none_or(|s| s < below) || std::time::Instant::now() >= end {
+            return share;
+        }
+    }
+}

@@ -232,6 +232,8 @@ pub struct Fanout {
     pub stalls: u64,
     /// UDP datagrams the kernel dropped at a full receive buffer during the run.
     pub rcvbuf_drops: Option<u64>,
+    /// CPU used by other processes in the measured interval, in % of the machine.
+    pub foreign_pct: Option<f64>,
 }
 
 struct Shared {
@@ -296,6 +298,8 @@ pub struct CpuProbe<'a> {
     pub broker: &'a dyn Fn() -> Option<Duration>,
     /// Whether the broker is a thread of this process (its time is in ours).
     pub broker_in_process: bool,
+    /// Processes we started (brokers), whose CPU time is not outside load.
+    pub pids: &'a [u32],
 }
 
 fn own_cpu() -> Option<Duration> {
@@ -373,6 +377,7 @@ fn publish(
     let measure_from = t0 + warmup;
     let end = measure_from + duration;
     let mut start: Option<(Instant, u64, Option<Duration>, Option<Duration>)> = None;
+    let mut foreign: Option<sys::Foreign> = None;
     let mut sent = 0u64;
     let mut written_off = 0u64;
     let mut stalls = 0u64;
@@ -382,6 +387,7 @@ fn publish(
         let now = Instant::now();
         if start.is_none() && now >= measure_from {
             start = Some((now, shared.received(), (probe.broker)(), own_cpu()));
+            foreign = Some(sys::Foreign::start(probe.pids));
         }
         if now >= end {
             break;
@@ -411,6 +417,7 @@ fn publish(
         }
     }
     let stop = Instant::now();
+    let foreign_pct = foreign.and_then(|f| f.percent(probe.pids));
     let received_end = shared.received();
     let broker_end = (probe.broker)();
     let own_end = own_cpu();
@@ -444,5 +451,45 @@ fn publish(
         bench_cpu_pct,
         stalls,
         rcvbuf_drops: None,
+        foreign_pct,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hub::{subscribe_udp, HubThread};
+
+    #[test]
+    fn hub_fanout_counts_every_delivery() {
+        let hub = HubThread::start(colony_hub::HubConfig::default(), None).unwrap();
+        let mut subs: Vec<Box<dyn Subscriber>> = Vec::new();
+        for _ in 0..3 {
+            let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
+            sock.connect(hub.addr).unwrap();
+            subscribe_udp(&sock, payload::CHANNEL).unwrap();
+            subs.push(Box::new(UdpSub::new(sock).unwrap()));
+        }
+        let mut publisher = UdpPub::new(hub.addr).unwrap();
+        let none = || None;
+        let probe = CpuProbe {
+            broker: &none,
+            broker_in_process: true,
+            pids: &[],
+        };
+        let run = run(
+            &mut publisher,
+            subs,
+            2,
+            16,
+            Duration::from_millis(50),
+            Duration::from_millis(200),
+            &probe,
+        )
+        .unwrap();
+        hub.stop().unwrap();
+        assert_eq!(run.subscribers, 3);
+        assert!(run.sent > 0 && run.rate > 0.0);
+        assert_eq!(run.delivered, run.sent * 3, "loss {} %", run.loss_pct);
+    }
 }

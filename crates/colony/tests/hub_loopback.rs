@@ -284,3 +284,33 @@ fn a_flood_of_malformed_packets_does_not_stop_valid_traffic() {
         .unwrap();
     assert_eq!(vision.packets, sent);
 }
+
+#[test]
+fn a_burst_of_two_thousand_packets_is_taken_in_whole_by_the_hub() {
+    let hub = HubProcess::start(&[]);
+    let publisher = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let packet = b"@ <burst> 0\nping seq 1 pad \"xxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxx\"\n";
+    // Freeze the hub so the whole burst waits in its socket's buffer, as it
+    // does when many publishers send at once.
+    let signal = |sig: &str| {
+        let ok = std::process::Command::new("kill")
+            .args([sig, &hub.child.id().to_string()])
+            .status()
+            .unwrap()
+            .success();
+        assert!(ok, "kill {sig}");
+    };
+    signal("-STOP");
+    for _ in 0..2000 {
+        publisher.send_to(packet, hub.addr).unwrap();
+    }
+    signal("-CONT");
+    std::thread::sleep(Duration::from_millis(300));
+    let report = colony_status(hub.addr);
+    let burst = report
+        .channels
+        .iter()
+        .find(|c| c.subjects == "burst")
+        .map_or(0, |c| c.packets);
+    assert_eq!(burst, 2000, "the hub's socket dropped part of the burst");
+}

@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant, SystemTime};
 
 use crate::log::LogWriter;
-use crate::socket::{recv_batch, send_to_many, wait_readable, RecvBatch};
+use crate::socket::{enlarge_buffers, recv_batch, send_to_many, wait_readable, RecvBatch};
 use crate::{DropReason, Hub, HubConfig, Outcome};
 
 /// The hub on a UDP socket. It owns its loop only inside [`Server::run`];
@@ -18,6 +18,9 @@ pub struct Server {
     batch: RecvBatch,
 }
 
+/// Socket buffer the hub asks for: about 4,000 small datagrams of burst.
+const SOCKET_BUFFER: usize = 4 << 20;
+
 /// The longest [`Server::run`] sleeps before it looks at its stop flag.
 const STOP_CHECK: Duration = Duration::from_millis(100);
 
@@ -26,6 +29,14 @@ impl Server {
     pub fn bind(addr: impl ToSocketAddrs, config: HubConfig) -> io::Result<Server> {
         let socket = UdpSocket::bind(addr)?;
         socket.set_nonblocking(true)?;
+        let got = enlarge_buffers(&socket, SOCKET_BUFFER);
+        if got < SOCKET_BUFFER {
+            tracing::warn!(
+                bytes = got,
+                wanted = SOCKET_BUFFER,
+                "small socket buffer: raise net.core.rmem_max, or bursts will be dropped"
+            );
+        }
         Ok(Server {
             socket,
             hub: Hub::new(config, Instant::now()),

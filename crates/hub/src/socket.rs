@@ -38,6 +38,60 @@ impl RecvBatch {
     }
 }
 
+/// Asks for `bytes` of receive and send buffer: a hub takes bursts from many
+/// publishers at once, and the default (about 208 KiB, some 200 small
+/// datagrams) drops them at its own socket. The kernel caps the request at
+/// `net.core.rmem_max`; a privileged process may exceed that cap, so that is
+/// tried next. Returns the receive buffer size in force.
+pub(crate) fn enlarge_buffers(sock: &UdpSocket, bytes: usize) -> usize {
+    let set = |opt: libc::c_int, value: libc::c_int| {
+        // SAFETY: `value` is a live c_int and the length passed is its size,
+        // which is what these SOL_SOCKET options read.
+        unsafe {
+            libc::setsockopt(
+                sock.as_raw_fd(),
+                libc::SOL_SOCKET,
+                opt,
+                (&value as *const libc::c_int).cast(),
+                std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+            ) == 0
+        }
+    };
+    let want = bytes.min(i32::MAX as usize) as libc::c_int;
+    for (plain, forced) in [
+        (libc::SO_RCVBUF, libc::SO_RCVBUFFORCE),
+        (libc::SO_SNDBUF, libc::SO_SNDBUFFORCE),
+    ] {
+        set(plain, want);
+        if buffer_size(sock, plain) < bytes {
+            set(forced, want);
+        }
+    }
+    buffer_size(sock, libc::SO_RCVBUF)
+}
+
+fn buffer_size(sock: &UdpSocket, opt: libc::c_int) -> usize {
+    let mut value: libc::c_int = 0;
+    let mut len = std::mem::size_of::<libc::c_int>() as libc::socklen_t;
+    // SAFETY: `value` and `len` are live and `len` holds `value`'s size, as
+    // getsockopt requires; it writes at most that many bytes.
+    let r = unsafe {
+        libc::getsockopt(
+            sock.as_raw_fd(),
+            libc::SOL_SOCKET,
+            opt,
+            (&mut value as *mut libc::c_int).cast(),
+            &mut len,
+        )
+    };
+    // Linux reports double the size asked for (it counts its bookkeeping).
+    if r == 0 {
+        (value.max(0) as usize) / 2
+    } else {
+        0
+    }
+}
+
 /// Waits until the socket is readable or `timeout` passes; true if readable.
 pub(crate) fn wait_readable(sock: &UdpSocket, timeout: Duration) -> io::Result<bool> {
     let mut pfd = libc::pollfd {
