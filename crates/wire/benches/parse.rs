@@ -63,6 +63,19 @@ fn large_packet(vision: &[u8]) -> Vec<u8> {
     out.into_bytes()
 }
 
+/// The same frame as JSON, the usual alternative, for the peer measurement.
+fn vision_json(vision: &[u8]) -> Vec<u8> {
+    let p = Packet::parse(vision).unwrap();
+    let lines: Vec<String> = p
+        .lines()
+        .map(|l| {
+            let fields: Vec<String> = l.fields().map(|f| format!("\"{}\":{}", f.name, f.value.as_f64().unwrap())).collect();
+            format!("{{\"label\":\"{}\",{}}}", l.label(), fields.join(","))
+        })
+        .collect();
+    format!("{{\"subjects\":[\"vision_out\"],\"priority\":0,\"lines\":[{}]}}", lines.join(",")).into_bytes()
+}
+
 /// Parses and reads every field of every line as a number.
 fn parse_and_read(bytes: &[u8]) -> f64 {
     let p = Packet::parse(bytes).unwrap();
@@ -105,6 +118,18 @@ fn bench(c: &mut Criterion) {
         });
         g.finish();
     }
+
+    // The peer: the same frame as JSON through serde_json into a `Value`,
+    // numbers converted as `parse_and_read_f64` converts them.
+    let json = vision_json(&vision);
+    assert!(serde_json::from_slice::<serde_json::Value>(&json).is_ok());
+    eprintln!("vision frame as JSON: {} bytes", json.len());
+    let mut g = c.benchmark_group("peer/vision_json");
+    g.throughput(Throughput::Bytes(json.len() as u64));
+    g.bench_function("serde_json_value", |b| {
+        b.iter(|| serde_json::from_slice::<serde_json::Value>(black_box(&json)).unwrap())
+    });
+    g.finish();
 
     let mut g = c.benchmark_group("build/vision");
     g.throughput(Throughput::Bytes(vision.len() as u64));
