@@ -16,7 +16,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Run the hub, a simulated vision publisher and a subscriber, and show them talking.
+    /// Run a hub, the simulated swarm sorting live, and the monitor in the browser.
     Demo(cmd::demo::Args),
     /// Run the hub (the broker every colony process talks through).
     Hub(cmd::hub::Args),
@@ -24,6 +24,8 @@ enum Command {
     Pub(cmd::pubsub::PubArgs),
     /// Subscribe and print packets as they arrive.
     Sub(cmd::pubsub::SubArgs),
+    /// Serve the system monitor: the arena, the hub and operator override in a browser.
+    Monitor(cmd::monitor::Args),
     /// Ask the hub for its clients, channels and drops.
     Status(cmd::status::Args),
     /// List a traffic log, filtered by channel and time.
@@ -49,6 +51,7 @@ fn main() -> ExitCode {
         Command::Hub(a) => cmd::hub::run(a),
         Command::Pub(a) => cmd::pubsub::publish(a),
         Command::Sub(a) => cmd::pubsub::subscribe(a),
+        Command::Monitor(a) => cmd::monitor::run(a),
         Command::Status(a) => cmd::status::run(a),
         Command::Log(a) => cmd::traffic::list(a),
         Command::Replay(a) => cmd::traffic::replay(a),

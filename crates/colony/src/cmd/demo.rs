@@ -1,127 +1,138 @@
-//! `colony demo`: a hub, a simulated overhead-camera publisher and a
-//! subscriber in one process, so a newcomer sees the system work.
+//! `colony demo`: the whole system on one machine. A hub (in this
+//! process), the simulated swarm sorting pucks with CACHECONS in the
+//! standard configuration in live mode (a `colony sort live` child process,
+//! each robot's controller a hub client of its own), and the monitor in the
+//! browser. Ctrl-C, or `--seconds`, stops all three.
 
-use std::f64::consts::TAU;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use colony_hub::{HubConfig, Server};
-use colony_wire::{PacketBuilder, Priority};
+use colony_monitor::{Monitor, MonitorConfig};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Where the demo's hub listens.
-    #[arg(long, default_value = "127.0.0.1:7400", value_name = "HOST:PORT")]
-    pub bind: String,
+    #[arg(
+        long = "hub-bind",
+        alias = "bind",
+        default_value = "127.0.0.1:7400",
+        value_name = "HOST:PORT"
+    )]
+    pub hub_bind: String,
+    /// Where the monitor serves its page.
+    #[arg(long = "monitor-bind", default_value = "127.0.0.1:8080", value_name = "HOST:PORT")]
+    pub monitor_bind: String,
+    /// How many times faster than real time the world runs.
+    #[arg(long, default_value_t = 1.0)]
+    pub speed: f64,
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long)]
     pub seconds: Option<f64>,
 }
 
-/// Vision frames per second, as an overhead camera delivers them.
-const FRAME_RATE: f64 = 30.0;
+/// The live simulator, killed (and waited for) however the demo ends.
+struct Simulator(Child);
+
+impl Drop for Simulator {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut server = Server::bind(args.bind.as_str(), HubConfig::default())
-        .with_context(|| format!("cannot start the demo's hub on `{}` (is a hub already running? try --bind 127.0.0.1:7401)", args.bind))?;
-    let hub_addr = server.local_addr()?;
-    let stop = super::stop_flag()?;
+    if !(args.speed.is_finite() && args.speed > 0.0) {
+        anyhow::bail!("--speed must be a positive number, not {}", args.speed);
+    }
     if let Some(s) = args.seconds {
         if !(s.is_finite() && s > 0.0) {
-            anyhow::bail!("--seconds must be a positive number");
+            anyhow::bail!("--seconds must be a positive number of seconds");
         }
-        let stop = stop.clone();
-        std::thread::spawn(move || {
-            std::thread::sleep(Duration::from_secs_f64(s));
-            stop.store(true, Ordering::Relaxed);
-        });
     }
+    let mut server = Server::bind(args.hub_bind.as_str(), HubConfig::default()).with_context(|| {
+        format!(
+            "cannot start the demo's hub on `{}` (is a hub already running there? choose another port with --hub-bind)",
+            args.hub_bind
+        )
+    })?;
+    let hub_addr = server.local_addr()?;
+    let stop = super::stop_flag()?;
     let hub_stop = stop.clone();
-    let hub = std::thread::spawn(move || server.run(&hub_stop));
-    let camera_stop = stop.clone();
-    let camera = std::thread::spawn(move || camera(hub_addr, camera_stop));
-    println!(
-        "colony demo: hub on {hub_addr}; publishing <vision_out> at {FRAME_RATE} Hz; Ctrl-C stops"
-    );
-    let shown = watch(hub_addr, &stop);
+    let hub = std::thread::Builder::new()
+        .name("demo-hub".into())
+        .spawn(move || server.run(&hub_stop))?;
+    let result = run_with_hub(&args, hub_addr, &stop);
     stop.store(true, Ordering::Relaxed);
-    camera
+    let hub_result = hub
         .join()
-        .map_err(|_| anyhow::anyhow!("the camera thread panicked"))??;
-    hub.join()
-        .map_err(|_| anyhow::anyhow!("the hub thread panicked"))??;
-    let shown = shown?;
-    println!("colony demo: received {shown} vision packets; bye");
+        .map_err(|_| anyhow::anyhow!("the hub thread panicked"))?;
+    result?;
+    hub_result.context("the demo's hub failed")?;
+    println!("colony demo: stopped");
     Ok(())
 }
 
-/// A simulated overhead camera: a ball and ten robots moving on circles.
-fn camera(hub: std::net::SocketAddr, stop: Arc<AtomicBool>) -> anyhow::Result<()> {
-    let mut client = colony_client::UdpClient::connect(hub)?;
-    let start = Instant::now();
-    let period = Duration::from_secs_f64(1.0 / FRAME_RATE);
-    let mut frame = 0u64;
-    while !stop.load(Ordering::Relaxed) {
-        let t = start.elapsed().as_secs_f64();
-        client.publish(&vision_packet(frame, t))?;
-        frame += 1;
-        let next = start + period.mul_f64(frame as f64);
-        std::thread::sleep(next.saturating_duration_since(Instant::now()));
-    }
-    Ok(())
-}
-
-/// One RoboCup-style vision frame at time `t` seconds.
-pub fn vision_packet(frame: u64, t: f64) -> Vec<u8> {
-    let mut p = PacketBuilder::new(["vision_out"], Priority(0));
-    p.line("frame").field("n", frame).field("t", round(t));
-    p.line("ball")
-        .field("x", round(60.0 * (t * 0.7).cos()))
-        .field("y", round(40.0 * (t * 1.1).sin()));
-    for (team, sign) in [("blue", -1.0), ("yellow", 1.0)] {
-        for id in 0..5 {
-            let phase = t * 0.4 + id as f64 * TAU / 5.0;
-            let (x, y) = (sign * (70.0 + 20.0 * phase.cos()), 50.0 * phase.sin());
-            p.line(team)
-                .field("id", id)
-                .field("x", round(x))
-                .field("y", round(y))
-                .field("xh", round(-phase.sin()))
-                .field("yh", round(phase.cos()));
-        }
-    }
-    p.line("latency").field("millis", 12);
-    p.finish().expect("the demo's packets are well formed")
-}
-
-fn round(v: f64) -> f64 {
-    (v * 100.0).round() / 100.0
-}
-
-/// Subscribes and prints a frame every second, with the rate seen.
-fn watch(hub: std::net::SocketAddr, stop: &AtomicBool) -> anyhow::Result<u64> {
-    let mut client = colony_client::UdpClient::connect(hub)?;
-    client.subscribe("vision_out")?;
-    let mut total = 0u64;
-    let mut in_second = 0u64;
-    let mut next_report = Instant::now() + Duration::from_secs(1);
-    while !stop.load(Ordering::Relaxed) {
-        client.wait(Some(
-            next_report.min(Instant::now() + Duration::from_millis(100)),
-        ))?;
-        client.poll(Instant::now())?;
-        while let Some(packet) = client.recv()? {
-            total += 1;
-            in_second += 1;
-            if Instant::now() >= next_report {
-                println!("--- {in_second} packets in the last second; the latest:");
-                print!("{packet}");
-                in_second = 0;
-                next_report += Duration::from_secs(1);
+fn run_with_hub(
+    args: &Args,
+    hub_addr: std::net::SocketAddr,
+    stop: &std::sync::atomic::AtomicBool,
+) -> anyhow::Result<()> {
+    let monitor = Monitor::start(&MonitorConfig {
+        hub: hub_addr.to_string(),
+        bind: args.monitor_bind.clone(),
+    })
+    .map_err(|e| match e {
+        colony_monitor::MonitorError::Bind { addr, source } => anyhow::anyhow!(
+            "cannot serve the monitor on `{addr}`: {source} (is another monitor running? choose another port with --monitor-bind)"
+        ),
+        e => e.into(),
+    })?;
+    let exe = std::env::current_exe().context("cannot find the colony executable")?;
+    let child = Command::new(exe)
+        .args([
+            "sort",
+            "live",
+            "--method",
+            "cachecons",
+            "--controllers",
+            "thread",
+            "--hub",
+            &hub_addr.to_string(),
+            "--speed",
+            &args.speed.to_string(),
+        ])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .spawn()
+        .context("cannot start the live simulator (`colony sort live`)")?;
+    let mut simulator = Simulator(child);
+    println!(
+        "colony demo: open {} (hub on {hub_addr}; CACHECONS, 4 robots and 40 pucks, {}x real time); Ctrl-C stops",
+        monitor.url(),
+        args.speed
+    );
+    let deadline = args
+        .seconds
+        .map(|s| Instant::now() + Duration::from_secs_f64(s));
+    let mut outcome = Ok(());
+    while !stop.load(Ordering::Relaxed) && deadline.is_none_or(|d| Instant::now() < d) {
+        if let Some(status) = simulator.0.try_wait()? {
+            // Ctrl-C reaches the child too; only an exit of its own is an error.
+            if !stop.load(Ordering::Relaxed) {
+                outcome = Err(anyhow::anyhow!("the live simulator stopped: {status}"));
             }
+            break;
         }
+        if !monitor.is_running() {
+            outcome = Err(anyhow::anyhow!("the monitor stopped"));
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(100));
     }
-    Ok(total)
+    drop(simulator);
+    monitor.shutdown()?;
+    outcome
 }

@@ -2,6 +2,7 @@
 
 pub mod demo;
 pub mod hub;
+pub mod monitor;
 pub mod pubsub;
 pub mod sort;
 pub mod status;

@@ -16,8 +16,10 @@
 //! robot id 2 state "HOMING" tx 40.0 ty 20.0
 //! cache id 2 kind 0 x 40.0 y 20.0
 //!
-//! @ <vision> 0                         the whole world (split into parts for big swarms)
+//! @ <vision> 20                        the whole world (split into parts for big swarms)
 //! step n 1200 part 0 parts 1
+//! arena width 187 height 187 corner 15  (first part only: the walls and body sizes, cm)
+//! sizes robot_length 12.5 robot_width 10.8 puck_diameter 6.3
 //! robot id 0 x 12.5 y -40.1 theta 1.57 carrying 7
 //! puck id 7 kind 0 x 20.0 y -38.0
 //!
@@ -226,15 +228,36 @@ pub fn debug_packet(
 /// Largest vision part we write: well inside one datagram.
 const VISION_PART_BUDGET: usize = 60_000;
 
+/// The priority of `vision`: above any controller's or operator's, so that
+/// an operator raising the hub's minimum priority to silence the controllers
+/// (the Broker paper's override) still sees the world.
+pub const VISION_PRIORITY: Priority = Priority(20);
+
 /// The world's global state for one step, as an overhead camera would
 /// publish it: one packet, or several when a large swarm would not fit in a
-/// datagram. Each part starts `step n N part I parts P` and stands alone.
+/// datagram. Each part starts `step n N part I parts P` and stands alone; the
+/// first also gives the arena's size (`arena width W height H corner R`) and
+/// the bodies' (`sizes robot_length L robot_width W puck_diameter D`), so a
+/// monitor can draw to scale.
 pub fn vision_packets(
     step: u64,
+    scene: &colony_sim::SceneConfig,
     robots: &[colony_sim::RobotState],
     pucks: &[colony_sim::Puck],
 ) -> Result<Vec<Vec<u8>>, ParseError> {
-    let mut lines: Vec<String> = Vec::with_capacity(robots.len() + pucks.len());
+    let mut lines: Vec<String> = Vec::with_capacity(robots.len() + pucks.len() + 2);
+    lines.push(format!(
+        "arena width {} height {} corner {}",
+        r(scene.arena.width),
+        r(scene.arena.height),
+        r(scene.arena.corner_radius)
+    ));
+    lines.push(format!(
+        "sizes robot_length {} robot_width {} puck_diameter {}",
+        r(scene.robots.length),
+        r(scene.robots.width),
+        r(scene.pucks.diameter)
+    ));
     for rb in robots {
         let mut l = format!(
             "robot id {} x {} y {} theta {}",
@@ -272,7 +295,7 @@ pub fn vision_packets(
         .iter()
         .enumerate()
         .map(|(i, chunk)| {
-            let mut p = PacketBuilder::new([VISION], Priority(0));
+            let mut p = PacketBuilder::new([VISION], VISION_PRIORITY);
             p.line("step")
                 .field("n", step)
                 .field("part", i)
@@ -375,7 +398,8 @@ mod tests {
                 pos: Vec2::new(-123.45, 67.89),
             })
             .collect();
-        let parts = vision_packets(9, &robots, &pucks).unwrap();
+        let scene = colony_sim::SceneConfig::scaled(256);
+        let parts = vision_packets(9, &scene, &robots, &pucks).unwrap();
         assert!(parts.len() >= 2);
         let (mut robots_seen, mut pucks_seen) = (0, 0);
         for (i, bytes) in parts.iter().enumerate() {
@@ -394,6 +418,12 @@ mod tests {
             pucks_seen += p.lines_labelled("puck").count();
         }
         assert_eq!((robots_seen, pucks_seen), (256, 2560));
+        let first = Packet::parse(&parts[0]).unwrap();
+        let arena = first.line("arena").unwrap();
+        assert_eq!(arena.f64("width").unwrap(), (scene.arena.width * 100.0).round() / 100.0);
+        assert_eq!(arena.f64("corner").unwrap(), 15.0);
+        assert!(first.line("sizes").is_some());
+        assert_eq!(first.priority(), VISION_PRIORITY);
     }
 
     #[test]

@@ -145,7 +145,7 @@ pub fn run(
 fn publish_step(world: &World, client: &mut UdpClient) -> Result<(), LiveError> {
     let step = world.step_count();
     let robots = world.robots();
-    for part in codec::vision_packets(step, &robots, &world.pucks())? {
+    for part in codec::vision_packets(step, world.config(), &robots, &world.pucks())? {
         client.publish(&part)?;
     }
     for rb in robots.iter() {
