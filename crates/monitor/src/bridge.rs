@@ -1,0 +1,250 @@
+//! The hub side: a thread of its own that owns two hub clients and the
+//! [`MonitorState`], so nothing in the web server ever blocks on a socket.
+//!
+//! - The *data* client subscribes to `vision`, `debug`, `metrics`, `radio`
+//!   and every channel the hub's status report names (up to
+//!   [`EXTRA_CHANNELS`] more), so the hub view can show each one's last packet.
+//! - The *control* client holds a lease on [`LEASE_CHANNEL`] (the hub answers
+//!   `status` only to a client with a lease), asks for status every second,
+//!   sends minimum-priority requests, and publishes the operator's packets.
+//!
+//! The web side reads snapshots from two `watch` channels (the latest value
+//! only: a slow browser never builds a queue) and sends requests over a
+//! bounded channel, each with a one-shot for its answer.
+
+use std::collections::BTreeSet;
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, TryRecvError};
+use std::sync::Arc;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use colony_client::UdpClient;
+use colony_wire::{Packet, Reply, Request, HUB_SUBJECT};
+use tokio::sync::{oneshot, watch};
+
+use crate::state::{Command, MonitorState, CORE_CHANNELS};
+
+/// The channel the control client leases, so the hub will answer `status`.
+pub const LEASE_CHANNEL: &str = "colony-monitor";
+/// Channels subscribed to beyond the core ones, at most (a hub allows 256 per client).
+pub const EXTRA_CHANNELS: usize = 64;
+/// The world snapshot is sent at most this often...
+const WORLD_EVERY: Duration = Duration::from_millis(33);
+/// ...and at least this often, so staleness shows even when nothing arrives.
+const WORLD_AT_LEAST: Duration = Duration::from_millis(250);
+const STATUS_EVERY: Duration = Duration::from_secs(1);
+const HUB_VIEW_EVERY: Duration = Duration::from_secs(1);
+/// Held robots are commanded on every new frame, and at least this often.
+const OVERRIDE_EVERY: Duration = Duration::from_millis(80);
+/// The longest the loop sleeps, so browser requests are taken promptly.
+const TICK: Duration = Duration::from_millis(10);
+
+/// A browser's request on its way to the bridge, with where the answer goes.
+pub type Envelope = (Command, oneshot::Sender<Result<String, String>>);
+
+/// The bridge's two clients and its state, ready to run on a thread.
+pub struct Bridge {
+    data: UdpClient,
+    control: UdpClient,
+    state: MonitorState,
+    subscribed: BTreeSet<String>,
+    world_tx: watch::Sender<Arc<str>>,
+    hub_tx: watch::Sender<Arc<str>>,
+}
+
+/// The web side's ends of the bridge.
+pub struct Handles {
+    pub world: watch::Receiver<Arc<str>>,
+    pub hub: watch::Receiver<Arc<str>>,
+}
+
+impl Bridge {
+    /// Makes both clients for the hub at `hub` (nothing is sent yet).
+    pub fn connect(hub: SocketAddr) -> Result<(Bridge, Handles), colony_client::ClientError> {
+        let data = UdpClient::connect(hub)?;
+        let control = UdpClient::connect(hub)?;
+        let now = Instant::now();
+        let wall = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map_or(0, |d| d.as_millis() as u64);
+        let state = MonitorState::new(now, wall);
+        let (world_tx, world) = watch::channel(Arc::from(state.world_json(now)));
+        let (hub_tx, hub) = watch::channel(Arc::from(state.hub_json(now)));
+        Ok((
+            Bridge {
+                data,
+                control,
+                state,
+                subscribed: BTreeSet::new(),
+                world_tx,
+                hub_tx,
+            },
+            Handles { world, hub },
+        ))
+    }
+
+    fn subscribe(&mut self, subject: &str) {
+        if self.subscribed.contains(subject)
+            || self.subscribed.len() >= CORE_CHANNELS.len() + EXTRA_CHANNELS
+        {
+            return;
+        }
+        match self.data.subscribe(subject) {
+            Ok(()) => {
+                self.subscribed.insert(subject.to_owned());
+            }
+            Err(e) => tracing::debug!(subject, error = %e, "cannot subscribe"),
+        }
+    }
+
+    /// Runs until `stop`, then lets every held robot go, restores the hub's
+    /// minimum priority if it raised it, and drops its subscriptions.
+    pub fn run(mut self, requests: Receiver<Envelope>, stop: Arc<AtomicBool>) {
+        for c in CORE_CHANNELS {
+            self.subscribe(c);
+        }
+        if let Err(e) = self.control.subscribe(LEASE_CHANNEL) {
+            tracing::warn!(error = %e, "cannot take the monitor's lease");
+        }
+        let start = Instant::now();
+        let mut next_status = start;
+        let mut last_status_ask = start - STATUS_EVERY;
+        let mut next_override = start;
+        let mut override_version = 0;
+        let mut last_world = start;
+        let mut world_version = 0;
+        let mut next_hub_view = start;
+        while !stop.load(Ordering::Relaxed) {
+            let now = Instant::now();
+            let wake = [self.data.next_deadline(), self.control.next_deadline()]
+                .into_iter()
+                .flatten()
+                .fold(now + TICK, Instant::min);
+            if let Err(e) = self.data.wait(Some(wake)) {
+                tracing::warn!(error = %e, "waiting on the hub socket failed");
+                std::thread::sleep(TICK);
+            }
+            let now = Instant::now();
+            for c in [&mut self.data, &mut self.control] {
+                if let Err(e) = c.poll(now) {
+                    tracing::debug!(error = %e, "cannot reach the hub");
+                }
+            }
+            self.receive(now);
+            let mut new_status = false;
+            loop {
+                match self.control.recv_reply() {
+                    Ok(Some(Reply::Status(report))) => {
+                        self.state.on_status(now, report);
+                        new_status = true;
+                    }
+                    Ok(Some(Reply::Lease { .. })) => {}
+                    Ok(None) => break,
+                    Err(e) => {
+                        tracing::debug!(error = %e, "control socket");
+                        break;
+                    }
+                }
+            }
+            if new_status {
+                for subject in self.state.channels_seen() {
+                    self.subscribe(&subject);
+                }
+            }
+            loop {
+                match requests.try_recv() {
+                    Ok((command, answer)) => {
+                        let result = self.carry_out(now, command);
+                        let _ = answer.send(result);
+                    }
+                    Err(TryRecvError::Empty) => break,
+                    // The web server is gone: so are we.
+                    Err(TryRecvError::Disconnected) => {
+                        stop.store(true, Ordering::Relaxed);
+                        break;
+                    }
+                }
+            }
+            self.send_requests();
+            let ask_now = now >= next_status
+                || (self.state.wants_status() && now >= last_status_ask + Duration::from_millis(200));
+            if ask_now {
+                if let Err(e) = self.control.request(&[Request::Status]) {
+                    tracing::debug!(error = %e, "cannot ask for status");
+                }
+                last_status_ask = now;
+                next_status = now + STATUS_EVERY;
+            }
+            if !self.state.held().is_empty()
+                && (self.state.frame_version() != override_version || now >= next_override)
+            {
+                override_version = self.state.frame_version();
+                next_override = now + OVERRIDE_EVERY;
+                for p in self.state.override_packets(now) {
+                    if let Err(e) = self.control.publish(&p) {
+                        tracing::debug!(error = %e, "cannot publish an override");
+                    }
+                }
+            }
+            let since = now.saturating_duration_since(last_world);
+            if (self.state.frame_version() != world_version && since >= WORLD_EVERY)
+                || since >= WORLD_AT_LEAST
+            {
+                world_version = self.state.frame_version();
+                last_world = now;
+                self.world_tx
+                    .send_replace(Arc::from(self.state.world_json(now)));
+            }
+            if now >= next_hub_view || new_status {
+                next_hub_view = now + HUB_VIEW_EVERY;
+                self.hub_tx.send_replace(Arc::from(self.state.hub_json(now)));
+            }
+        }
+        for r in self.state.shutdown() {
+            let _ = self.control.request(&[r]);
+        }
+        let _ = self.data.unsubscribe_all();
+        let _ = self.control.unsubscribe_all();
+    }
+
+    /// Takes in what waits on the data socket (bounded, so the loop keeps turning).
+    fn receive(&mut self, now: Instant) {
+        for _ in 0..50_000 {
+            match self.data.recv() {
+                Ok(Some(packet)) => self.state.on_packet(now, &packet),
+                Ok(None) => return,
+                Err(e) => {
+                    tracing::debug!(error = %e, "data socket");
+                    return;
+                }
+            }
+        }
+    }
+
+    fn send_requests(&mut self) {
+        let requests = self.state.take_requests();
+        if !requests.is_empty() {
+            if let Err(e) = self.control.request(&requests) {
+                tracing::warn!(error = %e, "cannot send a request to the hub");
+            }
+        }
+    }
+
+    fn carry_out(&mut self, now: Instant, command: Command) -> Result<String, String> {
+        if let Command::Publish(bytes) = &command {
+            // Subscribe first, so the hub view shows the packet when it comes back.
+            let subjects: Vec<String> = match Packet::parse(bytes) {
+                Ok(p) => p.subjects().map(str::to_owned).collect(),
+                Err(e) => return Err(e.to_string()),
+            };
+            for s in subjects.iter().filter(|s| s.as_str() != HUB_SUBJECT) {
+                self.subscribe(s);
+            }
+            self.control
+                .publish(bytes)
+                .map_err(|e| format!("cannot publish: {e}"))?;
+        }
+        self.state.apply(now, command)
+    }
+}

@@ -1,0 +1,41 @@
+//! colony's system monitor: a web page that shows what the hub carries.
+//!
+//! The monitor is an ordinary hub client (two, in fact: one for data, one for
+//! control requests) and a small web server on 127.0.0.1. The page, plain
+//! HTML, CSS and JavaScript compiled into the binary, shows
+//!
+//! - the arena to scale: walls, pucks by colour, robots with their heading
+//!   and what they carry, cache points, and each controller's intentions
+//!   (FSM state and target) from the `debug` channel;
+//! - the hub: every channel with its rate and last packet, clients and their
+//!   subscriptions, drops by reason, and a box to forge and publish a packet;
+//! - the percentage completion of a sorting run over time;
+//! - a "stale since ..." banner when the hub or the vision falls silent.
+//!
+//! An operator can take control of one robot, a selection or all of them
+//! and drive them with the keyboard or send them to a clicked point. This is
+//! the Broker paper's override: the monitor publishes the held robots'
+//! commands on `radio` at priority [`state::OVERRIDE_PRIORITY`] (above the
+//! controllers' 0) every control step, and "take control of all" also raises
+//! the hub's minimum priority to that value, restoring the old one on release.
+//!
+//! [`state`] is the logic without sockets or clocks; the bridge thread feeds
+//! it from the hub; the web server (axum) hands snapshots to each browser tab.
+//!
+//! ```no_run
+//! let monitor = colony_monitor::Monitor::start(&colony_monitor::MonitorConfig {
+//!     hub: "127.0.0.1:7400".into(),
+//!     bind: "127.0.0.1:8080".into(),
+//! })?;
+//! println!("open {}", monitor.url());
+//! # monitor.shutdown()?;
+//! # Ok::<(), colony_monitor::MonitorError>(())
+//! ```
+
+mod bridge;
+pub mod protocol;
+mod server;
+pub mod state;
+
+pub use bridge::{EXTRA_CHANNELS, LEASE_CHANNEL};
+pub use server::{Monitor, MonitorConfig, MonitorError};

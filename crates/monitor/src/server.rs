@@ -1,0 +1,384 @@
+//! The web side: the page, its script and style (compiled into the binary),
+//! and one WebSocket per browser tab.
+//!
+//! Server to browser: `{"t":"world",...}` snapshots at most 30 times a
+//! second (coalesced: a slow tab gets the newest, never a backlog),
+//! `{"t":"hub",...}` about once a second, and `{"t":"reply",...}` answers.
+//! Browser to server: the requests of [`crate::protocol`].
+
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{sync_channel, SyncSender, TrySendError};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
+use axum::extract::State;
+use axum::http::header;
+use axum::response::{Html, IntoResponse, Response};
+use axum::routing::get;
+use axum::Router;
+use tokio::sync::{oneshot, watch};
+use tokio::time::Instant;
+
+use crate::bridge::{Bridge, Envelope};
+use crate::protocol::{kind_of, parse_message, ReplyJson, MAX_MESSAGE};
+
+const INDEX_HTML: &str = include_str!("../web/index.html");
+const APP_JS: &str = include_str!("../web/app.js");
+const STYLE_CSS: &str = include_str!("../web/style.css");
+
+/// The browser gets world snapshots at most this often.
+const MIN_SEND_INTERVAL: Duration = Duration::from_millis(33);
+/// Requests waiting for the bridge, at most.
+const REQUEST_QUEUE: usize = 256;
+
+/// Where the monitor listens and which hub it joins.
+#[derive(Debug, Clone)]
+pub struct MonitorConfig {
+    /// The hub's address, `HOST:PORT`.
+    pub hub: String,
+    /// Where the web server listens, `HOST:PORT` (port 0: any free one).
+    pub bind: String,
+}
+
+impl Default for MonitorConfig {
+    fn default() -> Self {
+        MonitorConfig {
+            hub: "127.0.0.1:7400".into(),
+            bind: "127.0.0.1:8080".into(),
+        }
+    }
+}
+
+/// Why the monitor could not start or stopped badly.
+#[derive(Debug, thiserror::Error)]
+pub enum MonitorError {
+    #[error("cannot listen on `{addr}`: {source} (is something else using that port? choose another with --bind)")]
+    Bind {
+        addr: String,
+        source: std::io::Error,
+    },
+    #[error("hub address `{addr}`: {source}")]
+    Hub {
+        addr: String,
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Client(#[from] colony_client::ClientError),
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    #[error("the monitor's {0} thread panicked")]
+    Panicked(&'static str),
+}
+
+#[derive(Clone)]
+struct App {
+    requests: SyncSender<Envelope>,
+    world: watch::Receiver<Arc<str>>,
+    hub: watch::Receiver<Arc<str>>,
+    shutdown: watch::Receiver<bool>,
+}
+
+/// A running monitor: the web server and the hub bridge, each on its own
+/// thread. [`shutdown`](Monitor::shutdown) (or dropping it) stops both.
+pub struct Monitor {
+    addr: SocketAddr,
+    hub: SocketAddr,
+    stop: Arc<AtomicBool>,
+    shutdown_tx: watch::Sender<bool>,
+    server: Option<JoinHandle<std::io::Result<()>>>,
+    bridge: Option<JoinHandle<()>>,
+}
+
+impl Monitor {
+    /// Binds the web server and joins the hub; returns once both are in place,
+    /// so a port already taken is an error here.
+    pub fn start(config: &MonitorConfig) -> Result<Monitor, MonitorError> {
+        let hub = resolve(&config.hub)?;
+        let listener =
+            std::net::TcpListener::bind(config.bind.as_str()).map_err(|source| MonitorError::Bind {
+                addr: config.bind.clone(),
+                source,
+            })?;
+        listener.set_nonblocking(true)?;
+        let addr = listener.local_addr()?;
+        let runtime = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .thread_name("monitor-web")
+            .enable_all()
+            .build()?;
+        let (bridge, handles) = Bridge::connect(hub)?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let (requests, requests_rx) = sync_channel(REQUEST_QUEUE);
+        let bridge_stop = stop.clone();
+        let bridge = std::thread::Builder::new()
+            .name("monitor-bridge".into())
+            .spawn(move || bridge.run(requests_rx, bridge_stop))?;
+        let (shutdown_tx, shutdown) = watch::channel(false);
+        let app = App {
+            requests,
+            world: handles.world,
+            hub: handles.hub,
+            shutdown: shutdown.clone(),
+        };
+        let server = std::thread::Builder::new()
+            .name("monitor-server".into())
+            .spawn(move || {
+                let result = runtime.block_on(serve(listener, app, shutdown));
+                runtime.shutdown_timeout(Duration::from_secs(1));
+                result
+            });
+        let server = match server {
+            Ok(s) => s,
+            Err(e) => {
+                stop.store(true, Ordering::Relaxed);
+                return Err(e.into());
+            }
+        };
+        Ok(Monitor {
+            addr,
+            hub,
+            stop,
+            shutdown_tx,
+            server: Some(server),
+            bridge: Some(bridge),
+        })
+    }
+
+    /// Where the web server listens.
+    pub fn local_addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// The hub the monitor joined.
+    pub fn hub_addr(&self) -> SocketAddr {
+        self.hub
+    }
+
+    /// The page's address.
+    pub fn url(&self) -> String {
+        format!("http://{}/", self.addr)
+    }
+
+    /// Whether both threads are still running.
+    pub fn is_running(&self) -> bool {
+        self.server.as_ref().is_some_and(|t| !t.is_finished())
+            && self.bridge.as_ref().is_some_and(|t| !t.is_finished())
+    }
+
+    /// Stops the web server and the bridge (which lets held robots go and
+    /// restores the hub's minimum priority), and waits for both.
+    pub fn shutdown(mut self) -> Result<(), MonitorError> {
+        self.stop_threads()
+    }
+
+    fn stop_threads(&mut self) -> Result<(), MonitorError> {
+        let _ = self.shutdown_tx.send(true);
+        self.stop.store(true, Ordering::Relaxed);
+        let mut result = Ok(());
+        if let Some(t) = self.bridge.take() {
+            if t.join().is_err() {
+                result = Err(MonitorError::Panicked("bridge"));
+            }
+        }
+        if let Some(t) = self.server.take() {
+            match t.join() {
+                Ok(Ok(())) => {}
+                Ok(Err(e)) => result = result.and(Err(MonitorError::Io(e))),
+                Err(_) => result = result.and(Err(MonitorError::Panicked("web server"))),
+            }
+        }
+        result
+    }
+}
+
+impl Drop for Monitor {
+    fn drop(&mut self) {
+        let _ = self.stop_threads();
+    }
+}
+
+fn resolve(addr: &str) -> Result<SocketAddr, MonitorError> {
+    use std::net::ToSocketAddrs as _;
+    addr.to_socket_addrs()
+        .and_then(|mut a| {
+            a.next().ok_or_else(|| {
+                std::io::Error::new(std::io::ErrorKind::NotFound, "no address found")
+            })
+        })
+        .map_err(|source| MonitorError::Hub {
+            addr: addr.to_owned(),
+            source,
+        })
+}
+
+async fn serve(
+    listener: std::net::TcpListener,
+    app: App,
+    mut shutdown: watch::Receiver<bool>,
+) -> std::io::Result<()> {
+    let listener = tokio::net::TcpListener::from_std(listener)?;
+    let router = Router::new()
+        .route("/", get(index))
+        .route("/index.html", get(index))
+        .route("/app.js", get(app_js))
+        .route("/style.css", get(style_css))
+        .route("/ws", get(ws))
+        .with_state(app);
+    axum::serve(listener, router)
+        .with_graceful_shutdown(async move {
+            let _ = shutdown.wait_for(|s| *s).await;
+        })
+        .await
+}
+
+async fn index() -> Html<&'static str> {
+    Html(INDEX_HTML)
+}
+
+async fn app_js() -> Response {
+    (
+        [
+            (header::CONTENT_TYPE, "text/javascript; charset=utf-8"),
+            (header::CACHE_CONTROL, "no-cache"),
+        ],
+        APP_JS,
+    )
+        .into_response()
+}
+
+async fn style_css() -> Response {
+    (
+        [
+            (header::CONTENT_TYPE, "text/css; charset=utf-8"),
+            (header::CACHE_CONTROL, "no-cache"),
+        ],
+        STYLE_CSS,
+    )
+        .into_response()
+}
+
+async fn ws(upgrade: WebSocketUpgrade, State(app): State<App>) -> Response {
+    upgrade
+        .max_message_size(MAX_MESSAGE)
+        .max_frame_size(MAX_MESSAGE)
+        .on_upgrade(move |socket| session(socket, app))
+}
+
+fn reply(to: Option<&str>, result: &Result<String, crate::protocol::Refusal>) -> String {
+    let r = match result {
+        Ok(msg) => ReplyJson {
+            t: "reply",
+            ok: true,
+            to,
+            msg,
+            line: None,
+            column: None,
+        },
+        Err(e) => ReplyJson {
+            t: "reply",
+            ok: false,
+            to,
+            msg: &e.message,
+            line: e.line,
+            column: e.column,
+        },
+    };
+    serde_json::to_string(&r).unwrap_or_else(|_| "{}".into())
+}
+
+/// Checks one browser message and hands it to the bridge; the answer is JSON.
+async fn handle(app: &App, text: &str) -> String {
+    let to = kind_of(text);
+    let command = match parse_message(text) {
+        Ok(c) => c,
+        Err(e) => return reply(to.as_deref(), &Err(e)),
+    };
+    let (tx, rx) = oneshot::channel();
+    let refusal = |m: &str| crate::protocol::Refusal {
+        message: m.into(),
+        line: None,
+        column: None,
+    };
+    match app.requests.try_send((command, tx)) {
+        Ok(()) => {}
+        Err(TrySendError::Full(_)) => {
+            return reply(to.as_deref(), &Err(refusal("the monitor is busy; try again")))
+        }
+        Err(TrySendError::Disconnected(_)) => {
+            return reply(to.as_deref(), &Err(refusal("the monitor is stopping")))
+        }
+    }
+    let answer = match tokio::time::timeout(Duration::from_secs(2), rx).await {
+        Ok(Ok(Ok(msg))) => Ok(msg),
+        Ok(Ok(Err(msg))) => Err(refusal(&msg)),
+        Ok(Err(_)) => Err(refusal("the monitor is stopping")),
+        Err(_) => Err(refusal("no answer from the hub bridge within 2 s")),
+    };
+    reply(to.as_deref(), &answer)
+}
+
+async fn session(mut socket: WebSocket, app: App) {
+    let mut world = app.world.clone();
+    let mut hub = app.hub.clone();
+    let mut shutdown = app.shutdown.clone();
+    // The newest of each, at once.
+    world.mark_changed();
+    hub.mark_changed();
+    let mut next_world = Instant::now();
+    loop {
+        tokio::select! {
+            incoming = socket.recv() => {
+                let text = match incoming {
+                    None | Some(Err(_)) | Some(Ok(Message::Close(_))) => break,
+                    Some(Ok(Message::Text(t))) => t,
+                    Some(Ok(Message::Binary(_))) => {
+                        let r = reply(None, &Err(crate::protocol::Refusal {
+                            message: "send JSON text, not binary".into(),
+                            line: None,
+                            column: None,
+                        }));
+                        if socket.send(Message::Text(r.into())).await.is_err() {
+                            break;
+                        }
+                        continue;
+                    }
+                    Some(Ok(_)) => continue,
+                };
+                let answer = handle(&app, text.as_str()).await;
+                if socket.send(Message::Text(answer.into())).await.is_err() {
+                    break;
+                }
+            }
+            changed = world.changed() => {
+                if changed.is_err() {
+                    break;
+                }
+                // At most 30 a second; whatever arrives meanwhile replaces the snapshot.
+                tokio::time::sleep_until(next_world).await;
+                let snapshot = world.borrow_and_update().clone();
+                if socket.send(Message::Text(snapshot.as_ref().into())).await.is_err() {
+                    break;
+                }
+                next_world = Instant::now() + MIN_SEND_INTERVAL;
+            }
+            changed = hub.changed() => {
+                if changed.is_err() {
+                    break;
+                }
+                let snapshot = hub.borrow_and_update().clone();
+                if socket.send(Message::Text(snapshot.as_ref().into())).await.is_err() {
+                    break;
+                }
+            }
+            changed = shutdown.changed() => {
+                if changed.is_err() || *shutdown.borrow_and_update() {
+                    let _ = socket.send(Message::Close(None)).await;
+                    break;
+                }
+            }
+        }
+    }
+}
