@@ -30,6 +30,43 @@ pub struct TrialSpec {
     pub sample_every: u64,
     /// Steps at which to keep a picture of the arena.
     pub snapshot_at: Vec<u64>,
+    /// Disturbances from the paper's supplementary experiments, each at a step.
+    pub disturbances: Vec<(u64, Disturbance)>,
+}
+
+/// Something done to the pucks from outside the swarm (the paper's
+/// supplementary experiments: other agents working on the same materials).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Disturbance {
+    /// Move the largest established cluster to the mirror image of its
+    /// place through the arena's centre, keeping its shape.
+    ShiftLargestCluster,
+    /// Put every puck at a new uniformly random place.
+    ReinsertPucks,
+}
+
+/// Applies a disturbance to the world; `rng` is the trial's own disturbance stream.
+fn disturb(
+    world: &mut World,
+    what: Disturbance,
+    threshold: f64,
+    rng: &mut ChaCha8Rng,
+) -> Result<(), ExperimentError> {
+    match what {
+        Disturbance::ShiftLargestCluster => {
+            let pucks = world.pucks();
+            let Some(largest) = crate::perception::global_clusters(&pucks, threshold)
+                .into_iter()
+                .max_by_key(|c| c.size())
+            else {
+                return Ok(());
+            };
+            let ids: Vec<_> = largest.members.iter().map(|m| pucks[m.index].id).collect();
+            world.shift_cluster(&ids, largest.centroid * -2.0);
+        }
+        Disturbance::ReinsertPucks => world.reinsert_pucks(rng)?,
+    }
+    Ok(())
 }
 
 /// The metrics at one sampled step.
@@ -99,7 +136,7 @@ pub enum ExperimentError {
 /// of the world's own stream.
 fn robot_rng(seed: u64, robot: usize) -> ChaCha8Rng {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    rng.set_stream(1 + robot as u64);
+    rng.set_stream((robot as u64).wrapping_add(1));
     rng
 }
 
@@ -149,7 +186,11 @@ pub fn run_trial(
     let mut snapshots = Vec::new();
     let mut commands = Vec::with_capacity(n);
     let mut reported = 0;
+    let mut disturbance_rng = robot_rng(spec.seed, usize::MAX - 1);
     for step in 0..=spec.steps {
+        for (_, what) in spec.disturbances.iter().filter(|(at, _)| *at == step) {
+            disturb(&mut world, *what, threshold, &mut disturbance_rng)?;
+        }
         if step % spec.sample_every == 0 || step == spec.steps || spec.snapshot_at.contains(&step) {
             let caches: Vec<_> = controllers.iter().map(|c| c.cache_points()).collect();
             if step % spec.sample_every == 0 || step == spec.steps {

@@ -62,6 +62,7 @@ pub fn specs(
                     } else {
                         Vec::new()
                     },
+                    disturbances: Vec::new(),
                 });
             }
         }

@@ -1,7 +1,7 @@
 //! Whole trials: the simulator, the controllers and the metrics together.
 
 use colony_sim::SceneConfig;
-use colony_sort::experiment::{run_trial, run_trials, write_csv, TrialSpec};
+use colony_sort::experiment::{run_trial, run_trials, write_csv, Disturbance, TrialSpec};
 use colony_sort::methods::Method;
 use colony_sort::params::SortParams;
 
@@ -14,6 +14,7 @@ fn spec(method: Method, seed: u64, steps: u64) -> TrialSpec {
         seed,
         sample_every: 100,
         snapshot_at: vec![0, steps],
+        disturbances: Vec::new(),
     }
 }
 
@@ -66,4 +67,34 @@ fn every_method_runs_a_short_trial_with_sane_metrics() {
         assert!((0.0..=1.0).contains(&r.twc), "{method}");
         assert_eq!(r.snapshots.len(), 2);
     }
+}
+
+#[test]
+fn reinserting_the_pucks_undoes_the_sorting_and_the_swarm_recovers() {
+    let mut s = spec(Method::CacheCons, 11, 3_000);
+    s.disturbances = vec![(2_000, Disturbance::ReinsertPucks)];
+    let r = run_trial(&s, &|_| {}).unwrap();
+    let pc_at = |step: u64| r.samples.iter().find(|x| x.step == step).unwrap().pc;
+    assert!(
+        pc_at(2_000) < pc_at(1_900),
+        "PC {} before, {} after the reinsertion",
+        pc_at(1_900),
+        pc_at(2_000)
+    );
+    assert!(pc_at(3_000) > pc_at(2_000), "the swarm sorts again");
+}
+
+#[test]
+fn shifting_the_largest_cluster_moves_it_whole() {
+    let mut s = spec(Method::CacheCons, 12, 1_500);
+    s.disturbances = vec![(1_500, Disturbance::ShiftLargestCluster)];
+    s.snapshot_at = vec![1_500];
+    let before = run_trial(&spec(Method::CacheCons, 12, 1_500), &|_| {}).unwrap();
+    let after = run_trial(&s, &|_| {}).unwrap();
+    // The shift happens at the last step: PC (the clusters' sizes) is unchanged, places are not.
+    assert_eq!(before.final_pc(), after.final_pc());
+    assert_ne!(
+        before.snapshots.last().unwrap().pucks,
+        after.snapshots.last().unwrap().pucks
+    );
 }

@@ -6,7 +6,7 @@ use std::sync::atomic::Ordering;
 
 use anyhow::Context as _;
 use colony_sim::SceneConfig;
-use colony_sort::experiment::{run_trials, write_csv, StepCounter, TrialSpec};
+use colony_sort::experiment::{run_trials, write_csv, Disturbance, StepCounter, TrialSpec};
 use colony_sort::methods::{build, Method};
 use colony_sort::params::SortParams;
 use colony_sort::report;
@@ -90,6 +90,12 @@ pub struct RunArgs {
     /// Where the CSV files go.
     #[arg(long, default_value = "sort-results")]
     pub out: PathBuf,
+    /// At this step, move the largest cluster to the other side of the arena.
+    #[arg(long, value_name = "STEP")]
+    pub shift_at: Vec<u64>,
+    /// At this step, put every puck at a new random place.
+    #[arg(long, value_name = "STEP")]
+    pub reinsert_at: Vec<u64>,
 }
 
 #[derive(clap::Args, Debug)]
@@ -219,6 +225,16 @@ fn run_cmd(a: RunArgs) -> anyhow::Result<()> {
             seed: a.seed + t,
             sample_every: 100.min(a.steps),
             snapshot_at: Vec::new(),
+            disturbances: a
+                .shift_at
+                .iter()
+                .map(|&at| (at, Disturbance::ShiftLargestCluster))
+                .chain(
+                    a.reinsert_at
+                        .iter()
+                        .map(|&at| (at, Disturbance::ReinsertPucks)),
+                )
+                .collect(),
         })
         .collect();
     let results = execute(&specs)?;
