@@ -7,6 +7,49 @@ use crate::error::{FieldError, FieldErrorKind, ParseError};
 use crate::scan::{self, Layout, Scanner, Tok};
 use crate::Priority;
 
+/// The typed getters lines and groups share: both are a list of fields
+/// with a [`Context`] that places errors.
+macro_rules! typed_getters {
+    ($ty:ident, $what:literal) => {
+        impl<'a> $ty<'a> {
+            #[doc = concat!("The value of the field called `name`, if the ", $what, " has one.")]
+            pub fn get(&self, name: &str) -> Option<Value<'a>> {
+                self.fields().find(|f| f.name == name).map(|f| f.value)
+            }
+
+            fn field(&self, name: &str) -> Result<Field<'a>, FieldError> {
+                self.fields()
+                    .find(|f| f.name == name)
+                    .ok_or_else(|| self.context().missing(name))
+            }
+
+            /// The field as a number (a bare token parsed as `f64`).
+            pub fn f64(&self, name: &str) -> Result<f64, FieldError> {
+                let f = self.field(name)?;
+                self.context().f64(&f)
+            }
+
+            /// The field as a 64-bit integer.
+            pub fn i64(&self, name: &str) -> Result<i64, FieldError> {
+                let f = self.field(name)?;
+                self.context().i64(&f)
+            }
+
+            /// The field as text: a bare token as written, a quoted string unescaped.
+            pub fn str(&self, name: &str) -> Result<Cow<'a, str>, FieldError> {
+                let f = self.field(name)?;
+                self.context().str(&f)
+            }
+
+            /// The field as a nested group.
+            pub fn group(&self, name: &str) -> Result<Group<'a>, FieldError> {
+                let f = self.field(name)?;
+                self.context().group(&f)
+            }
+        }
+    };
+}
+
 /// A parsed packet borrowing the datagram it was read from.
 ///
 /// Parsing checks the whole packet once; reading it afterwards never fails
@@ -210,11 +253,6 @@ impl<'a> Line<'a> {
         }
     }
 
-    /// The value of the field called `name`, if the line has one.
-    pub fn get(&self, name: &str) -> Option<Value<'a>> {
-        self.fields().find(|f| f.name == name).map(|f| f.value)
-    }
-
     fn context(&self) -> Context<'a> {
         Context {
             label: self.label,
@@ -224,42 +262,14 @@ impl<'a> Line<'a> {
         }
     }
 
-    fn field(&self, name: &str) -> Result<Field<'a>, FieldError> {
-        self.fields()
-            .find(|f| f.name == name)
-            .ok_or_else(|| self.context().missing(name))
-    }
-
     /// An error about a field of this line that reads but is out of range,
     /// placed like a getter's error: at the field's value.
     pub(crate) fn value_error(&self, field: &Field<'a>, kind: FieldErrorKind) -> FieldError {
         self.context().error(field.name, field.value_at, kind)
     }
-
-    /// The field as a number (bare token parsed as `f64`).
-    pub fn f64(&self, name: &str) -> Result<f64, FieldError> {
-        let f = self.field(name)?;
-        self.context().f64(&f)
-    }
-
-    /// The field as a 64-bit integer.
-    pub fn i64(&self, name: &str) -> Result<i64, FieldError> {
-        let f = self.field(name)?;
-        self.context().i64(&f)
-    }
-
-    /// The field as text: a bare token as written, a quoted string unescaped.
-    pub fn str(&self, name: &str) -> Result<Cow<'a, str>, FieldError> {
-        let f = self.field(name)?;
-        self.context().str(&f)
-    }
-
-    /// The field as a nested group.
-    pub fn group(&self, name: &str) -> Result<Group<'a>, FieldError> {
-        let f = self.field(name)?;
-        self.context().group(&f)
-    }
 }
+
+typed_getters!(Line, "line");
 
 impl fmt::Debug for Line<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -444,10 +454,6 @@ impl<'a> Group<'a> {
         }
     }
 
-    pub fn get(&self, name: &str) -> Option<Value<'a>> {
-        self.fields().find(|f| f.name == name).map(|f| f.value)
-    }
-
     fn context(&self) -> Context<'a> {
         Context {
             label: self.label,
@@ -456,33 +462,9 @@ impl<'a> Group<'a> {
             fallback: self.start - 1,
         }
     }
-
-    fn field(&self, name: &str) -> Result<Field<'a>, FieldError> {
-        self.fields()
-            .find(|f| f.name == name)
-            .ok_or_else(|| self.context().missing(name))
-    }
-
-    pub fn f64(&self, name: &str) -> Result<f64, FieldError> {
-        let f = self.field(name)?;
-        self.context().f64(&f)
-    }
-
-    pub fn i64(&self, name: &str) -> Result<i64, FieldError> {
-        let f = self.field(name)?;
-        self.context().i64(&f)
-    }
-
-    pub fn str(&self, name: &str) -> Result<Cow<'a, str>, FieldError> {
-        let f = self.field(name)?;
-        self.context().str(&f)
-    }
-
-    pub fn group(&self, name: &str) -> Result<Group<'a>, FieldError> {
-        let f = self.field(name)?;
-        self.context().group(&f)
-    }
 }
+
+typed_getters!(Group, "group");
 
 impl fmt::Debug for Group<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
