@@ -868,7 +868,7 @@ fn packet_of_len(len: usize) -> Vec<u8> {
     let fill = len - head.len() - tail.len();
     let mut text = String::with_capacity(len);
     text.push_str(head);
-    text.extend(std::iter::repeat('x').take(fill));
+    text.extend(std::iter::repeat_n('x', fill));
     text.push_str(tail);
     assert_eq!(text.len(), len);
     text.into_bytes()
