@@ -280,13 +280,60 @@ fn replay_keeps_the_original_timing_scaled_by_speed() {
 }
 
 #[test]
-fn demo_shows_vision_packets_flowing() {
-    let bind = closed_port();
-    let o = run(&["demo", "--bind", &bind, "--seconds", "1.5"]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let text = String::from_utf8_lossy(&o.stdout);
+fn demo_runs_a_live_swarm_serves_the_monitor_and_stops_by_itself() {
+    use std::io::{BufRead as _, BufReader, Read as _, Write as _};
+    let hub_bind = closed_port();
+    let mut child = colony()
+        .args([
+            "demo",
+            "--hub-bind",
+            &hub_bind,
+            "--monitor-bind",
+            "127.0.0.1:0",
+        ])
+        .args(["--seconds", "8", "--speed", "2"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start colony demo");
+    let stdout = child.stdout.take().expect("stdout");
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let first = rx
+        .recv_timeout(Duration::from_secs(20))
+        .expect("the demo prints the monitor's URL");
+    let url = first
+        .split_whitespace()
+        .find(|w| w.starts_with("http://"))
+        .unwrap_or_else(|| panic!("no URL in {first:?}"));
+    let addr = url.trim_start_matches("http://").trim_end_matches('/');
+    // The monitor answers with its page.
+    let mut http = std::net::TcpStream::connect(addr).expect("connect to the monitor");
+    http.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    write!(http, "GET / HTTP/1.0\r\nHost: {addr}\r\n\r\n").unwrap();
+    let mut page = String::new();
+    http.read_to_string(&mut page).expect("read the page");
     assert!(
-        text.contains("@ <vision_out> 0") && text.contains("ball x"),
-        "{text}"
+        page.starts_with("HTTP/1.0 200") && page.contains("<title>colony monitor</title>"),
+        "{page}"
     );
+    // The simulated swarm publishes the world on the demo's hub.
+    let mut sub = subscribed(hub_bind.parse().unwrap(), &["vision"]);
+    let got = drain_until(&mut sub, Instant::now() + Duration::from_secs(10), |g| {
+        g.iter().any(|p| p.contains("robot id 0 x"))
+    });
+    assert!(
+        got.iter().any(|p| p.contains("robot id 0 x")),
+        "no vision from the simulator: {got:?}"
+    );
+    // --seconds ends everything cleanly.
+    let status = child.wait().expect("wait for the demo");
+    assert!(status.success(), "{status}");
+    let rest: Vec<String> = rx.iter().collect();
+    assert!(rest.iter().any(|l| l.contains("stopped")), "{rest:?}");
 }

@@ -168,7 +168,8 @@ impl Bridge {
             }
             self.send_requests();
             let ask_now = now >= next_status
-                || (self.state.wants_status() && now >= last_status_ask + Duration::from_millis(200));
+                || (self.state.wants_status()
+                    && now >= last_status_ask + Duration::from_millis(200));
             if ask_now {
                 if let Err(e) = self.control.request(&[Request::Status]) {
                     tracing::debug!(error = %e, "cannot ask for status");
@@ -198,7 +199,8 @@ impl Bridge {
             }
             if now >= next_hub_view || new_status {
                 next_hub_view = now + HUB_VIEW_EVERY;
-                self.hub_tx.send_replace(Arc::from(self.state.hub_json(now)));
+                self.hub_tx
+                    .send_replace(Arc::from(self.state.hub_json(now)));
             }
         }
         for r in self.state.shutdown() {

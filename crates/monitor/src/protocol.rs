@@ -99,7 +99,9 @@ fn unit(name: &str, v: f64) -> Result<f64, Refusal> {
     if v.is_finite() && (-1.0..=1.0).contains(&v) {
         Ok(v)
     } else {
-        Err(Refusal::new(format!("{name} must be between -1 and 1, not {v}")))
+        Err(Refusal::new(format!(
+            "{name} must be between -1 and 1, not {v}"
+        )))
     }
 }
 
@@ -245,7 +247,10 @@ mod tests {
             assert!(r.is_err(), "{bad:?} was accepted");
             assert!(!r.unwrap_err().message.is_empty());
         }
-        let many = format!(r#"{{"t":"take","ids":[{}]}}"#, vec!["1"; MAX_HELD + 1].join(","));
+        let many = format!(
+            r#"{{"t":"take","ids":[{}]}}"#,
+            vec!["1"; MAX_HELD + 1].join(",")
+        );
         assert!(parse_message(&many).is_err());
         let huge = format!(
             r#"{{"t":"publish","text":"@ <t> 0\nx v {}\n"}}"#,

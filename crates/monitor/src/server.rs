@@ -97,11 +97,12 @@ impl Monitor {
     /// so a port already taken is an error here.
     pub fn start(config: &MonitorConfig) -> Result<Monitor, MonitorError> {
         let hub = resolve(&config.hub)?;
-        let listener =
-            std::net::TcpListener::bind(config.bind.as_str()).map_err(|source| MonitorError::Bind {
+        let listener = std::net::TcpListener::bind(config.bind.as_str()).map_err(|source| {
+            MonitorError::Bind {
                 addr: config.bind.clone(),
                 source,
-            })?;
+            }
+        })?;
         listener.set_nonblocking(true)?;
         let addr = listener.local_addr()?;
         let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -305,7 +306,10 @@ async fn handle(app: &App, text: &str) -> String {
     match app.requests.try_send((command, tx)) {
         Ok(()) => {}
         Err(TrySendError::Full(_)) => {
-            return reply(to.as_deref(), &Err(refusal("the monitor is busy; try again")))
+            return reply(
+                to.as_deref(),
+                &Err(refusal("the monitor is busy; try again")),
+            )
         }
         Err(TrySendError::Disconnected(_)) => {
             return reply(to.as_deref(), &Err(refusal("the monitor is stopping")))

@@ -69,6 +69,8 @@ pub struct Arena {
 pub struct Sizes {
     pub robot_length: f64,
     pub robot_width: f64,
+    /// The gripper's pocket: its centre is this far ahead of the body's front.
+    pub gripper_radius: f64,
     pub puck_diameter: f64,
 }
 
@@ -180,7 +182,7 @@ pub enum Command {
 
 /// Everything the monitor knows. Feed it with [`on_packet`](Self::on_packet),
 /// [`on_status`](Self::on_status) and [`apply`](Self::apply); read it with
-/// the snapshot methods and [`override_packet`](Self::override_packet).
+/// the snapshot methods and [`override_packets`](Self::override_packets).
 #[derive(Debug)]
 pub struct MonitorState {
     started: Instant,
@@ -585,10 +587,15 @@ impl MonitorState {
                 "sizes" => {
                     let s = (|| {
                         let v = |n| finite(line.f64(n).ok()?).filter(|v| *v > 0.0 && *v < 1000.0);
+                        let puck_diameter = v("puck_diameter")?;
                         Some(Sizes {
                             robot_length: v("robot_length")?,
                             robot_width: v("robot_width")?,
-                            puck_diameter: v("puck_diameter")?,
+                            gripper_radius: match line.get("gripper_radius") {
+                                Some(_) => v("gripper_radius")?,
+                                None => puck_diameter * 0.57,
+                            },
+                            puck_diameter,
                         })
                     })();
                     match s {
@@ -852,11 +859,7 @@ impl MonitorState {
                 self.release_all();
                 Ok(format!("released {n} robots"))
             }
-            Command::Drive {
-                ids,
-                forward,
-                turn,
-            } => {
+            Command::Drive { ids, forward, turn } => {
                 let chosen = self.select(&ids);
                 if chosen.is_empty() {
                     return Err("no held robot to drive: take control first".into());
@@ -887,7 +890,10 @@ impl MonitorState {
                     let (ox, oy) = if n == 1 {
                         (0.0, 0.0)
                     } else {
-                        ((col - half) * GOTO_SPACING_CM, (half - row) * GOTO_SPACING_CM)
+                        (
+                            (col - half) * GOTO_SPACING_CM,
+                            (half - row) * GOTO_SPACING_CM,
+                        )
                     };
                     self.held.insert(
                         *id,
@@ -919,7 +925,8 @@ impl MonitorState {
 
     /// Each held robot's command at `now`: `(id, forward, turn)`.
     pub fn override_commands(&mut self, now: Instant) -> Vec<(u32, f64, f64)> {
-        let poses: BTreeMap<u32, &RobotView> = self.frame.robots.iter().map(|r| (r.id, r)).collect();
+        let poses: BTreeMap<u32, &RobotView> =
+            self.frame.robots.iter().map(|r| (r.id, r)).collect();
         let mut out = Vec::with_capacity(self.held.len());
         for (id, mode) in self.held.iter_mut() {
             let cmd = match *mode {
@@ -1025,7 +1032,8 @@ impl MonitorState {
                 .map(|t| secs(now.saturating_duration_since(t))),
             uptime: r.map(|r| r.uptime_ms as f64 / 1000.0),
             lease: r.map(|r| r.lease_ms as f64 / 1000.0),
-            min_priority: r.and_then(|r| (r.min_priority.0 != i32::MIN).then_some(r.min_priority.0)),
+            min_priority: r
+                .and_then(|r| (r.min_priority.0 != i32::MIN).then_some(r.min_priority.0)),
             client_count: r.map_or(0, |r| r.client_count),
             truncated: r.is_some_and(|r| r.truncated),
             channels: self
@@ -1103,7 +1111,7 @@ mod tests {
         t0 + Duration::from_millis(ms)
     }
 
-    const ONE_PART: &str = "@ <vision> 20\nstep n 7 part 0 parts 1\narena width 187 height 187 corner 15\nsizes robot_length 12.5 robot_width 10.8 puck_diameter 6.3\nrobot id 1 x 10 y 0 theta 0 carrying 3\nrobot id 0 x -5 y 2.5 theta 1.57\npuck id 3 kind 1 x 17 y 0\n";
+    const ONE_PART: &str = "@ <vision> 20\nstep n 7 part 0 parts 1\narena width 187 height 187 corner 15\nsizes robot_length 12.5 robot_width 10.8 gripper_radius 3.6 puck_diameter 6.3\nrobot id 1 x 10 y 0 theta 0 carrying 3\nrobot id 0 x -5 y 2.5 theta 1.57\npuck id 3 kind 1 x 17 y 0\n";
 
     #[test]
     fn a_one_part_frame_shows_robots_pucks_and_the_arena() {
@@ -1197,15 +1205,27 @@ mod tests {
     fn the_completion_plot_keeps_the_whole_run_within_its_points() {
         let (mut s, t0) = state();
         for step in 1..=5000u64 {
-            let text = format!("@ <metrics> 0\nsort step {} pc {}\n", step * 10, step as f64 / 50.0);
+            let text = format!(
+                "@ <metrics> 0\nsort step {} pc {}\n",
+                step * 10,
+                step as f64 / 50.0
+            );
             s.on_packet(t0, &parse(&text));
         }
         let pts: Vec<_> = s.pc_series().copied().collect();
-        assert!(pts.len() <= PC_POINTS && pts.len() >= PC_POINTS / 4, "{}", pts.len());
+        assert!(
+            pts.len() <= PC_POINTS && pts.len() >= PC_POINTS / 4,
+            "{}",
+            pts.len()
+        );
         assert_eq!(pts[0].0, 10);
         assert!(pts.last().unwrap().0 > 49_000);
         s.on_packet(t0, &parse("@ <metrics> 0\nsort step 5 pc 1\n"));
-        assert_eq!(s.pc_series().count(), 1, "a restarted world starts a new plot");
+        assert_eq!(
+            s.pc_series().count(),
+            1,
+            "a restarted world starts a new plot"
+        );
     }
 
     fn report(uptime_ms: u64, vision_packets: u64, min: i32) -> StatusReport {
@@ -1306,7 +1326,10 @@ mod tests {
     fn a_held_robot_is_stopped_driven_or_steered_and_released() {
         let (mut s, t0) = state();
         s.on_packet(t0, &parse(ONE_PART));
-        assert!(s.override_packets(t0).is_empty(), "nobody held: nothing sent");
+        assert!(
+            s.override_packets(t0).is_empty(),
+            "nobody held: nothing sent"
+        );
         s.apply(t0, Command::Take(vec![1])).unwrap();
         assert_eq!(s.override_commands(t0), [(1, 0.0, 0.0)]);
         s.apply(
@@ -1353,9 +1376,15 @@ mod tests {
             )
             .is_err());
         s.apply(t0, Command::Release(vec![1])).unwrap();
-        assert!(s.override_packets(t0).is_empty(), "released: the AI has it back");
+        assert!(
+            s.override_packets(t0).is_empty(),
+            "released: the AI has it back"
+        );
         assert!(s.apply(t0, Command::Release(vec![1])).is_err());
-        assert!(s.take_requests().is_empty(), "single robots leave the hub alone");
+        assert!(
+            s.take_requests().is_empty(),
+            "single robots leave the hub alone"
+        );
     }
 
     #[test]
@@ -1383,7 +1412,10 @@ mod tests {
         s.apply(t0, Command::TakeAll).unwrap();
         assert_eq!(s.held().len(), 2);
         assert!(s.wants_status());
-        assert!(s.take_requests().is_empty(), "not before the old value is known");
+        assert!(
+            s.take_requests().is_empty(),
+            "not before the old value is known"
+        );
         s.on_status(t0, report(1, 1, 3));
         assert_eq!(
             s.take_requests(),
@@ -1447,7 +1479,10 @@ mod tests {
         assert_eq!(json["robots"][1], serde_json::json!([1, 10.0, 0.0, 0.0, 3]));
         assert_eq!(json["robots"][0][4], -1);
         assert_eq!(json["pucks"][0], serde_json::json!([3, 1, 17.0, 0.0]));
-        assert_eq!(json["intents"][0], serde_json::json!([0, "SEARCH", null, null]));
+        assert_eq!(
+            json["intents"][0],
+            serde_json::json!([0, "SEARCH", null, null])
+        );
         assert_eq!(json["held"], serde_json::json!([0]));
         assert_eq!(json["arena"]["corner"], 15.0);
     }

@@ -8,7 +8,7 @@
 (() => {
   const $ = (id) => document.getElementById(id);
   const KIND_COLOURS = ['#e0452b', '#2b6fe0', '#23a446', '#e0a21b', '#8e44d6', '#e0702b', '#1fb5b5', '#d63384'];
-  const DEFAULT_SIZES = { robot_length: 12.5, robot_width: 10.8, puck_diameter: 6.3 };
+  const DEFAULT_SIZES = { robot_length: 12.5, robot_width: 10.8, gripper_radius: 3.6, puck_diameter: 6.3 };
   const STALE_MS = 2000;
 
   const canvas = $('arena');
@@ -22,7 +22,7 @@
   let paused = false;
   let dirty = true;
   let plotDirty = true;
-  const view = { cx: 0, cy: 0, scale: 3, fitted: false };
+  const view = { cx: 0, cy: 0, scale: 3, fitted: false, auto: true }; // auto: refit on resize until the user pans or zooms
   const selected = new Set();
   let pcSeries = [];
   let socket = null;
@@ -35,7 +35,7 @@
     connected: false, hubStale: false, visionStale: false, serverLostSince: null,
     hubStaleSince: null, visionStaleSince: null,
     held: [], all: false, selected: [], poses: {}, states: {}, pc: null,
-    channels: {}, paused: false, worlds: 0, hubs: 0, lastReply: null,
+    channels: {}, minPriority: null, paused: false, worlds: 0, hubs: 0, lastReply: null,
     worldToClient, select, send,
   };
   window.colony = api;
@@ -100,7 +100,7 @@
       else if (w.pc[0] < last[0]) { pcSeries = [w.pc]; plotDirty = true; }
     }
     if (!paused) { shown = w; dirty = true; }
-    if (!view.fitted && w.robots.length) fit();
+    if (!view.fitted) fit();
     $('step').textContent = w.step === null ? '–' : String(w.step);
     $('nrobots').textContent = String(api.robots);
     $('npucks').textContent = String(api.pucks);
@@ -114,6 +114,7 @@
   function onHub(h) {
     hub = h;
     api.hubs += 1;
+    api.minPriority = h.min_priority;
     if (h.pc && h.pc.length) {
       // The server's history, plus any newer points from world snapshots.
       const last = h.pc[h.pc.length - 1][0];
@@ -204,6 +205,8 @@
   }
 
   function fit() {
+    const w = shown || world;
+    if (!w || (!w.arena && !w.robots.length)) return;
     const [ew, eh] = extent();
     const r = canvas.getBoundingClientRect();
     if (r.width < 10 || r.height < 10) return;
@@ -233,7 +236,7 @@
       plotDirty = true;
     }
   }
-  new ResizeObserver(() => { resize(); if (!view.fitted) fit(); }).observe(canvas);
+  new ResizeObserver(() => { resize(); if (!view.fitted || view.auto) fit(); }).observe(canvas);
   new ResizeObserver(resize).observe(plot);
 
   // World (cm, y up) to canvas device pixels.
@@ -366,7 +369,8 @@
     // Robots: oriented bodies, C-shaped grippers at the front, heading marks.
     const L = s.robot_length;
     const W = s.robot_width;
-    const gr = s.puck_diameter * 0.6;
+    const gr = s.gripper_radius || s.puck_diameter * 0.57;
+    const mouth = (130 / 2) * Math.PI / 180; // half the gripper's mouth
     const bodies = { normal: new Path2D(), held: new Path2D() };
     const grippers = new Path2D();
     const heads = new Path2D();
@@ -381,10 +385,16 @@
       const d = pt(L / 2, W / 2);
       const e = pt(-L / 2, W / 2);
       path.moveTo(a[0], a[1]); path.lineTo(b[0], b[1]); path.lineTo(d[0], d[1]); path.lineTo(e[0], e[1]); path.closePath();
-      const g = pt(L / 2 + gr * 0.55, 0);
-      const mouth = (130 / 2) * Math.PI / 180;
-      grippers.moveTo(g[0] + gr * Math.cos(th + mouth), g[1] + gr * Math.sin(th + mouth));
-      grippers.arc(g[0], g[1], gr, th + mouth, th + 2 * Math.PI - mouth);
+      // The C-shaped gripper: straight jaws from the body's front to the
+      // pocket's centre, then lips following the pocket round to the mouth.
+      const g = pt(L / 2 + gr, 0);
+      for (const side of [1, -1]) {
+        const j0 = pt(L / 2, side * gr);
+        const j1 = pt(L / 2 + gr, side * gr);
+        grippers.moveTo(j0[0], j0[1]);
+        grippers.lineTo(j1[0], j1[1]);
+        grippers.arc(g[0], g[1], gr, th + side * Math.PI / 2, th + side * mouth, side > 0);
+      }
       const h1 = pt(L / 2 - 1, 0);
       const h2 = pt(-L / 4, W / 3);
       const h3 = pt(-L / 4, -W / 3);
@@ -397,7 +407,8 @@
     ctx.fillStyle = 'rgba(255,255,255,0.85)';
     ctx.fill(heads);
     ctx.strokeStyle = '#1d232b';
-    ctx.lineWidth = Math.max(1.2, 2 * px);
+    ctx.lineWidth = Math.max(0.8, 1.5 * px); // the jaws are about 8 mm thick
+    ctx.lineCap = 'round';
     ctx.stroke(grippers);
 
     // Carried pucks, ringed so they stand out in the gripper.
@@ -567,7 +578,10 @@
     if (h.bad_lines) parts.push(`${h.bad_lines} unreadable lines`);
     $('hub-summary').textContent = parts.join(' · ');
     const channels = {};
-    const rows = h.channels.map((c) => {
+    const rank = (name) => ({ vision: 0, radio: 1, debug: 2, metrics: 3 }[name] ?? 4);
+    const sorted = h.channels.slice().sort((a, b) => rank(a.name) - rank(b.name)
+      || a.name.localeCompare(b.name, undefined, { numeric: true }));
+    const rows = sorted.map((c) => {
       channels[c.name] = { rate: c.rate, packets: c.packets, last: c.last, age: c.last_age };
       const stale = c.last_age !== null && c.last_age * 1000 > STALE_MS;
       const cut = c.last !== null && c.last_len > c.last.length ? `\n… (${c.last_len} bytes)` : '';
@@ -667,6 +681,7 @@
     const dy = e.clientY - press.y;
     if (Math.abs(dx) + Math.abs(dy) > 4) press.moved = true;
     if (press.moved) {
+      view.auto = false;
       view.cx = press.cx - dx / view.scale;
       view.cy = press.cy + dy / view.scale;
       dirty = true;
@@ -680,6 +695,7 @@
   });
   canvas.addEventListener('wheel', (e) => {
     e.preventDefault();
+    view.auto = false;
     const before = clientToWorld(e.clientX, e.clientY);
     view.scale = Math.min(200, Math.max(0.02, view.scale * Math.exp(-e.deltaY * 0.0015)));
     const after = clientToWorld(e.clientX, e.clientY);
@@ -771,7 +787,7 @@
     if (!paused) shown = world;
     dirty = true;
   };
-  $('fit').onclick = fit;
+  $('fit').onclick = () => { view.auto = true; fit(); };
   $('show-intents').onchange = () => { dirty = true; };
   $('show-labels').onchange = () => { dirty = true; };
   $('publish').onclick = () => {

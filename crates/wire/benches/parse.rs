@@ -69,11 +69,18 @@ fn vision_json(vision: &[u8]) -> Vec<u8> {
     let lines: Vec<String> = p
         .lines()
         .map(|l| {
-            let fields: Vec<String> = l.fields().map(|f| format!("\"{}\":{}", f.name, f.value.as_f64().unwrap())).collect();
+            let fields: Vec<String> = l
+                .fields()
+                .map(|f| format!("\"{}\":{}", f.name, f.value.as_f64().unwrap()))
+                .collect();
             format!("{{\"label\":\"{}\",{}}}", l.label(), fields.join(","))
         })
         .collect();
-    format!("{{\"subjects\":[\"vision_out\"],\"priority\":0,\"lines\":[{}]}}", lines.join(",")).into_bytes()
+    format!(
+        "{{\"subjects\":[\"vision_out\"],\"priority\":0,\"lines\":[{}]}}",
+        lines.join(",")
+    )
+    .into_bytes()
 }
 
 /// Parses and reads every field of every line as a number.

@@ -23,7 +23,11 @@ pub struct Args {
     )]
     pub hub_bind: String,
     /// Where the monitor serves its page.
-    #[arg(long = "monitor-bind", default_value = "127.0.0.1:8080", value_name = "HOST:PORT")]
+    #[arg(
+        long = "monitor-bind",
+        default_value = "127.0.0.1:8080",
+        value_name = "HOST:PORT"
+    )]
     pub monitor_bind: String,
     /// How many times faster than real time the world runs.
     #[arg(long, default_value_t = 1.0)]

@@ -19,7 +19,7 @@
 //! @ <vision> 20                        the whole world (split into parts for big swarms)
 //! step n 1200 part 0 parts 1
 //! arena width 187 height 187 corner 15  (first part only: the walls and body sizes, cm)
-//! sizes robot_length 12.5 robot_width 10.8 puck_diameter 6.3
+//! sizes robot_length 12.5 robot_width 10.8 gripper_radius 3.6 puck_diameter 6.3
 //! robot id 0 x 12.5 y -40.1 theta 1.57 carrying 7
 //! puck id 7 kind 0 x 20.0 y -38.0
 //!
@@ -237,7 +237,7 @@ pub const VISION_PRIORITY: Priority = Priority(20);
 /// publish it: one packet, or several when a large swarm would not fit in a
 /// datagram. Each part starts `step n N part I parts P` and stands alone; the
 /// first also gives the arena's size (`arena width W height H corner R`) and
-/// the bodies' (`sizes robot_length L robot_width W puck_diameter D`), so a
+/// the bodies' (`sizes robot_length L robot_width W gripper_radius G puck_diameter D`), so a
 /// monitor can draw to scale.
 pub fn vision_packets(
     step: u64,
@@ -253,9 +253,10 @@ pub fn vision_packets(
         r(scene.arena.corner_radius)
     ));
     lines.push(format!(
-        "sizes robot_length {} robot_width {} puck_diameter {}",
+        "sizes robot_length {} robot_width {} gripper_radius {} puck_diameter {}",
         r(scene.robots.length),
         r(scene.robots.width),
+        r(scene.robots.gripper_radius),
         r(scene.pucks.diameter)
     ));
     for rb in robots {
@@ -420,7 +421,10 @@ mod tests {
         assert_eq!((robots_seen, pucks_seen), (256, 2560));
         let first = Packet::parse(&parts[0]).unwrap();
         let arena = first.line("arena").unwrap();
-        assert_eq!(arena.f64("width").unwrap(), (scene.arena.width * 100.0).round() / 100.0);
+        assert_eq!(
+            arena.f64("width").unwrap(),
+            (scene.arena.width * 100.0).round() / 100.0
+        );
         assert_eq!(arena.f64("corner").unwrap(), 15.0);
         assert!(first.line("sizes").is_some());
         assert_eq!(first.priority(), VISION_PRIORITY);

@@ -1,0 +1,58 @@
+//! The monitor's browser tests (`tests/browser/`, run by node's own test
+//! runner with playwright-core driving Debian's headless Chromium) against
+//! this build of `colony`: a real hub, a real simulator, a real monitor.
+//! Screenshots land in `test-artifacts/browser/`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+#[test]
+fn the_monitor_page_passes_its_browser_tests_in_headless_chromium() {
+    assert!(
+        Path::new("/usr/bin/chromium").exists(),
+        "/usr/bin/chromium is missing: the monitor's browser tests need Debian's chromium; \
+         `.ci/run` installs it (or: apt-get install chromium)"
+    );
+    let root = repo_root();
+    let dir = root.join("tests/browser");
+    let node = Command::new("node").arg("--version").output();
+    assert!(
+        node.as_ref().is_ok_and(|o| o.status.success()),
+        "node is missing: the browser tests run under node (apt-get install nodejs npm; `.ci/run` checks)"
+    );
+    if !dir.join("node_modules/playwright-core").exists() {
+        let npm = Command::new("npm")
+            .args(["ci", "--no-audit", "--no-fund"])
+            .current_dir(&dir)
+            .output()
+            .expect("run npm ci in tests/browser (is npm installed?)");
+        assert!(
+            npm.status.success(),
+            "npm ci in tests/browser failed:\n{}{}",
+            String::from_utf8_lossy(&npm.stdout),
+            String::from_utf8_lossy(&npm.stderr)
+        );
+    }
+    let out = Command::new("node")
+        .args(["--test", "--test-concurrency=1", "tests/browser/"])
+        .current_dir(&root)
+        .env("COLONY_BIN", env!("CARGO_BIN_EXE_colony"))
+        .output()
+        .expect("run node --test");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    println!("{stdout}");
+    eprintln!("{stderr}");
+    assert!(
+        out.status.success(),
+        "the browser tests failed (logs and screenshots in test-artifacts/browser/):\n{stdout}\n{stderr}"
+    );
+    assert!(
+        stdout.contains("# fail 0") && !stdout.contains("# pass 0"),
+        "the browser tests ran no test:\n{stdout}"
+    );
+}

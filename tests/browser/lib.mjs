@@ -1,0 +1,189 @@
+// Shared by the browser tests and the screenshot script: the real colony
+// processes (hub, live simulator, monitor) and Debian's headless Chromium.
+import { spawn, execFile } from 'node:child_process';
+import dgram from 'node:dgram';
+import fs from 'node:fs';
+import net from 'node:net';
+import os from 'node:os';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { chromium } from 'playwright-core';
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+export const ROOT = path.resolve(here, '..', '..');
+export const ARTIFACTS = path.join(ROOT, 'test-artifacts', 'browser');
+export const CHROMIUM = '/usr/bin/chromium';
+
+/** The colony binary under test: $COLONY_BIN (the Rust test sets it). */
+export function colonyBin() {
+  const bin = process.env.COLONY_BIN;
+  if (!bin) {
+    throw new Error('set COLONY_BIN to the colony binary (cargo test sets it: `cargo test -p colony --test browser`)');
+  }
+  if (!fs.existsSync(bin)) throw new Error(`COLONY_BIN=${bin} does not exist`);
+  return bin;
+}
+
+export const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+/** A UDP port on loopback that was free a moment ago. */
+export function freeUdpPort() {
+  return new Promise((resolve, reject) => {
+    const s = dgram.createSocket('udp4');
+    s.on('error', reject);
+    s.bind(0, '127.0.0.1', () => {
+      const { port } = s.address();
+      s.close(() => resolve(port));
+    });
+  });
+}
+
+/** A TCP port on loopback that was free a moment ago. */
+export function freeTcpPort() {
+  return new Promise((resolve, reject) => {
+    const s = net.createServer();
+    s.on('error', reject);
+    s.listen(0, '127.0.0.1', () => {
+      const { port } = s.address();
+      s.close(() => resolve(port));
+    });
+  });
+}
+
+/**
+ * A colony process whose output goes to test-artifacts/browser/<name>.log;
+ * `waitFor` (a RegExp) resolves with its first match on stdout or stderr.
+ */
+export class ColonyProcess {
+  constructor(name, args) {
+    fs.mkdirSync(ARTIFACTS, { recursive: true });
+    this.name = name;
+    this.args = args;
+    this.log = fs.createWriteStream(path.join(ARTIFACTS, `${name}.log`), { flags: 'a' });
+    this.log.write(`\n$ colony ${args.join(' ')}\n`);
+    this.child = spawn(colonyBin(), args, {
+      stdio: ['ignore', 'pipe', 'pipe'],
+      env: { ...process.env, NO_COLOR: '1', COLONY_LOG: process.env.COLONY_LOG || 'info' },
+    });
+    this.text = '';
+    this.exited = new Promise((resolve) => this.child.on('exit', (code, signal) => resolve({ code, signal })));
+    for (const stream of [this.child.stdout, this.child.stderr]) {
+      stream.on('data', (d) => {
+        this.text += d.toString();
+        if (this.text.length > 1e6) this.text = this.text.slice(-5e5);
+        this.log.write(d);
+      });
+    }
+  }
+
+  async waitFor(re, timeoutMs = 20000) {
+    const until = Date.now() + timeoutMs;
+    for (;;) {
+      const m = this.text.match(re);
+      if (m) return m;
+      if (this.child.exitCode !== null) {
+        throw new Error(`colony ${this.args.join(' ')} exited (${this.child.exitCode}) before printing ${re}:\n${this.text}`);
+      }
+      if (Date.now() > until) throw new Error(`colony ${this.args.join(' ')} printed no ${re} within ${timeoutMs} ms:\n${this.text}`);
+      await sleep(50);
+    }
+  }
+
+  /** SIGTERM (each colony command stops cleanly on it), then SIGKILL. */
+  async stop(signal = 'SIGTERM') {
+    if (this.child.exitCode === null && this.child.signalCode === null) {
+      this.child.kill(signal);
+      const done = await Promise.race([this.exited, sleep(5000).then(() => null)]);
+      if (!done) {
+        this.child.kill('SIGKILL');
+        await this.exited;
+      }
+    }
+    this.log.end();
+  }
+}
+
+/** `colony hub` on a loopback port (a free one unless given). */
+export async function startHub(port) {
+  const p = port ?? (await freeUdpPort());
+  const hub = new ColonyProcess('hub', ['hub', '--bind', `127.0.0.1:${p}`]);
+  await hub.waitFor(/addr=/);
+  hub.addr = `127.0.0.1:${p}`;
+  hub.port = p;
+  return hub;
+}
+
+/** `colony monitor` joined to `hubAddr`, on a free loopback port; resolves with its URL. */
+export async function startMonitor(hubAddr, name = 'monitor') {
+  const m = new ColonyProcess(name, ['monitor', '--hub', hubAddr, '--bind', '127.0.0.1:0']);
+  const [, url] = await m.waitFor(/(http:\/\/127\.0\.0\.1:\d+\/)/);
+  m.url = url;
+  return m;
+}
+
+/** Runs a colony command to its end; resolves with its stdout. */
+export function colony(args, timeoutMs = 15000) {
+  return new Promise((resolve, reject) => {
+    execFile(colonyBin(), args, { timeout: timeoutMs, env: { ...process.env, NO_COLOR: '1' } }, (err, stdout, stderr) => {
+      if (err) reject(new Error(`colony ${args.join(' ')}: ${err.message}\n${stderr}`));
+      else resolve(stdout);
+    });
+  });
+}
+
+/** Debian's Chromium, headless, with a fresh profile; resolves with { context, page, close }. */
+export async function launchBrowser(viewport = { width: 1400, height: 900 }) {
+  if (!fs.existsSync(CHROMIUM)) {
+    throw new Error(`${CHROMIUM} is missing: the browser tests need Debian's chromium (.ci/run installs it: apt-get install chromium)`);
+  }
+  const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'colony-chromium-'));
+  const context = await chromium.launchPersistentContext(profile, {
+    executablePath: CHROMIUM,
+    headless: true,
+    viewport,
+    args: [
+      '--headless',
+      '--no-sandbox',
+      '--disable-gpu',
+      '--disable-quic',
+      '--no-first-run',
+      '--disable-background-networking',
+      '--disable-component-update',
+      '--disable-sync',
+    ],
+  });
+  const page = context.pages()[0] ?? (await context.newPage());
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(e.message));
+  return {
+    context,
+    page,
+    errors,
+    async close() {
+      await context.close();
+      fs.rmSync(profile, { recursive: true, force: true });
+    },
+  };
+}
+
+/** Saves a screenshot as test-artifacts/browser/<name>.png. */
+export async function screenshot(page, name) {
+  fs.mkdirSync(ARTIFACTS, { recursive: true });
+  const file = path.join(ARTIFACTS, `${name}.png`);
+  await page.screenshot({ path: file });
+  return file;
+}
+
+/** Polls `fn` in the page until it returns something truthy. */
+export async function until(page, fn, arg, timeoutMs, what) {
+  try {
+    const handle = await page.waitForFunction(fn, arg, { timeout: timeoutMs, polling: 100 });
+    return await handle.jsonValue();
+  } catch (e) {
+    const state = await page.evaluate(() => {
+      const c = window.colony;
+      return c && { robots: c.robots, pucks: c.pucks, step: c.step, held: c.held, connected: c.connected, hubStale: c.hubStale, visionStale: c.visionStale, lastReply: c.lastReply };
+    }).catch(() => null);
+    throw new Error(`${what} within ${timeoutMs} ms (page: ${JSON.stringify(state)}): ${e.message.split('\n')[0]}`);
+  }
+}
