@@ -35,6 +35,11 @@ enum Command {
     /// Swarm sorting: experiments, the paper's reproduction, live mode.
     #[command(subcommand)]
     Sort(cmd::sort::SortCommand),
+    /// The strategy game: Capture the Flag and Death Match, live or fast-forwarded.
+    #[command(subcommand)]
+    Game(cmd::game::GameCommand),
+    /// Run a Moving AI path-finding benchmark scenario and check every length.
+    Path(cmd::path::Args),
 }
 
 fn main() -> ExitCode {
@@ -56,6 +61,8 @@ fn main() -> ExitCode {
         Command::Log(a) => cmd::traffic::list(a),
         Command::Replay(a) => cmd::traffic::replay(a),
         Command::Sort(c) => cmd::sort::run(c),
+        Command::Game(c) => cmd::game::run(c),
+        Command::Path(a) => cmd::path::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

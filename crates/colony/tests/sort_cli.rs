@@ -133,6 +133,7 @@ fn reproduce_writes_a_report_with_figures_and_tests() {
     }
 }
 
+/// A child process (a robot's controller, or the world) killed when dropped.
 struct Robot(Child);
 
 impl Drop for Robot {
@@ -178,21 +179,24 @@ fn commanding(
 #[test]
 fn a_robot_controller_can_be_killed_and_restarted_while_the_others_sort_on() {
     let hub = HubProcess::start(&[]);
-    let mut world = colony()
-        .args([
-            "sort",
-            "live",
-            "--hub",
-            &hub.addr.to_string(),
-            "--controllers",
-            "external",
-            "--speed",
-            "10",
-        ])
-        .stdin(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    // Killed on drop, so a failed assertion doesn't leave the world running.
+    let _world = Robot(
+        colony()
+            .args([
+                "sort",
+                "live",
+                "--hub",
+                &hub.addr.to_string(),
+                "--controllers",
+                "external",
+                "--speed",
+                "10",
+            ])
+            .stdin(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
     let mut vision = subscribed(hub.addr, &["vision"]);
     let first = drain_until(&mut vision, Instant::now() + Duration::from_secs(10), |g| {
         !g.is_empty()
@@ -225,6 +229,4 @@ fn a_robot_controller_can_be_killed_and_restarted_while_the_others_sort_on() {
     while commanding(&mut radio, Duration::from_millis(500)) != all {
         assert!(Instant::now() < deadline, "robot 2 never came back");
     }
-    let _ = world.kill();
-    let _ = world.wait();
 }

@@ -19,8 +19,13 @@
 //! controllers' 0) every control step, and "take control of all" also raises
 //! the hub's minimum priority to that value, restoring the old one on release.
 //!
-//! [`state`] is the logic without sockets or clocks; the bridge thread feeds
-//! it from the hub; the web server (axum) hands snapshots to each browser tab.
+//! The game page (`/game`) is the strategy game's player client: the
+//! battlefield, every robot and squad with its behaviour and planned path,
+//! and squad commands sent on `game.player.<team>` (see [`game`]).
+//!
+//! [`state`] and [`game`] are the logic without sockets or clocks; the bridge
+//! thread feeds them from the hub; the web server (axum) hands snapshots to
+//! each browser tab.
 //!
 //! ```no_run
 //! let monitor = colony_monitor::Monitor::start(&colony_monitor::MonitorConfig {
@@ -33,6 +38,7 @@
 //! ```
 
 mod bridge;
+pub mod game;
 pub mod protocol;
 mod server;
 pub mod state;

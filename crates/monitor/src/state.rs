@@ -178,6 +178,8 @@ pub enum Command {
         x: f64,
         y: f64,
     },
+    /// A player's order to a squad of the strategy game (the bridge publishes it).
+    Squad(crate::game::squad::SquadOrder),
 }
 
 /// Everything the monitor knows. Feed it with [`on_packet`](Self::on_packet),
@@ -811,6 +813,7 @@ impl MonitorState {
     pub fn apply(&mut self, now: Instant, command: Command) -> Result<String, String> {
         match command {
             Command::Publish(bytes) => Ok(format!("published {} bytes", bytes.len())),
+            Command::Squad(order) => Ok(format!("sent {order}")),
             Command::Take(ids) => {
                 if ids.is_empty() {
                     return Err("no robot selected: click robots or type their ids".into());

@@ -21,6 +21,30 @@ pub enum SimError {
     /// position outside the arena).
     #[error("layout: {0}")]
     Layout(String),
+    /// A tile map with impossible dimensions or contents.
+    #[error("tile map: {0}")]
+    Map(String),
+    /// A robot or box could not be put where asked on a [`crate::field::Field`];
+    /// `reason` says what is in the way, so a caller can try elsewhere.
+    #[error("cannot place {what} at ({x}, {y}): {reason}")]
+    Placement {
+        /// What was being placed, e.g. `robot 3` or `box 0`.
+        what: String,
+        /// The asked position, world frame, cm.
+        x: f64,
+        /// The asked position, world frame, cm.
+        y: f64,
+        /// What is in the way.
+        reason: crate::field::Refusal,
+    },
+    /// An id that names no robot or box of a [`crate::field::Field`].
+    #[error("no {what} with id {id}")]
+    UnknownId {
+        /// `robot` or `box`.
+        what: &'static str,
+        /// The id asked for.
+        id: usize,
+    },
 }
 
 /// A bad scene configuration: where it is and what is wrong.

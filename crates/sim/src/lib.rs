@@ -45,6 +45,15 @@
 //! - **Sensing** is computed from the geometry, not by rendering (see
 //!   [`World::observe`]): a few hundred nanoseconds per robot.
 //!
+//! # The tile-map field
+//!
+//! The [`field`] module holds a second kind of world for the strategy game and the
+//! box-pushing experiment: a [`field::Field`] on a grid map of open ground, walls
+//! and water, with disc robots (land or amphibious), pushable boxes, and the game
+//! paper's sensors (bumpers, sonar, border detector). It follows the same rules:
+//! rapier2d underneath, centimetres, a step function fed one [`WheelCommand`] per
+//! robot, bit-identical results for identical inputs.
+//!
 //! ```
 //! use colony_sim::{RobotId, SceneConfig, WheelCommand, World};
 //! let mut world = World::new(&SceneConfig::default(), 42).unwrap();
@@ -62,6 +71,7 @@ mod body;
 mod config;
 mod config_load;
 mod error;
+pub mod field;
 mod grid;
 mod layout;
 mod physics;

@@ -1,8 +1,10 @@
 //! One module per subcommand, plus what they share.
 
 pub mod demo;
+pub mod game;
 pub mod hub;
 pub mod monitor;
+pub mod path;
 pub mod pubsub;
 pub mod sort;
 pub mod status;

@@ -1,0 +1,38 @@
+//! colony's strategy game, after Hristoskova, Junqué de Fortuny and De Turck,
+//! "Subsumption Architecture for Enabling Strategic Coordination of Robot
+//! Swarms in a Gaming Scenario".
+//!
+//! - [`map`]: battlefield maps in the Moving AI grid format, with teams, bases
+//!   and flags.
+//! - [`path`]: optimal 8-connected path finding without corner cutting, its
+//!   faster variant, replanning, and turn points; [`nav`] puts it in
+//!   centimetres for the swarm intelligence.
+//! - [`formation`]: line, circle, half circle and the wedges, slot assignment,
+//!   and formations that bend with the path.
+//! - [`rules`]: the data model: robot types, budgets, squads.
+//! - [`protocol`]: every message of the game as a hub packet.
+//! - [`robot`]: robot intelligence, reflexes over commands ([`robot_node`] on the bus).
+//! - [`squad`]: server-side swarm intelligence, one squad arbitrator per squad.
+//! - [`logic`]: the referee: health, shots, flags, score, the end.
+//! - [`server`]: game logic and swarm intelligence as one part of the game.
+//! - [`world`]: the battlefield in the simulator.
+//! - [`bot`]: the built-in scripted player.
+//! - [`node`] and [`matches`]: the parts wired together in memory, fast-forwarded;
+//!   [`live`] runs them over the hub.
+
+pub mod bot;
+pub mod formation;
+pub mod live;
+pub mod logic;
+pub mod map;
+pub mod matches;
+pub mod nav;
+pub mod node;
+pub mod path;
+pub mod protocol;
+pub mod robot;
+pub mod robot_node;
+pub mod rules;
+pub mod server;
+pub mod squad;
+pub mod world;

@@ -1,0 +1,137 @@
+//! Navigation in centimetres: the swarm intelligence's view of path finding.
+//! Plans on the battlefield's cells and hands back turn points in the world
+//! frame, snapping points that fall on obstacles to the nearest free cell.
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+use colony_sim::Vec2;
+
+use crate::map::{Battlefield, Cell};
+use crate::path::{self, Algorithm, Mover, Planner, Replanner};
+
+/// Clearance kept between a straight leg and any impassable cell, in cells:
+/// a robot's radius (7.5 cm at most) is under half a 20 cm cell.
+pub const CLEARANCE_CELLS: f64 = 0.45;
+
+/// Path finding for one battlefield, with reusable search buffers.
+pub struct Nav {
+    field: Arc<Battlefield>,
+    land: Planner,
+    amphibious: Planner,
+}
+
+impl Nav {
+    /// Navigation on `field`.
+    pub fn new(field: Arc<Battlefield>) -> Nav {
+        Nav {
+            land: Planner::new(&field.grid, Mover::Land),
+            amphibious: Planner::new(&field.grid, Mover::Amphibious),
+            field,
+        }
+    }
+
+    fn planner(&mut self, mover: Mover) -> &mut Planner {
+        match mover {
+            Mover::Amphibious => &mut self.amphibious,
+            _ => &mut self.land,
+        }
+    }
+
+    fn passable(&self, mover: Mover, c: Cell) -> bool {
+        match mover {
+            Mover::Amphibious => self.amphibious.passable(c),
+            _ => self.land.passable(c),
+        }
+    }
+
+    /// The battlefield.
+    pub fn field(&self) -> &Arc<Battlefield> {
+        &self.field
+    }
+
+    /// The cell under a point, if it is on the map.
+    pub fn cell(&self, p: Vec2) -> Option<Cell> {
+        self.field.cell_at(p.x, p.y)
+    }
+
+    /// A cell's centre.
+    pub fn centre(&self, c: Cell) -> Vec2 {
+        let (x, y) = self.field.cell_center(c);
+        Vec2::new(x, y)
+    }
+
+    /// Whether `mover` may stand on the point.
+    pub fn is_free(&self, p: Vec2, mover: Mover) -> bool {
+        self.cell(p).is_some_and(|c| self.passable(mover, c))
+    }
+
+    /// The free cell nearest to `p` (breadth-first over the grid, at most
+    /// `limit` cells searched), or None.
+    pub fn nearest_free(&self, p: Vec2, mover: Mover) -> Option<Cell> {
+        let grid = &self.field.grid;
+        let (w, h) = (grid.width() as i64, grid.height() as i64);
+        let fx = (p.x / self.field.cell_cm).floor() as i64;
+        let fy = h - 1 - (p.y / self.field.cell_cm).floor() as i64;
+        let start = (fx.clamp(0, w - 1), fy.clamp(0, h - 1));
+        let mut seen = std::collections::HashSet::from([start]);
+        let mut queue = VecDeque::from([start]);
+        let limit = 200_000;
+        while let Some((x, y)) = queue.pop_front() {
+            let c = Cell::new(x as u32, y as u32);
+            if self.passable(mover, c) {
+                return Some(c);
+            }
+            if seen.len() > limit {
+                return None;
+            }
+            for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+                let n = (x + dx, y + dy);
+                if n.0 >= 0 && n.1 >= 0 && n.0 < w && n.1 < h && seen.insert(n) {
+                    queue.push_back(n);
+                }
+            }
+        }
+        None
+    }
+
+    /// The turn points of an optimal path from `from` to `to` for `mover`,
+    /// both ends snapped to free cells; the first point is the start cell's
+    /// centre, the last the goal cell's. None when there is no way.
+    pub fn plan(&mut self, from: Vec2, to: Vec2, mover: Mover) -> Option<Vec<Vec2>> {
+        let a = self.nearest_free(from, mover)?;
+        let b = self.nearest_free(to, mover)?;
+        // Land and water are both uniform-cost, where Jump Point Search is optimal.
+        let found = self.planner(mover).find(Algorithm::Jps, a, b)?;
+        Some(self.points(&found, mover))
+    }
+
+    /// A path's turn points in centimetres.
+    pub fn points(&self, found: &path::Path, mover: Mover) -> Vec<Vec2> {
+        path::turn_points(&self.field.grid, mover, found, CLEARANCE_CELLS)
+            .into_iter()
+            .map(|(x, y)| self.continuous(x, y))
+            .collect()
+    }
+
+    /// Cell coordinates (x right, y down, cell centre at +0.5) to centimetres.
+    fn continuous(&self, x: f64, y: f64) -> Vec2 {
+        let c = self.field.cell_cm;
+        Vec2::new(x * c, (self.field.grid.height() as f64 - y) * c)
+    }
+
+    /// Whether a robot can drive straight from `a` to `b`.
+    pub fn line_of_sight(&self, a: Vec2, b: Vec2, mover: Mover) -> bool {
+        let c = self.field.cell_cm;
+        let h = self.field.grid.height() as f64;
+        let cell = |p: Vec2| (p.x / c, h - p.y / c);
+        path::line_of_sight(&self.field.grid, mover, cell(a), cell(b), CLEARANCE_CELLS)
+    }
+
+    /// A replanner from `from` to `to` that reuses its search as the goal moves.
+    pub fn replanner(&self, from: Vec2, to: Vec2, mover: Mover) -> Option<Replanner> {
+        let a = self.nearest_free(from, mover)?;
+        let b = self.nearest_free(to, mover)?;
+        Some(Replanner::new(&self.field.grid, mover, a, b))
+    }
+}

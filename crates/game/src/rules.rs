@@ -1,0 +1,378 @@
+//! The data model: robot types, the rules a player sets at the start, and
+//! the checks that refuse illegal operations.
+//!
+//! The paper names the robot types (scout, tank, infantry, amphibian) and the
+//! player's choices (a budget that buys health and power, the division into
+//! squads) but gives no numbers; the ones here are ours, picked so each type
+//! has a reason to exist: scouts are fast and fragile, tanks slow and strong,
+//! infantry in between, and only amphibians cross water.
+
+use std::fmt;
+use std::str::FromStr;
+
+use serde::Serialize;
+
+/// The four robot types of the paper.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RobotKind {
+    /// Fast, fragile, short range.
+    Scout,
+    /// Slow, armoured, long range, hard-hitting.
+    Tank,
+    /// The all-rounder.
+    Infantry,
+    /// Crosses water, which stops every other type.
+    Amphibian,
+}
+
+/// What a robot type can do.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct KindStats {
+    /// Budget points it costs.
+    pub cost: u32,
+    /// Health it starts with.
+    pub health: f64,
+    /// Damage one shot does.
+    pub damage: f64,
+    /// Seconds between two shots (the shooting rate).
+    pub reload_s: f64,
+    /// How far it shoots, centre to centre, cm.
+    pub range_cm: f64,
+    /// Top speed, cm/s.
+    pub speed_cm_s: f64,
+    /// Top turn rate, rad/s.
+    pub turn_rad_s: f64,
+    /// Body radius, cm.
+    pub radius_cm: f64,
+    /// Whether water is passable for it.
+    pub amphibious: bool,
+}
+
+impl RobotKind {
+    /// Every type, in a fixed order.
+    pub const ALL: [RobotKind; 4] = [
+        RobotKind::Scout,
+        RobotKind::Tank,
+        RobotKind::Infantry,
+        RobotKind::Amphibian,
+    ];
+
+    /// The type's numbers.
+    pub fn stats(self) -> KindStats {
+        match self {
+            RobotKind::Scout => KindStats {
+                cost: 2,
+                health: 40.0,
+                damage: 4.0,
+                reload_s: 0.5,
+                range_cm: 70.0,
+                speed_cm_s: 30.0,
+                turn_rad_s: 3.0,
+                radius_cm: 6.0,
+                amphibious: false,
+            },
+            RobotKind::Tank => KindStats {
+                cost: 5,
+                health: 120.0,
+                damage: 15.0,
+                reload_s: 1.2,
+                range_cm: 100.0,
+                speed_cm_s: 14.0,
+                turn_rad_s: 1.5,
+                radius_cm: 7.5,
+                amphibious: false,
+            },
+            RobotKind::Infantry => KindStats {
+                cost: 3,
+                health: 60.0,
+                damage: 6.0,
+                reload_s: 0.6,
+                range_cm: 80.0,
+                speed_cm_s: 20.0,
+                turn_rad_s: 2.5,
+                radius_cm: 6.5,
+                amphibious: false,
+            },
+            RobotKind::Amphibian => KindStats {
+                cost: 4,
+                health: 60.0,
+                damage: 5.0,
+                reload_s: 0.8,
+                range_cm: 70.0,
+                speed_cm_s: 18.0,
+                turn_rad_s: 2.5,
+                radius_cm: 6.5,
+                amphibious: true,
+            },
+        }
+    }
+
+    /// The name used in packets and configs.
+    pub fn name(self) -> &'static str {
+        match self {
+            RobotKind::Scout => "scout",
+            RobotKind::Tank => "tank",
+            RobotKind::Infantry => "infantry",
+            RobotKind::Amphibian => "amphibian",
+        }
+    }
+}
+
+impl fmt::Display for RobotKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for RobotKind {
+    type Err = RuleError;
+    fn from_str(s: &str) -> Result<RobotKind, RuleError> {
+        RobotKind::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| RuleError::UnknownKind(s.to_string()))
+    }
+}
+
+/// Which game is played.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Mode {
+    /// Take the enemy flag to your own base.
+    CaptureTheFlag,
+    /// Destroy the enemy.
+    DeathMatch,
+}
+
+impl FromStr for Mode {
+    type Err = RuleError;
+    fn from_str(s: &str) -> Result<Mode, RuleError> {
+        match s {
+            "ctf" | "capture-the-flag" => Ok(Mode::CaptureTheFlag),
+            "dm" | "death-match" => Ok(Mode::DeathMatch),
+            other => Err(RuleError::UnknownMode(other.to_string())),
+        }
+    }
+}
+
+impl fmt::Display for Mode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Mode::CaptureTheFlag => "ctf",
+            Mode::DeathMatch => "dm",
+        })
+    }
+}
+
+/// The rules set at the start of a game.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Rules {
+    /// Which game.
+    pub mode: Mode,
+    /// Budget points per team.
+    pub budget: u32,
+    /// The game ends after this many seconds of game time.
+    pub time_limit_s: f64,
+    /// Capture the Flag: captures that win the game.
+    pub captures_to_win: u32,
+    /// Squads per team, at most.
+    pub max_squads: usize,
+}
+
+impl Rules {
+    /// The defaults for a mode.
+    pub fn new(mode: Mode) -> Rules {
+        Rules {
+            mode,
+            budget: 30,
+            time_limit_s: 600.0,
+            captures_to_win: 1,
+            max_squads: 4,
+        }
+    }
+}
+
+/// A squad as a player sets it up: a name and the types of its robots.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SquadSetup {
+    /// Unique within the team; used in commands.
+    pub name: String,
+    /// One entry per robot.
+    pub robots: Vec<RobotKind>,
+}
+
+/// A team as a player sets it up.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TeamSetup {
+    /// Must match a team of the map.
+    pub name: String,
+    /// Its squads.
+    pub squads: Vec<SquadSetup>,
+}
+
+impl TeamSetup {
+    /// Budget points the team spends.
+    pub fn cost(&self) -> u32 {
+        self.squads
+            .iter()
+            .flat_map(|s| &s.robots)
+            .map(|k| k.stats().cost)
+            .sum()
+    }
+
+    /// Refuses a team the rules don't allow.
+    pub fn check(&self, rules: &Rules) -> Result<(), RuleError> {
+        if self.squads.is_empty() {
+            return Err(RuleError::NoSquads(self.name.clone()));
+        }
+        if self.squads.len() > rules.max_squads {
+            return Err(RuleError::TooManySquads {
+                team: self.name.clone(),
+                squads: self.squads.len(),
+                max: rules.max_squads,
+            });
+        }
+        for (i, s) in self.squads.iter().enumerate() {
+            if s.robots.is_empty() {
+                return Err(RuleError::EmptySquad(s.name.clone()));
+            }
+            if !valid_name(&s.name) {
+                return Err(RuleError::BadName(s.name.clone()));
+            }
+            if self.squads[..i].iter().any(|o| o.name == s.name) {
+                return Err(RuleError::DuplicateSquad(s.name.clone()));
+            }
+        }
+        let cost = self.cost();
+        if cost > rules.budget {
+            return Err(RuleError::OverBudget {
+                team: self.name.clone(),
+                cost,
+                budget: rules.budget,
+            });
+        }
+        Ok(())
+    }
+
+    /// Parses `alpha:tank,infantry,infantry beta:scout,amphibian`.
+    pub fn parse(name: &str, text: &str) -> Result<TeamSetup, RuleError> {
+        let mut squads = Vec::new();
+        for part in text.split_whitespace() {
+            let (squad, kinds) = part
+                .split_once(':')
+                .ok_or_else(|| RuleError::BadSetup(part.to_string()))?;
+            let robots = kinds
+                .split(',')
+                .map(str::parse)
+                .collect::<Result<Vec<RobotKind>, _>>()?;
+            squads.push(SquadSetup {
+                name: squad.to_string(),
+                robots,
+            });
+        }
+        Ok(TeamSetup {
+            name: name.to_string(),
+            squads,
+        })
+    }
+}
+
+/// A name usable as a token in packets.
+pub fn valid_name(s: &str) -> bool {
+    !s.is_empty()
+        && s.len() <= 32
+        && s.bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'_')
+}
+
+/// Why a setup or an operation was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RuleError {
+    /// Not one of the four types.
+    #[error("unknown robot type {0:?} (expected scout, tank, infantry or amphibian)")]
+    UnknownKind(String),
+    /// Not a game mode.
+    #[error("unknown game {0:?} (expected ctf or dm)")]
+    UnknownMode(String),
+    /// A team with nothing in it.
+    #[error("team {0} has no squads")]
+    NoSquads(String),
+    /// More squads than the rules allow.
+    #[error("team {team} has {squads} squads; the rules allow {max}")]
+    TooManySquads {
+        /// Which team.
+        team: String,
+        /// How many it asked for.
+        squads: usize,
+        /// The limit.
+        max: usize,
+    },
+    /// A squad with no robots.
+    #[error("squad {0} has no robots")]
+    EmptySquad(String),
+    /// Two squads of one name.
+    #[error("two squads are called {0}")]
+    DuplicateSquad(String),
+    /// A name that isn't a plain token.
+    #[error("{0:?} is not a usable name (letters, digits, - and _, at most 32)")]
+    BadName(String),
+    /// The robots cost more than the budget.
+    #[error("team {team} costs {cost} points; the budget is {budget}")]
+    OverBudget {
+        /// Which team.
+        team: String,
+        /// What it costs.
+        cost: u32,
+        /// What it may spend.
+        budget: u32,
+    },
+    /// A setup string that isn't `squad:kind,kind ...`.
+    #[error("{0:?}: expected squad:kind,kind,... (e.g. alpha:tank,infantry)")]
+    BadSetup(String),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_team_over_budget_is_refused_with_its_cost() {
+        let rules = Rules::new(Mode::CaptureTheFlag);
+        let t = TeamSetup::parse("red", "a:tank,tank,tank,tank,tank,tank,tank").unwrap();
+        assert_eq!(
+            t.check(&rules).unwrap_err().to_string(),
+            "team red costs 35 points; the budget is 30"
+        );
+        let ok = TeamSetup::parse("red", "a:tank,infantry b:scout,amphibian").unwrap();
+        assert_eq!(ok.check(&rules), Ok(()));
+    }
+
+    #[test]
+    fn bad_setups_name_the_problem() {
+        let rules = Rules::new(Mode::DeathMatch);
+        assert!(matches!(
+            TeamSetup::parse("red", "a:tank,robot"),
+            Err(RuleError::UnknownKind(k)) if k == "robot"
+        ));
+        assert!(matches!(
+            TeamSetup::parse("red", "tank"),
+            Err(RuleError::BadSetup(_))
+        ));
+        let dup = TeamSetup::parse("red", "a:tank a:scout").unwrap();
+        assert_eq!(
+            dup.check(&rules),
+            Err(RuleError::DuplicateSquad("a".into()))
+        );
+        let none = TeamSetup::parse("red", "").unwrap();
+        assert_eq!(none.check(&rules), Err(RuleError::NoSquads("red".into())));
+    }
+
+    #[test]
+    fn only_the_amphibian_crosses_water_and_kinds_round_trip() {
+        for k in RobotKind::ALL {
+            assert_eq!(k.stats().amphibious, k == RobotKind::Amphibian);
+            assert_eq!(k.name().parse::<RobotKind>(), Ok(k));
+        }
+    }
+}

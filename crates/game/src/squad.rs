@@ -1,0 +1,759 @@
+//! Server-side swarm intelligence (the paper's section 4.3): a squad
+//! arbitrator per squad turns the player's command into a sequence command
+//! for each robot.
+//!
+//! | priority | squad behaviour | wants control when |
+//! |---|---|---|
+//! | 30 | `shoot` | an enemy is within range of a member: members in range shoot, the rest hold |
+//! | 20 | `avoid-squads` | another squad's predicted path comes within reach of this one's (Fig. 5): sidestep, then resume |
+//! | 10 | `order` | the player's command (gather, goto, defend, attack, capture) is being carried out |
+//! | 0 | `hold` | nothing to do |
+//!
+//! When `shoot` or `avoid-squads` hands control back, `order` replans from
+//! where the robots are now, so the previous path is resumed.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use colony_behave::{Arbitrator, Behaviour, Reason};
+use colony_sim::Vec2;
+
+use crate::formation::{along_path, assign, Formation};
+use crate::nav::Nav;
+use crate::path::{Mover, Replanner};
+use crate::protocol::{Command, SquadState, Target, Verb};
+use crate::rules::RobotKind;
+
+/// A robot as the swarm intelligence sees it this tick.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SeenRobot {
+    /// Its id.
+    pub id: u32,
+    /// Its team.
+    pub team: String,
+    /// Its type.
+    pub kind: RobotKind,
+    /// Where it is, cm.
+    pub at: Vec2,
+    /// Not destroyed.
+    pub alive: bool,
+}
+
+/// A squad's motion, for collision mitigation between squads.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SquadMotion {
+    /// Its team.
+    pub team: String,
+    /// Its name.
+    pub name: String,
+    /// The centroid of its living members, cm.
+    pub centroid: Vec2,
+    /// How fast the centroid moves, cm/s.
+    pub velocity: Vec2,
+    /// The farthest member from the centroid plus a body, cm.
+    pub radius: f64,
+}
+
+/// The world as the swarm intelligence sees it this tick.
+#[derive(Debug, Clone, Default)]
+pub struct View {
+    /// Game time, s.
+    pub time: f64,
+    /// Every robot, indexed by id.
+    pub robots: Vec<SeenRobot>,
+    /// Flags: team, where, carrier.
+    pub flags: Vec<(String, Vec2, Option<u32>)>,
+    /// Bases: team, where.
+    pub bases: Vec<(String, Vec2)>,
+    /// Every squad's motion.
+    pub squads: Vec<SquadMotion>,
+}
+
+impl View {
+    fn robot(&self, id: u32) -> Option<&SeenRobot> {
+        self.robots.get(id as usize)
+    }
+
+    fn flag(&self, team: &str) -> Option<(Vec2, Option<u32>)> {
+        self.flags.iter().find(|f| f.0 == team).map(|f| (f.1, f.2))
+    }
+
+    fn base(&self, team: &str) -> Option<Vec2> {
+        self.bases.iter().find(|b| b.0 == team).map(|b| b.1)
+    }
+}
+
+/// What the squad behaviours share.
+pub struct SquadCtx {
+    /// This tick's world.
+    pub view: Arc<View>,
+    /// The squad's team.
+    pub team: String,
+    /// The squad's name.
+    pub name: String,
+    /// Its robots' ids.
+    pub members: Vec<u32>,
+    /// Its formation.
+    pub formation: Formation,
+    /// Spacing between robots in formation (the paper's d), cm.
+    pub spacing: f64,
+    /// The player's command.
+    pub verb: Option<Verb>,
+    /// A new command arrived since the last tick.
+    pub fresh: bool,
+    /// A higher behaviour had control: the order must be replanned from here.
+    replan: bool,
+    /// Path finding.
+    pub nav: Nav,
+    /// Orders to send: robot, commands.
+    pub out: Vec<(u32, Vec<Command>)>,
+    /// The squad's planned path, cm.
+    pub path: Vec<Vec2>,
+}
+
+impl SquadCtx {
+    fn alive(&self) -> Vec<&SeenRobot> {
+        self.members
+            .iter()
+            .filter_map(|&id| self.view.robot(id))
+            .filter(|r| r.alive)
+            .collect()
+    }
+
+    fn centroid(&self) -> Option<Vec2> {
+        let alive = self.alive();
+        if alive.is_empty() {
+            return None;
+        }
+        let sum = alive.iter().fold(Vec2::ZERO, |s, r| s + r.at);
+        Some(sum * (1.0 / alive.len() as f64))
+    }
+
+    /// Land, unless every living member swims.
+    fn mover(&self) -> Mover {
+        if self.alive().iter().all(|r| r.kind.stats().amphibious) {
+            Mover::Amphibious
+        } else {
+            Mover::Land
+        }
+    }
+
+    fn slowest(&self) -> f64 {
+        self.alive()
+            .iter()
+            .map(|r| r.kind.stats().speed_cm_s)
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    fn target(&self, t: &Target) -> Option<Vec2> {
+        match t {
+            Target::Robot(id) => self.view.robot(*id).filter(|r| r.alive).map(|r| r.at),
+            Target::Flag(team) => self.view.flag(team).map(|f| f.0),
+            Target::Base(team) => self.view.base(team),
+            Target::Point(p) => Some(*p),
+        }
+    }
+
+    /// Sends the squad along `path` (turn points, cm) in `formation`:
+    /// gathering first when asked (each robot plans its own way to its slot
+    /// at the start), then slot by slot along the path. With `pickup`, the
+    /// robot whose last slot is nearest the flag goes on to take it.
+    fn dispatch(
+        &mut self,
+        path: Vec<Vec2>,
+        formation: Formation,
+        gather: bool,
+        pickup: Option<(String, Vec2)>,
+    ) {
+        let members: Vec<(u32, Vec2, RobotKind)> =
+            self.alive().iter().map(|r| (r.id, r.at, r.kind)).collect();
+        if members.is_empty() || path.is_empty() {
+            return;
+        }
+        let mover = self.mover();
+        let facing = match path.as_slice() {
+            [a, b, ..] => (*b - *a).angle(),
+            [a] => self.centroid().map_or(0.0, |c| (*a - c).angle()),
+            [] => 0.0,
+        };
+        let nav = &self.nav;
+        let slots = along_path(&path, formation, members.len(), self.spacing, facing, |p| {
+            nav.is_free(p, mover)
+        });
+        let starts: Vec<Vec2> = slots.iter().map(|s| s[0]).collect();
+        let positions: Vec<Vec2> = members.iter().map(|m| m.1).collect();
+        let assigned = assign(&positions, &starts);
+        let speed = self.slowest();
+        let picker = pickup.as_ref().and_then(|(_, at)| {
+            (0..members.len()).min_by(|&a, &b| {
+                let la = slots[assigned[a]]
+                    .last()
+                    .map_or(f64::INFINITY, |p| p.distance(*at));
+                let lb = slots[assigned[b]]
+                    .last()
+                    .map_or(f64::INFINITY, |p| p.distance(*at));
+                la.total_cmp(&lb)
+            })
+        });
+        for (k, &(id, at, kind)) in members.iter().enumerate() {
+            let own = &slots[assigned[k]];
+            let mut cmds = Vec::new();
+            let robot_mover = if kind.stats().amphibious {
+                Mover::Amphibious
+            } else {
+                Mover::Land
+            };
+            let first = own[0];
+            if gather && !self.nav.line_of_sight(at, first, robot_mover) {
+                if let Some(way) = self.nav.plan(at, first, robot_mover) {
+                    cmds.extend(
+                        way.into_iter()
+                            .skip(1)
+                            .map(|to| Command::GoTo { to, speed: None }),
+                    );
+                }
+            }
+            cmds.push(Command::GoTo {
+                to: first,
+                speed: if gather { None } else { Some(speed) },
+            });
+            cmds.extend(own[1..].iter().map(|&to| Command::GoTo {
+                to,
+                speed: Some(speed),
+            }));
+            if let (Some(p), Some((flag, at))) = (picker, &pickup) {
+                if p == k {
+                    cmds.push(Command::GoTo {
+                        to: *at,
+                        speed: None,
+                    });
+                    cmds.push(Command::PickUp { flag: flag.clone() });
+                }
+            }
+            self.out.push((id, cmds));
+        }
+        self.path = path;
+    }
+}
+
+/// Automatic shooting: every member with an enemy in range shoots the
+/// nearest one; the others hold their ground.
+#[derive(Default)]
+struct Shoot {
+    /// Per member: the target it was told to shoot and where it was then.
+    told: Vec<(u32, Option<(u32, Vec2)>)>,
+}
+
+impl Shoot {
+    fn targets(ctx: &SquadCtx) -> Vec<(u32, Option<(u32, Vec2)>)> {
+        ctx.alive()
+            .iter()
+            .map(|m| {
+                let range = m.kind.stats().range_cm;
+                let target = ctx
+                    .view
+                    .robots
+                    .iter()
+                    .filter(|e| e.alive && e.team != ctx.team)
+                    .map(|e| (e, e.at.distance(m.at)))
+                    .filter(|(_, d)| *d <= range)
+                    .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.id.cmp(&b.0.id)))
+                    .map(|(e, _)| (e.id, e.at));
+                (m.id, target)
+            })
+            .collect()
+    }
+}
+
+impl Behaviour<SquadCtx> for Shoot {
+    fn name(&self) -> &str {
+        "shoot"
+    }
+
+    fn wants_control(&mut self, ctx: &SquadCtx) -> Option<Reason> {
+        let (m, t) = Self::targets(ctx)
+            .into_iter()
+            .find_map(|(m, t)| t.map(|t| (m, t.0)))?;
+        Some(format!("enemy robot {t} in range of robot {m}").into())
+    }
+
+    fn act(&mut self, ctx: &mut SquadCtx) {
+        for (member, target) in Self::targets(ctx) {
+            let before = self
+                .told
+                .iter()
+                .find(|t| t.0 == member)
+                .and_then(|t| t.1.map(Some))
+                .unwrap_or(None);
+            let same = match (before, target) {
+                (Some((a, pa)), Some((b, pb))) => a == b && pa.distance(pb) < 10.0,
+                (None, None) => self.told.iter().any(|t| t.0 == member),
+                _ => false,
+            };
+            if same {
+                continue;
+            }
+            let cmd = match target {
+                Some((target, at)) => Command::Shoot { target, at },
+                None => Command::Stop,
+            };
+            ctx.out.push((member, vec![cmd]));
+            self.told.retain(|t| t.0 != member);
+            self.told.push((member, target));
+        }
+    }
+
+    fn suppressed(&mut self, _ctx: &mut SquadCtx) {
+        self.told.clear();
+    }
+}
+
+/// How far ahead collisions between squads are predicted, s.
+const HORIZON_S: f64 = 3.0;
+/// Extra room kept between squads, cm.
+const SQUAD_MARGIN: f64 = 10.0;
+/// A sidestep is given up after this long, s.
+const SIDESTEP_S: f64 = 3.0;
+/// After a sidestep, none for this long, s.
+const SIDESTEP_COOLDOWN_S: f64 = 6.0;
+
+/// Fig. 5: check for inbound collisions with other squads; when one is
+/// coming, sidestep perpendicular to the way we go, away from the other.
+/// Of two squads on a collision course only one yields (the one whose
+/// `team/name` sorts later), so they don't both dodge into each other.
+#[derive(Default)]
+struct AvoidSquads {
+    until: Option<f64>,
+    other: String,
+    /// No new sidestep before this time: two squads bound for one place must
+    /// not dodge each other forever.
+    quiet_until: f64,
+}
+
+impl AvoidSquads {
+    fn inbound(ctx: &SquadCtx) -> Option<(Vec2, &SquadMotion, f64)> {
+        let me = ctx
+            .view
+            .squads
+            .iter()
+            .find(|s| s.team == ctx.team && s.name == ctx.name)?;
+        if me.velocity.length() < 2.0 {
+            return None;
+        }
+        let mine = (ctx.team.as_str(), ctx.name.as_str());
+        ctx.view
+            .squads
+            .iter()
+            .filter(|o| (o.team.as_str(), o.name.as_str()) < mine)
+            // A parked squad is a static obstacle for the path and the
+            // robots' reflexes, not an inbound collision.
+            .filter(|o| o.velocity.length() >= 2.0)
+            .filter_map(|o| {
+                let p = o.centroid - me.centroid;
+                let v = o.velocity - me.velocity;
+                let vv = v.x * v.x + v.y * v.y;
+                if vv < 1e-6 {
+                    return None;
+                }
+                let t = (-(p.x * v.x + p.y * v.y) / vv).clamp(0.0, HORIZON_S);
+                let closest = p + v * t;
+                let reach = me.radius + o.radius + SQUAD_MARGIN;
+                (t > 0.0 && closest.length() < reach).then_some((
+                    closest,
+                    o,
+                    reach - closest.length(),
+                ))
+            })
+            .min_by(|a, b| a.0.length().total_cmp(&b.0.length()))
+    }
+}
+
+impl Behaviour<SquadCtx> for AvoidSquads {
+    fn name(&self) -> &str {
+        "avoid-squads"
+    }
+
+    fn wants_control(&mut self, ctx: &SquadCtx) -> Option<Reason> {
+        if let Some(until) = self.until {
+            if ctx.view.time < until {
+                return Some(format!("sidestepping squad {}", self.other).into());
+            }
+            self.until = None;
+            self.quiet_until = ctx.view.time + SIDESTEP_COOLDOWN_S;
+        }
+        if ctx.view.time < self.quiet_until {
+            return None;
+        }
+        let (_, other, _) = Self::inbound(ctx)?;
+        Some(format!("inbound collision with squad {}/{}", other.team, other.name).into())
+    }
+
+    fn act(&mut self, ctx: &mut SquadCtx) {
+        if self.until.is_some() {
+            return;
+        }
+        let Some((closest, other, depth)) = Self::inbound(ctx) else {
+            return;
+        };
+        let name = format!("{}/{}", other.team, other.name);
+        let me = ctx
+            .view
+            .squads
+            .iter()
+            .find(|s| s.team == ctx.team && s.name == ctx.name)
+            .map(|s| s.velocity)
+            .unwrap_or(Vec2::ZERO);
+        // Perpendicular to our heading, on the side away from the other squad.
+        let len = me.length().max(1e-9);
+        let mut side = Vec2::new(-me.y / len, me.x / len);
+        if side.x * closest.x + side.y * closest.y > 0.0 {
+            side = side * -1.0;
+        }
+        let step = side * (depth + SQUAD_MARGIN);
+        let mover = ctx.mover();
+        let moves: Vec<(u32, Vec2)> = ctx.alive().iter().map(|r| (r.id, r.at + step)).collect();
+        if moves.iter().any(|(_, p)| !ctx.nav.is_free(*p, mover)) {
+            // No room to sidestep: the robots' own reflexes will have to do.
+            return;
+        }
+        for (id, to) in moves {
+            ctx.out.push((id, vec![Command::GoTo { to, speed: None }]));
+        }
+        self.other = name;
+        self.until = Some(ctx.view.time + SIDESTEP_S);
+    }
+
+    fn suppressed(&mut self, _ctx: &mut SquadCtx) {
+        self.until = None;
+    }
+}
+
+/// Where a multi-step order stands.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    /// Going for the object.
+    Going,
+    /// Capture: the flag is ours, bringing it home.
+    Returning,
+    /// Nothing more to send.
+    Done,
+}
+
+/// The player's command, carried out.
+struct OrderBehaviour {
+    phase: Phase,
+    /// Where the last plan was made to.
+    goal: Option<Vec2>,
+    replanner: Option<Replanner>,
+    /// Time the last (re)plan took.
+    pub last_plan: Option<Duration>,
+    /// How many replans reused earlier search work.
+    replans: u64,
+}
+
+/// A moving target is followed once it has moved this many cells.
+const FOLLOW_CELLS: f64 = 1.5;
+
+impl OrderBehaviour {
+    fn start(&mut self, ctx: &mut SquadCtx, gather: bool) {
+        let Some(verb) = ctx.verb.clone() else {
+            return;
+        };
+        let t0 = Instant::now();
+        self.replanner = None;
+        self.goal = None;
+        let Some(centroid) = ctx.centroid() else {
+            self.phase = Phase::Done;
+            return;
+        };
+        let mover = ctx.mover();
+        match verb {
+            Verb::Stop => {
+                for id in ctx.alive().iter().map(|r| r.id).collect::<Vec<_>>() {
+                    ctx.out.push((id, vec![Command::Stop]));
+                }
+                ctx.path.clear();
+                self.phase = Phase::Done;
+            }
+            Verb::Gather(at) => {
+                let at = at.unwrap_or(centroid);
+                let at = ctx.nav.nearest_free(at, mover).map(|c| ctx.nav.centre(c));
+                if let Some(at) = at {
+                    ctx.dispatch(vec![at], ctx.formation, true, None);
+                }
+                self.goal = at;
+                self.phase = Phase::Going;
+            }
+            Verb::GoTo(to) => {
+                if let Some(path) = ctx.nav.plan(centroid, to, mover) {
+                    ctx.dispatch(path, ctx.formation, gather, None);
+                }
+                self.goal = Some(to);
+                // Going until the squad is there, so a sidestep or a fight on
+                // the way hands control back here and the path is resumed.
+                self.phase = Phase::Going;
+            }
+            Verb::Defend(ref t) | Verb::Attack(ref t) => {
+                let Some(to) = ctx.target(t) else {
+                    self.phase = Phase::Done;
+                    return;
+                };
+                let formation = match (&verb, t) {
+                    (Verb::Defend(Target::Robot(_)), _) => Formation::HalfCircle,
+                    (Verb::Defend(_), _) => Formation::Circle,
+                    _ => Formation::HalfCircle,
+                };
+                self.replanner = ctx.nav.replanner(centroid, to, mover);
+                let path = self
+                    .replanner
+                    .as_mut()
+                    .and_then(|r| r.plan())
+                    .map(|p| ctx.nav.points(&p, mover));
+                if let Some(path) = path {
+                    ctx.dispatch(path, formation, gather, None);
+                }
+                self.goal = Some(to);
+                self.phase = Phase::Going;
+            }
+            Verb::Capture(ref flag) => {
+                let Some((at, carrier)) = ctx.view.flag(flag) else {
+                    self.phase = Phase::Done;
+                    return;
+                };
+                if carrier.is_some_and(|c| ctx.members.contains(&c)) {
+                    let home = ctx.view.base(&ctx.team).unwrap_or(centroid);
+                    if let Some(path) = ctx.nav.plan(centroid, home, mover) {
+                        ctx.dispatch(path, ctx.formation, false, None);
+                    }
+                    self.goal = Some(home);
+                    self.phase = Phase::Returning;
+                } else {
+                    if let Some(path) = ctx.nav.plan(centroid, at, mover) {
+                        ctx.dispatch(path, ctx.formation, gather, Some((flag.clone(), at)));
+                    }
+                    self.goal = Some(at);
+                    self.phase = Phase::Going;
+                }
+            }
+        }
+        self.last_plan = Some(t0.elapsed());
+    }
+
+    /// Follows a moving target with a partial replan from the earlier search.
+    fn follow(&mut self, ctx: &mut SquadCtx, to: Vec2, formation: Formation) {
+        let t0 = Instant::now();
+        let mover = ctx.mover();
+        let (Some(cell), Some(from)) = (
+            ctx.nav.nearest_free(to, mover),
+            ctx.centroid().and_then(|c| ctx.nav.nearest_free(c, mover)),
+        ) else {
+            return;
+        };
+        let Some(r) = self.replanner.as_mut() else {
+            return self.start(ctx, false);
+        };
+        r.set_start(from);
+        r.set_goal(cell);
+        let path = r.plan().map(|p| ctx.nav.points(&p, mover));
+        self.replans += 1;
+        if let Some(path) = path {
+            ctx.dispatch(path, formation, false, None);
+        }
+        self.goal = Some(to);
+        self.last_plan = Some(t0.elapsed());
+    }
+}
+
+impl Behaviour<SquadCtx> for OrderBehaviour {
+    fn name(&self) -> &str {
+        "order"
+    }
+
+    fn wants_control(&mut self, ctx: &SquadCtx) -> Option<Reason> {
+        let verb = ctx.verb.as_ref()?;
+        if ctx.fresh || ctx.replan || self.phase != Phase::Done {
+            Some(verb.to_string().into())
+        } else {
+            None
+        }
+    }
+
+    fn act(&mut self, ctx: &mut SquadCtx) {
+        if ctx.fresh || ctx.replan {
+            let gather = ctx.fresh;
+            ctx.fresh = false;
+            ctx.replan = false;
+            self.phase = Phase::Done;
+            return self.start(ctx, gather);
+        }
+        let cell = ctx.nav.field().cell_cm;
+        match ctx.verb.clone() {
+            Some(Verb::Attack(t)) | Some(Verb::Defend(t)) => {
+                let Some(to) = ctx.target(&t) else {
+                    // The target is gone (destroyed): the order is done.
+                    self.phase = Phase::Done;
+                    return;
+                };
+                if self
+                    .goal
+                    .is_none_or(|g| g.distance(to) > FOLLOW_CELLS * cell)
+                {
+                    let formation = if matches!(
+                        ctx.verb,
+                        Some(Verb::Defend(
+                            Target::Flag(_) | Target::Base(_) | Target::Point(_)
+                        ))
+                    ) {
+                        Formation::Circle
+                    } else {
+                        Formation::HalfCircle
+                    };
+                    self.follow(ctx, to, formation);
+                }
+            }
+            Some(Verb::Capture(flag)) => {
+                let Some((at, carrier)) = ctx.view.flag(&flag) else {
+                    self.phase = Phase::Done;
+                    return;
+                };
+                let ours = carrier.is_some_and(|c| ctx.members.contains(&c));
+                let restart = match self.phase {
+                    Phase::Going => {
+                        ours || self
+                            .goal
+                            .is_none_or(|g| g.distance(at) > FOLLOW_CELLS * cell)
+                    }
+                    // Dropped (the carrier was destroyed) or captured and home again.
+                    Phase::Returning => !ours,
+                    Phase::Done => true,
+                };
+                if restart {
+                    self.start(ctx, false);
+                }
+            }
+            Some(Verb::GoTo(_) | Verb::Gather(_)) => {
+                let n = ctx.alive().len() as f64;
+                let near = cell + n * ctx.spacing;
+                if let (Some(c), Some(g)) = (ctx.centroid(), self.goal) {
+                    if c.distance(g) <= near {
+                        self.phase = Phase::Done;
+                    }
+                }
+            }
+            _ => self.phase = Phase::Done,
+        }
+    }
+
+    fn suppressed(&mut self, ctx: &mut SquadCtx) {
+        ctx.replan = true;
+    }
+}
+
+/// Nothing to do: the robots finish what they were told.
+struct Hold;
+
+impl Behaviour<SquadCtx> for Hold {
+    fn name(&self) -> &str {
+        "hold"
+    }
+    fn wants_control(&mut self, _ctx: &SquadCtx) -> Option<Reason> {
+        Some("no order".into())
+    }
+    fn act(&mut self, _ctx: &mut SquadCtx) {}
+}
+
+/// One squad's arbitrator and what it knows.
+pub struct Squad {
+    arbitrator: Arbitrator<SquadCtx>,
+    ctx: SquadCtx,
+    order_text: String,
+}
+
+impl Squad {
+    /// A squad of `members` of `team`, navigating with `nav`.
+    pub fn new(team: &str, name: &str, members: Vec<u32>, spacing: f64, nav: Nav) -> Squad {
+        let mut arbitrator = Arbitrator::new();
+        arbitrator.add(30, Shoot::default());
+        arbitrator.add(20, AvoidSquads::default());
+        arbitrator.add(
+            10,
+            OrderBehaviour {
+                phase: Phase::Done,
+                goal: None,
+                replanner: None,
+                last_plan: None,
+                replans: 0,
+            },
+        );
+        arbitrator.add(0, Hold);
+        Squad {
+            arbitrator,
+            ctx: SquadCtx {
+                view: Arc::new(View::default()),
+                team: team.to_string(),
+                name: name.to_string(),
+                members,
+                formation: Formation::Wedge,
+                spacing,
+                verb: None,
+                fresh: false,
+                replan: false,
+                nav,
+                out: Vec::new(),
+                path: Vec::new(),
+            },
+            order_text: "none".to_string(),
+        }
+    }
+
+    /// Its team.
+    pub fn team(&self) -> &str {
+        &self.ctx.team
+    }
+
+    /// Its name.
+    pub fn name(&self) -> &str {
+        &self.ctx.name
+    }
+
+    /// Its robots.
+    pub fn members(&self) -> &[u32] {
+        &self.ctx.members
+    }
+
+    /// Takes a player's command (already checked by the caller).
+    pub fn command(&mut self, verb: Verb, formation: Option<Formation>) {
+        if let Some(f) = formation {
+            self.ctx.formation = f;
+        }
+        self.order_text = verb.to_string();
+        self.ctx.verb = Some(verb);
+        self.ctx.fresh = true;
+    }
+
+    /// One tick of the squad arbitrator on this view; returns the orders to
+    /// send (robot, commands).
+    pub fn tick(&mut self, view: Arc<View>) -> Vec<(u32, Vec<Command>)> {
+        self.ctx.view = view;
+        self.arbitrator.step(&mut self.ctx);
+        std::mem::take(&mut self.ctx.out)
+    }
+
+    /// What the player sees of the squad.
+    pub fn state(&self) -> SquadState {
+        let active = self.arbitrator.active();
+        SquadState {
+            team: self.ctx.team.clone(),
+            name: self.ctx.name.clone(),
+            formation: self.ctx.formation,
+            order: self.order_text.clone(),
+            behaviour: active.map_or(String::new(), |d| format!("{}: {}", d.name, d.reason)),
+            path: self.ctx.path.clone(),
+        }
+    }
+
+    /// The behaviour in control after the last tick.
+    pub fn active(&self) -> Option<&str> {
+        self.arbitrator.active().map(|d| d.name.as_str())
+    }
+}

@@ -1,0 +1,182 @@
+//! The battlefield in the simulator, as a part of the game: it steps the
+//! physics, publishes every robot's sensors and pose, drives each robot by
+//! the newest wheel command for it, and takes destroyed robots out of play
+//! when the game logic's state says so.
+
+use colony_sim::field::{
+    Field, FieldConfig, FieldRobotId, RobotSpec, Terrain as SimTerrain, TileMap,
+};
+use colony_sim::{SimError, WheelCommand};
+use colony_wire::Packet;
+
+use crate::logic::RobotEntry;
+use crate::map::{Battlefield, Terrain};
+use crate::node::Node;
+use crate::protocol::{self, GameState, RobotPose, Sense, WorldFrame};
+
+/// A robot whose newest command is older than this many steps stops: a dead
+/// controller must not leave its robot driving.
+const COMMAND_TIMEOUT_STEPS: u64 = 10;
+
+/// The world's side of the game.
+pub struct GameWorld {
+    field: Field,
+    commands: Vec<Held>,
+}
+
+#[derive(Debug, Clone, Copy, Default)]
+struct Held {
+    cmd: WheelCommand,
+    priority: i32,
+    step: u64,
+}
+
+/// The simulator's tile map for a battlefield: trees and out-of-bounds are
+/// walls, water is water, the rest open ground.
+pub fn tile_map(field: &Battlefield) -> Result<TileMap, SimError> {
+    let g = &field.grid;
+    TileMap::from_fn(
+        g.width() as usize,
+        g.height() as usize,
+        field.cell_cm,
+        |x, y| match g.get(x as u32, y as u32) {
+            Some(Terrain::Open | Terrain::Swamp) => SimTerrain::Open,
+            Some(Terrain::Water) => SimTerrain::Water,
+            _ => SimTerrain::Blocked,
+        },
+    )
+}
+
+impl GameWorld {
+    /// The battlefield with the roster's robots at their spawn points.
+    pub fn new(field: &Battlefield, roster: &[RobotEntry]) -> Result<GameWorld, SimError> {
+        let mut sim = Field::new(tile_map(field)?, FieldConfig::default())?;
+        for e in roster {
+            let s = e.kind.stats();
+            sim.add_robot(
+                RobotSpec {
+                    radius: s.radius_cm,
+                    max_speed: s.speed_cm_s,
+                    max_turn: s.turn_rad_s,
+                    amphibious: s.amphibious,
+                },
+                e.spawn,
+            )?;
+        }
+        Ok(GameWorld {
+            commands: vec![Held::default(); roster.len()],
+            field: sim,
+        })
+    }
+
+    /// The simulator.
+    pub fn field(&self) -> &Field {
+        &self.field
+    }
+
+    /// Game time, s.
+    pub fn time(&self) -> f64 {
+        self.field.time()
+    }
+
+    /// Takes a wheel command; one of lower priority than a fresh one in force
+    /// (an operator's) is ignored until that one lapses.
+    fn offer(&mut self, id: u32, forward: f64, turn: f64, priority: i32) {
+        let step = self.field.step_count();
+        let Some(h) = self.commands.get_mut(id as usize) else {
+            return;
+        };
+        let fresh = step.saturating_sub(h.step) < COMMAND_TIMEOUT_STEPS;
+        if priority < h.priority && fresh {
+            return;
+        }
+        *h = Held {
+            cmd: WheelCommand { forward, turn },
+            priority,
+            step,
+        };
+    }
+
+    /// One control step; pushes the sensor packets and the world frame.
+    pub fn step(&mut self, out: &mut Vec<Vec<u8>>) {
+        let now = self.field.step_count();
+        let cmds: Vec<WheelCommand> = self
+            .commands
+            .iter()
+            .map(|h| {
+                if now.saturating_sub(h.step) <= COMMAND_TIMEOUT_STEPS {
+                    h.cmd
+                } else {
+                    WheelCommand::STOP
+                }
+            })
+            .collect();
+        self.field.step(&cmds);
+        let (step, time) = (self.field.step_count(), self.field.time());
+        let mut frame = WorldFrame {
+            step,
+            time,
+            robots: Vec::with_capacity(self.commands.len()),
+        };
+        for r in self.field.robots() {
+            frame.robots.push(RobotPose {
+                id: r.id.0 as u32,
+                pose: r.pose,
+                active: r.active,
+            });
+            if !r.active {
+                continue;
+            }
+            if let Some(s) = self.field.sense(r.id) {
+                let sense = Sense {
+                    step,
+                    time,
+                    pose: s.pose,
+                    bump_front: s.bump_front,
+                    bump_rear: s.bump_rear,
+                    contact: s.contact_bearing,
+                    sonar: s.sonar.map(|e| (e.distance, e.bearing)),
+                    border: s.border_ahead,
+                };
+                if let Ok(p) = sense.encode(r.id.0 as u32) {
+                    out.push(p);
+                }
+            }
+        }
+        match frame.encode() {
+            Ok(p) => out.push(p),
+            Err(e) => tracing::warn!(error = %e, "world frame too large to send"),
+        }
+    }
+}
+
+impl Node for GameWorld {
+    fn subscriptions(&self) -> Vec<String> {
+        vec![protocol::RADIO.to_string(), protocol::STATE.to_string()]
+    }
+
+    fn handle(&mut self, packet: &Packet<'_>, _out: &mut Vec<Vec<u8>>) {
+        if packet.has_subject(protocol::RADIO) {
+            match protocol::decode_wheels(packet) {
+                Ok(cmds) => {
+                    for (id, f, t) in cmds {
+                        self.offer(id, f, t, packet.priority().0);
+                    }
+                }
+                Err(e) => tracing::debug!(error = %e, "ignored a bad radio packet"),
+            }
+        } else if packet.has_subject(protocol::STATE) {
+            // The game logic decides who is destroyed; the world only obeys.
+            // Reading it from the state (not an event) means a lost packet or a
+            // restarted world catches up with the next state.
+            match GameState::decode(packet) {
+                Ok(state) => {
+                    for r in state.robots.iter().filter(|r| !r.alive) {
+                        let _ = self.field.set_active(FieldRobotId(r.id as usize), false);
+                    }
+                }
+                Err(e) => tracing::debug!(error = %e, "ignored a bad game state"),
+            }
+        }
+    }
+}

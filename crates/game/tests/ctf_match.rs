@@ -1,0 +1,115 @@
+//! Whole matches in the simulator, fast-forwarded.
+
+use std::sync::Arc;
+
+use colony_game::map::Battlefield;
+use colony_game::matches::Match;
+use colony_game::protocol::Status;
+use colony_game::rules::{Mode, Rules, TeamSetup};
+
+fn map(name: &str) -> Arc<Battlefield> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../maps")
+        .join(name);
+    Arc::new(Battlefield::from_file(&path).unwrap())
+}
+
+#[test]
+fn a_scripted_capture_the_flag_match_runs_to_a_result() {
+    let teams = [
+        TeamSetup::parse(
+            "red",
+            "alpha:tank,infantry,infantry bravo:scout,scout,amphibian",
+        )
+        .unwrap(),
+        TeamSetup::parse(
+            "blue",
+            "alpha:tank,infantry,infantry bravo:scout,scout,amphibian",
+        )
+        .unwrap(),
+    ];
+    let mut rules = Rules::new(Mode::CaptureTheFlag);
+    rules.time_limit_s = 600.0;
+    let mut m = Match::new(map("ctf.map"), rules, &teams, &["red", "blue"]).unwrap();
+    let t0 = std::time::Instant::now();
+    m.run(7000, &mut |_, _| {});
+    let state = m.state().expect("a state was published");
+    for e in m.events().iter().filter(|e| e.kind != "hit") {
+        eprintln!("{:7.1} {} {}", e.time, e.kind, e.text);
+    }
+    eprintln!(
+        "{:?} {:?} in {:?}",
+        state.winner,
+        state.reason,
+        t0.elapsed()
+    );
+    assert_eq!(state.status, Status::Over);
+}
+
+/// Steps until `done` says so or `max` steps pass.
+fn run_until(m: &mut Match, max: u64, mut done: impl FnMut(&Match) -> bool) {
+    for _ in 0..max {
+        m.step(&mut |_, _| {});
+        if done(m) {
+            break;
+        }
+    }
+}
+
+#[test]
+fn an_amphibian_crosses_the_river_where_others_must_use_a_crossing() {
+    use colony_game::map::Terrain;
+    use colony_game::protocol::{SquadCommand, Verb};
+    use colony_sim::Vec2;
+
+    let field = map("ctf.map");
+    let teams = [
+        TeamSetup::parse("red", "swim:amphibian walk:infantry").unwrap(),
+        TeamSetup::parse("blue", "alpha:scout").unwrap(),
+    ];
+    let mut m = Match::new(field.clone(), Rules::new(Mode::CaptureTheFlag), &teams, &[]).unwrap();
+    // Across the river from red's spawn, straight north.
+    let (x, y) = field.cell_center(colony_game::map::Cell::new(6, 12));
+    let goal = Vec2::new(x, y);
+    for squad in ["swim", "walk"] {
+        m.send(
+            SquadCommand {
+                team: "red".into(),
+                squad: squad.into(),
+                verb: Verb::GoTo(goal),
+                formation: None,
+            }
+            .encode()
+            .unwrap(),
+        );
+    }
+    let terrain_under = |m: &Match, id: usize| {
+        let p = m
+            .world()
+            .field()
+            .robot_pose(colony_sim::field::FieldRobotId(id))
+            .unwrap();
+        let c = field.cell_at(p.x, p.y).unwrap();
+        (p.position(), field.grid.terrain(c).unwrap())
+    };
+    let (mut swam, mut waded) = (false, false);
+    let mut arrived = [false; 2];
+    run_until(&mut m, 3000, |m| {
+        for (id, arrived) in arrived.iter_mut().enumerate() {
+            let (at, t) = terrain_under(m, id);
+            if t == Terrain::Water {
+                if id == 0 {
+                    swam = true;
+                } else {
+                    waded = true;
+                }
+            }
+            *arrived |= at.distance(goal) < 30.0;
+        }
+        arrived.iter().all(|a| *a)
+    });
+    assert!(arrived[0], "the amphibian got across");
+    assert!(arrived[1], "the infantry got across");
+    assert!(swam, "the amphibian took the short way, through the water");
+    assert!(!waded, "the infantry never entered the water");
+}

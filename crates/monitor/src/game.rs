@@ -1,0 +1,634 @@
+//! The strategy game as a player sees it, with no socket and no clock:
+//! `game.state`, `game.map` and `game.event` packets go in, JSON for the
+//! game page (`/game`) comes out, and the page's squad commands go back to
+//! the game as `game.player.<team>` packets ([`squad`]).
+//!
+//! The monitor reads the game's packets generically with
+//! [`colony_wire::Packet`] rather than through the game crate: it stays a
+//! plain hub client (DESIGN), and a line it cannot read is skipped and
+//! counted, never fatal. Everything kept is bounded: names are tokens,
+//! texts are cut short, lists are capped, and the map is refused past
+//! [`map::MAX_SIDE`] cells a side.
+//!
+//! To the page:
+//!
+//! ```text
+//! {"t":"game","now":MS,"age":S|null,"stale":B,"state":{mode,status,time,winner,reason,
+//!   teams:[{name,score,kills}], flags:[{team,x,y,home,carrier}],
+//!   robots:[{id,team,squad,kind,x,y,theta,health,alive,behaviour,reason}],
+//!   squads:[{team,name,formation,order,behaviour,path:[[x,y],..]}]}|null,
+//!   "events":[{seq,kind,time,text}],"refusal":{seq,kind,time,text}|null,
+//!   "map_version":N,"bad_lines":N}
+//! {"t":"map","version":N,"map":{width,height,cell,rows:["@..T",..],
+//!   sites:[{team,base:[x,y],flag:[x,y]}]}|null}
+//! ```
+
+pub mod map;
+pub mod squad;
+
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+use colony_wire::{Line, Packet};
+use serde::Serialize;
+
+use self::map::MapAssembler;
+use self::squad::{is_token, MAX_GAME_COORD};
+
+/// The game logic's view of the game, several times a second.
+pub const STATE: &str = "game.state";
+/// The battlefield, every few seconds.
+pub const MAP: &str = "game.map";
+/// What happened: hits, kills, flags, refusals, the end.
+pub const EVENT: &str = "game.event";
+/// The game channels the monitor always subscribes to.
+pub const GAME_CHANNELS: [&str; 3] = [STATE, MAP, EVENT];
+
+/// Events kept for the page's log.
+pub const MAX_EVENTS: usize = 50;
+/// With no state for this long the page shows the game as stale.
+pub const GAME_STALE_AFTER: Duration = Duration::from_secs(2);
+/// The longest behaviour, reason, order or event text kept (characters).
+const MAX_TEXT: usize = 200;
+const MAX_TEAMS: usize = 64;
+const MAX_FLAGS: usize = 64;
+const MAX_ROBOTS: usize = 4096;
+const MAX_SQUADS: usize = 1024;
+const MAX_PATH: usize = 512;
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TeamView {
+    pub name: String,
+    pub score: i64,
+    pub kills: i64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FlagView {
+    pub team: String,
+    pub x: f64,
+    pub y: f64,
+    /// On its stand at its base.
+    pub home: bool,
+    pub carrier: Option<u32>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RobotView {
+    pub id: u32,
+    pub team: String,
+    pub squad: String,
+    pub kind: String,
+    pub x: f64,
+    pub y: f64,
+    pub theta: f64,
+    pub health: f64,
+    pub alive: bool,
+    /// The robot's active behaviour, and why it has control.
+    pub behaviour: String,
+    pub reason: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SquadView {
+    pub team: String,
+    pub name: String,
+    pub formation: String,
+    /// The player's command it carries out, as the game words it.
+    pub order: String,
+    /// The squad behaviour in control.
+    pub behaviour: String,
+    /// Planned turn points, cm.
+    pub path: Vec<(f64, f64)>,
+}
+
+/// One `game.state` packet.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GameStateView {
+    pub mode: String,
+    /// `running` or `over`.
+    pub status: String,
+    /// Game time, s.
+    pub time: f64,
+    pub winner: Option<String>,
+    pub reason: String,
+    pub teams: Vec<TeamView>,
+    pub flags: Vec<FlagView>,
+    pub robots: Vec<RobotView>,
+    pub squads: Vec<SquadView>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EventView {
+    /// Counts events since the monitor started, so the page can tell new from seen.
+    pub seq: u64,
+    pub kind: String,
+    pub time: f64,
+    pub text: String,
+}
+
+/// Everything the monitor knows of the game.
+#[derive(Debug)]
+pub struct GameView {
+    started: Instant,
+    wall_start_ms: u64,
+    state: Option<GameStateView>,
+    state_at: Option<Instant>,
+    map: MapAssembler,
+    events: VecDeque<EventView>,
+    next_seq: u64,
+    refusal: Option<EventView>,
+    bad_lines: u64,
+    version: u64,
+}
+
+#[derive(Serialize)]
+struct GameJson<'a> {
+    t: &'static str,
+    now: u64,
+    age: Option<f64>,
+    stale: bool,
+    state: Option<&'a GameStateView>,
+    events: &'a VecDeque<EventView>,
+    refusal: Option<&'a EventView>,
+    map_version: u64,
+    bad_lines: u64,
+}
+
+#[derive(Serialize)]
+struct MapJson<'a> {
+    t: &'static str,
+    version: u64,
+    map: Option<&'a map::Map>,
+}
+
+/// Text cut to [`MAX_TEXT`] characters.
+fn text(line: &Line<'_>, name: &str) -> Option<String> {
+    Some(line.str(name).ok()?.chars().take(MAX_TEXT).collect())
+}
+
+/// Text that may be missing: a robot without a reason is still a robot.
+fn text_or_empty(line: &Line<'_>, name: &str) -> String {
+    match line.get(name) {
+        None => String::new(),
+        Some(_) => text(line, name).unwrap_or_default(),
+    }
+}
+
+fn name(line: &Line<'_>, field: &str) -> Option<String> {
+    line.str(field)
+        .ok()
+        .filter(|s| is_token(s))
+        .map(|s| s.into_owned())
+}
+
+fn coord(line: &Line<'_>, field: &str) -> Option<f64> {
+    line.f64(field)
+        .ok()
+        .filter(|v| v.is_finite() && v.abs() <= MAX_GAME_COORD)
+}
+
+fn finite(line: &Line<'_>, field: &str) -> Option<f64> {
+    line.f64(field).ok().filter(|v| v.is_finite())
+}
+
+fn id(line: &Line<'_>, field: &str) -> Option<u32> {
+    u32::try_from(line.i64(field).ok()?).ok()
+}
+
+fn flag01(line: &Line<'_>, field: &str) -> Option<bool> {
+    match line.i64(field).ok()? {
+        0 => Some(false),
+        1 => Some(true),
+        _ => None,
+    }
+}
+
+/// `"x,y x,y ..."`; the points that read, at most [`MAX_PATH`].
+fn path(s: &str) -> Option<Vec<(f64, f64)>> {
+    let mut out = Vec::new();
+    for pt in s.split_whitespace().take(MAX_PATH) {
+        let (x, y) = pt.split_once(',')?;
+        let (x, y) = (x.parse::<f64>().ok()?, y.parse::<f64>().ok()?);
+        if !(x.is_finite() && y.is_finite() && x.abs() <= MAX_GAME_COORD && y.abs() <= MAX_GAME_COORD)
+        {
+            return None;
+        }
+        out.push((x, y));
+    }
+    Some(out)
+}
+
+fn team(l: &Line<'_>) -> Option<TeamView> {
+    Some(TeamView {
+        name: name(l, "name")?,
+        score: l.i64("score").ok()?,
+        kills: l.i64("kills").unwrap_or(0),
+    })
+}
+
+fn flag(l: &Line<'_>) -> Option<FlagView> {
+    Some(FlagView {
+        team: name(l, "team")?,
+        x: coord(l, "x")?,
+        y: coord(l, "y")?,
+        home: flag01(l, "home").unwrap_or(false),
+        carrier: match l.get("carrier") {
+            None => None,
+            Some(_) => Some(id(l, "carrier")?),
+        },
+    })
+}
+
+fn robot(l: &Line<'_>) -> Option<RobotView> {
+    Some(RobotView {
+        id: id(l, "id")?,
+        team: name(l, "team")?,
+        squad: name(l, "squad")?,
+        kind: name(l, "kind")?,
+        x: coord(l, "x")?,
+        y: coord(l, "y")?,
+        theta: finite(l, "theta")?,
+        health: finite(l, "health")?,
+        alive: flag01(l, "alive")?,
+        behaviour: text_or_empty(l, "behaviour"),
+        reason: text_or_empty(l, "reason"),
+    })
+}
+
+fn squad(l: &Line<'_>) -> Option<SquadView> {
+    Some(SquadView {
+        team: name(l, "team")?,
+        name: name(l, "name")?,
+        formation: name(l, "formation")?,
+        order: text_or_empty(l, "order"),
+        behaviour: text_or_empty(l, "behaviour"),
+        path: match l.get("path") {
+            None => Vec::new(),
+            Some(_) => path(&l.str("path").ok()?)?,
+        },
+    })
+}
+
+impl GameView {
+    /// A view started at `now`, when the wall clock read `wall_ms` (Unix milliseconds).
+    pub fn new(now: Instant, wall_ms: u64) -> GameView {
+        GameView {
+            started: now,
+            wall_start_ms: wall_ms,
+            state: None,
+            state_at: None,
+            map: MapAssembler::default(),
+            events: VecDeque::new(),
+            next_seq: 0,
+            refusal: None,
+            bad_lines: 0,
+            version: 0,
+        }
+    }
+
+    /// The newest game state.
+    pub fn state(&self) -> Option<&GameStateView> {
+        self.state.as_ref()
+    }
+
+    /// The newest complete map.
+    pub fn map(&self) -> Option<&map::Map> {
+        self.map.map()
+    }
+
+    /// Changes whenever a different map is complete.
+    pub fn map_version(&self) -> u64 {
+        self.map.version()
+    }
+
+    /// The last [`MAX_EVENTS`] events, oldest first.
+    pub fn events(&self) -> impl Iterator<Item = &EventView> {
+        self.events.iter()
+    }
+
+    /// The newest `refused` event: the game said no to a player.
+    pub fn refusal(&self) -> Option<&EventView> {
+        self.refusal.as_ref()
+    }
+
+    /// Changes whenever the state or the events do.
+    pub fn version(&self) -> u64 {
+        self.version
+    }
+
+    /// Lines of game packets that did not read.
+    pub fn bad_lines(&self) -> u64 {
+        self.bad_lines + self.map.bad_lines()
+    }
+
+    /// Takes in a packet received at `now`; packets of other channels are ignored.
+    pub fn on_packet(&mut self, now: Instant, packet: &Packet<'_>) {
+        if packet.subject_count() != 1 {
+            return;
+        }
+        if packet.has_subject(STATE) {
+            self.on_state(now, packet);
+        } else if packet.has_subject(MAP) {
+            self.map.on_packet(packet);
+        } else if packet.has_subject(EVENT) {
+            self.on_event(packet);
+        }
+    }
+
+    fn on_state(&mut self, now: Instant, packet: &Packet<'_>) {
+        let head = packet.line("game").and_then(|g| {
+            let status = name(&g, "status")?;
+            let winner = match name(&g, "winner") {
+                Some(w) if w == "-" => None,
+                w => w,
+            };
+            Some((
+                name(&g, "mode")?,
+                status,
+                finite(&g, "time")?,
+                winner,
+                text_or_empty(&g, "reason"),
+            ))
+        });
+        let Some((mode, status, time, winner, reason)) = head else {
+            self.bad_lines += 1;
+            return;
+        };
+        let mut s = GameStateView {
+            mode,
+            status,
+            time,
+            winner,
+            reason,
+            teams: Vec::new(),
+            flags: Vec::new(),
+            robots: Vec::new(),
+            squads: Vec::new(),
+        };
+        let mut bad = 0;
+        for l in packet.lines() {
+            let ok = match l.label() {
+                "team" if s.teams.len() < MAX_TEAMS => team(&l).map(|t| s.teams.push(t)),
+                "flag" if s.flags.len() < MAX_FLAGS => flag(&l).map(|f| s.flags.push(f)),
+                "robot" if s.robots.len() < MAX_ROBOTS => robot(&l).map(|r| s.robots.push(r)),
+                "squad" if s.squads.len() < MAX_SQUADS => squad(&l).map(|q| s.squads.push(q)),
+                _ => Some(()),
+            };
+            if ok.is_none() {
+                bad += 1;
+            }
+        }
+        self.bad_lines += bad;
+        s.robots.sort_by_key(|r| r.id);
+        // Game time going back is a new game: the old one's log is history.
+        if self.state.as_ref().is_some_and(|old| s.time + 1.0 < old.time) {
+            self.events.clear();
+            self.refusal = None;
+        }
+        self.state = Some(s);
+        self.state_at = Some(now);
+        self.version += 1;
+    }
+
+    fn on_event(&mut self, packet: &Packet<'_>) {
+        for l in packet.lines_labelled("event") {
+            let e = (|| {
+                Some(EventView {
+                    seq: 0,
+                    kind: name(&l, "kind")?,
+                    time: finite(&l, "time")?,
+                    text: text_or_empty(&l, "text"),
+                })
+            })();
+            let Some(mut e) = e else {
+                self.bad_lines += 1;
+                continue;
+            };
+            e.seq = self.next_seq;
+            self.next_seq += 1;
+            if e.kind == "refused" {
+                self.refusal = Some(e.clone());
+            }
+            if self.events.len() >= MAX_EVENTS {
+                self.events.pop_front();
+            }
+            self.events.push_back(e);
+            self.version += 1;
+        }
+    }
+
+    fn wall(&self, t: Instant) -> u64 {
+        self.wall_start_ms + t.saturating_duration_since(self.started).as_millis() as u64
+    }
+
+    /// Seconds since the newest state arrived.
+    pub fn age(&self, now: Instant) -> Option<f64> {
+        self.state_at
+            .map(|t| (now.saturating_duration_since(t).as_secs_f64() * 10.0).round() / 10.0)
+    }
+
+    /// State, events and the map's version as JSON for the game page.
+    pub fn game_json(&self, now: Instant) -> String {
+        let stale = self
+            .state_at
+            .is_none_or(|t| now.saturating_duration_since(t) > GAME_STALE_AFTER);
+        let j = GameJson {
+            t: "game",
+            now: self.wall(now),
+            age: self.age(now),
+            stale,
+            state: self.state.as_ref(),
+            events: &self.events,
+            refusal: self.refusal.as_ref(),
+            map_version: self.map.version(),
+            bad_lines: self.bad_lines(),
+        };
+        serde_json::to_string(&j).unwrap_or_else(|_| "{}".into())
+    }
+
+    /// The map as JSON for the game page (sent only when it changes).
+    pub fn map_json(&self) -> String {
+        let j = MapJson {
+            t: "map",
+            version: self.map.version(),
+            map: self.map.map(),
+        };
+        serde_json::to_string(&j).unwrap_or_else(|_| "{}".into())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Packet<'_> {
+        Packet::parse(text.as_bytes()).unwrap()
+    }
+
+    fn view() -> (GameView, Instant) {
+        let t0 = Instant::now();
+        (GameView::new(t0, 1_000_000), t0)
+    }
+
+    pub(crate) const STATE_PACKET: &str = "@ <game.state> 0\n\
+game mode ctf status running time 12.4 winner - reason \"\"\n\
+team name red score 0 kills 1\n\
+team name blue score 1 kills 0\n\
+flag team blue x 800 y 900 home 0 carrier 3\n\
+flag team red x 100 y 90 home 1\n\
+robot id 4 team blue squad alpha kind scout x 700 y 800 theta 3.1 health 45 alive 1 behaviour goto reason \"following the path\"\n\
+robot id 3 team red squad alpha kind tank x 310.5 y 88.2 theta 1.57 health 120 alive 1 behaviour shoot reason \"enemy 4 in range\"\n\
+squad team red name alpha formation wedge order \"attack robot 4\" behaviour attack path \"310,88 400,120 700,800\"\n";
+
+    #[test]
+    fn a_state_packet_is_read_whole() {
+        let (mut g, t0) = view();
+        g.on_packet(t0, &parse(STATE_PACKET));
+        let s = g.state().unwrap();
+        assert_eq!((s.mode.as_str(), s.status.as_str(), s.time), ("ctf", "running", 12.4));
+        assert_eq!(s.winner, None);
+        assert_eq!(s.teams[1].score, 1);
+        assert_eq!(s.flags[0].carrier, Some(3));
+        assert!(s.flags[1].home);
+        assert_eq!(s.robots[0].id, 3, "sorted by id");
+        assert_eq!(s.robots[0].reason, "enemy 4 in range");
+        assert_eq!(s.squads[0].order, "attack robot 4");
+        assert_eq!(s.squads[0].path, [(310.0, 88.0), (400.0, 120.0), (700.0, 800.0)]);
+        assert_eq!(g.bad_lines(), 0);
+        assert_eq!(g.version(), 1);
+        let json: serde_json::Value = serde_json::from_str(&g.game_json(t0)).unwrap();
+        assert_eq!(json["t"], "game");
+        assert_eq!(json["stale"], false);
+        assert_eq!(json["state"]["squads"][0]["path"][1], serde_json::json!([400.0, 120.0]));
+        assert_eq!(json["state"]["flags"][1]["carrier"], serde_json::Value::Null);
+        assert_eq!(json["state"]["robots"][1]["alive"], true);
+    }
+
+    #[test]
+    fn unreadable_lines_are_skipped_and_the_rest_kept() {
+        let (mut g, t0) = view();
+        g.on_packet(t0, &parse("@ <game.state> 0\nteam name red score 0 kills 0\n"));
+        assert!(g.state().is_none(), "no game line: not a state");
+        let text = "@ <game.state> 0\n\
+game mode ctf status running time 1 winner red reason \"flag home\" future (a 1)\n\
+robot id -1 team red squad a kind tank x 0 y 0 theta 0 health 1 alive 1\n\
+robot id 2 team \"red team\" squad a kind tank x 0 y 0 theta 0 health 1 alive 1\n\
+robot id 3 team red squad a kind tank x nan y 0 theta 0 health 1 alive 1\n\
+robot id 4 team red squad a kind tank x 0 y 0 theta 0 health 1 alive 2\n\
+robot id 5 team red squad a kind tank x 1e7 y 0 theta 0 health 1 alive 1\n\
+robot id 6 team red squad a kind tank x 5 y 6 theta 0 health 1 alive 1 colour green\n\
+squad team red name a formation wedge order \"\" behaviour \"\" path \"1,2 3\"\n\
+squad team red name b formation line\n\
+flag team red x 1 y 2 carrier 99999999999\n\
+ufo x 1\n";
+        g.on_packet(t0, &parse(text));
+        let s = g.state().unwrap();
+        assert_eq!(s.winner.as_deref(), Some("red"));
+        assert_eq!(s.robots.iter().map(|r| r.id).collect::<Vec<_>>(), [6]);
+        assert_eq!(s.squads.len(), 1);
+        assert_eq!(s.squads[0].name, "b");
+        assert!(s.flags.is_empty());
+        assert_eq!(g.bad_lines(), 1 + 5 + 1 + 1);
+    }
+
+    #[test]
+    fn the_last_fifty_events_are_kept_and_the_last_refusal_stays_visible() {
+        let (mut g, t0) = view();
+        g.on_packet(
+            t0,
+            &parse("@ <game.event> 0\nevent kind refused time 1 text \"squad zulu: no such squad\"\n"),
+        );
+        for i in 0..60 {
+            g.on_packet(
+                t0,
+                &parse(&format!("@ <game.event> 0\nevent kind hit time {i} text \"hit {i}\"\n")),
+            );
+        }
+        g.on_packet(t0, &parse("@ <game.event> 0\nevent kind \"two words\" time 1\nevent time 1\n"));
+        let events: Vec<_> = g.events().collect();
+        assert_eq!(events.len(), MAX_EVENTS);
+        assert_eq!(events[0].text, "hit 10");
+        assert_eq!(events.last().unwrap().seq, 60);
+        assert_eq!(g.refusal().unwrap().text, "squad zulu: no such squad");
+        assert_eq!(g.bad_lines(), 2);
+        // A new game (time went back) starts a new log.
+        g.on_packet(t0, &parse(STATE_PACKET));
+        g.on_packet(
+            t0,
+            &parse(&STATE_PACKET.replace("time 12.4", "time 0.2")),
+        );
+        assert_eq!(g.events().count(), 0);
+        assert!(g.refusal().is_none());
+    }
+
+    #[test]
+    fn the_game_goes_stale_without_state_and_the_map_is_its_own_message() {
+        let (mut g, t0) = view();
+        let json: serde_json::Value = serde_json::from_str(&g.game_json(t0)).unwrap();
+        assert_eq!(json["stale"], true);
+        assert_eq!(json["state"], serde_json::Value::Null);
+        g.on_packet(t0, &parse(STATE_PACKET));
+        let later = t0 + Duration::from_millis(2500);
+        let json: serde_json::Value = serde_json::from_str(&g.game_json(later)).unwrap();
+        assert_eq!(json["stale"], true);
+        assert_eq!(json["age"], 2.5);
+        g.on_packet(
+            t0,
+            &parse("@ <game.map> 0\nmap width 2 height 1 cell 20 part 0 parts 1\nrow y 0 cells \".W\"\n"),
+        );
+        assert_eq!(g.map_version(), 1);
+        let json: serde_json::Value = serde_json::from_str(&g.map_json()).unwrap();
+        assert_eq!(json["t"], "map");
+        assert_eq!(json["map"]["rows"][0], ".W");
+        let game: serde_json::Value = serde_json::from_str(&g.game_json(t0)).unwrap();
+        assert_eq!(game["map_version"], 1);
+        assert!(game.get("map").is_none(), "the map is not in every game message");
+    }
+
+    /// A tiny generator, so the test needs no crate and repeats exactly.
+    struct Lcg(u64);
+    impl Lcg {
+        fn next(&mut self) -> u64 {
+            self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            self.0 >> 33
+        }
+    }
+
+    #[test]
+    fn mangled_game_packets_never_panic_and_stay_bounded() {
+        let (mut g, t0) = view();
+        let seeds = [
+            STATE_PACKET.to_owned(),
+            "@ <game.map> 0\nmap width 3 height 2 cell 20 part 0 parts 2\nsite team red base_x 1 base_y 2 flag_x 3 flag_y 4\nrow y 0 cells \"..T\"\n".to_owned(),
+            "@ <game.event> 0\nevent kind refused time 3 text \"no\"\n".to_owned(),
+        ];
+        let alphabet = b" \n\"\\()-.,0123456789eEnaxyidtTW@<>game.stwrpoflqu";
+        let mut rng = Lcg(7);
+        let mut read = 0;
+        for round in 0..20_000 {
+            let mut bytes = seeds[round % seeds.len()].clone().into_bytes();
+            for _ in 0..(1 + rng.next() % 6) {
+                let at = (rng.next() as usize) % bytes.len();
+                match rng.next() % 3 {
+                    0 => bytes[at] = alphabet[(rng.next() as usize) % alphabet.len()],
+                    1 => {
+                        bytes.remove(at);
+                    }
+                    _ => bytes.insert(at, alphabet[(rng.next() as usize) % alphabet.len()]),
+                }
+                if bytes.is_empty() {
+                    bytes.push(b'@');
+                }
+            }
+            if let Ok(p) = Packet::parse(&bytes) {
+                read += 1;
+                g.on_packet(t0, &p);
+                let _ = g.game_json(t0);
+            }
+        }
+        assert!(read > 1000, "the mangling left enough packets to read ({read})");
+        assert!(g.events().count() <= MAX_EVENTS);
+        assert!(g.map().is_none_or(|m| m.rows.len() == m.height as usize));
+    }
+}

@@ -1,0 +1,465 @@
+//! A player's squad command from the game page: read as untrusted JSON,
+//! checked, and written as the packet the game server reads on
+//! `game.player.<team>`.
+//!
+//! ```text
+//! {"t":"squad","team":"red","squad":"alpha","do":"attack","robot":7,"formation":"wedge"}
+//!   becomes
+//! @ <game.player.red> 0
+//! squad name alpha do attack robot 7 formation wedge
+//! ```
+//!
+//! The monitor knows only the packet format, not the game crate (DESIGN:
+//! the monitor talks to `client` and `wire` alone), so the verbs and
+//! formations are spelled out here; the game server still has the last
+//! word and answers with a `refused` event when the rules say no.
+
+use std::fmt;
+
+use colony_wire::{PacketBuilder, Priority};
+use serde::Deserialize;
+
+/// Coordinates and robot ids beyond this are refused (the game's own limit, cm).
+pub const MAX_GAME_COORD: f64 = 1.0e6;
+/// The longest team or squad name (the game's own limit).
+pub const MAX_NAME: usize = 32;
+
+/// A team, squad or formation name as the game writes it: 1 to [`MAX_NAME`]
+/// characters of `A-Z a-z 0-9 _ -`, so it can stand bare in a packet and in
+/// a channel name.
+pub fn is_token(s: &str) -> bool {
+    !s.is_empty()
+        && s.len() <= MAX_NAME
+        && s
+            .bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'_')
+}
+
+/// The channel a team's player commands travel on.
+pub fn player_channel(team: &str) -> String {
+    format!("game.player.{team}")
+}
+
+/// How a squad arranges itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Formation {
+    Line,
+    Circle,
+    HalfCircle,
+    Wedge,
+    InverseWedge,
+}
+
+impl Formation {
+    pub const ALL: [Formation; 5] = [
+        Formation::Line,
+        Formation::Circle,
+        Formation::HalfCircle,
+        Formation::Wedge,
+        Formation::InverseWedge,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Formation::Line => "line",
+            Formation::Circle => "circle",
+            Formation::HalfCircle => "half-circle",
+            Formation::Wedge => "wedge",
+            Formation::InverseWedge => "inverse-wedge",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Formation> {
+        Formation::ALL.into_iter().find(|f| f.name() == s)
+    }
+}
+
+/// What an attack or a defence is about.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Target {
+    Robot(u32),
+    /// A team's flag.
+    Flag(String),
+    /// A team's base.
+    Base(String),
+    /// A point on the battlefield, cm.
+    Point(f64, f64),
+}
+
+/// What the squad is told to do.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Verb {
+    /// Gather in formation at a point, or where the squad stands.
+    Gather(Option<(f64, f64)>),
+    Goto(f64, f64),
+    Attack(Target),
+    Defend(Target),
+    /// Take this team's flag home.
+    Capture(String),
+    Stop,
+}
+
+/// A checked squad command, ready to publish.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SquadOrder {
+    pub team: String,
+    pub squad: String,
+    pub verb: Verb,
+    /// None: the squad keeps its formation.
+    pub formation: Option<Formation>,
+}
+
+/// The browser's message, before it is checked. Numbers arrive as JSON
+/// numbers; ids as whole numbers.
+#[derive(Debug, Deserialize)]
+pub struct SquadMsg {
+    team: String,
+    squad: String,
+    #[serde(rename = "do")]
+    verb: String,
+    #[serde(default)]
+    robot: Option<u32>,
+    #[serde(default)]
+    flag: Option<String>,
+    #[serde(default)]
+    base: Option<String>,
+    #[serde(default)]
+    x: Option<f64>,
+    #[serde(default)]
+    y: Option<f64>,
+    #[serde(default)]
+    formation: Option<String>,
+}
+
+fn token(what: &str, s: &str) -> Result<String, String> {
+    if is_token(s) {
+        Ok(s.to_owned())
+    } else {
+        let shown: String = s.chars().take(40).collect();
+        Err(format!(
+            "{what} {shown:?} is not a name: use 1 to {MAX_NAME} characters of A-Z a-z 0-9 _ -"
+        ))
+    }
+}
+
+fn coord(name: &str, v: f64) -> Result<f64, String> {
+    if v.is_finite() && v.abs() <= MAX_GAME_COORD {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{name} must be a position in cm within ±{MAX_GAME_COORD}, not {v}"
+        ))
+    }
+}
+
+impl SquadMsg {
+    /// The point `x y`, when both or neither are given.
+    fn point(&self) -> Result<Option<(f64, f64)>, String> {
+        match (self.x, self.y) {
+            (Some(x), Some(y)) => Ok(Some((coord("x", x)?, coord("y", y)?))),
+            (None, None) => Ok(None),
+            _ => Err("give both x and y (cm), or neither".into()),
+        }
+    }
+
+    /// The one target of an attack or a defence.
+    fn target(&self, verb: &str, point_allowed: bool) -> Result<Target, String> {
+        let given = [
+            self.robot.is_some(),
+            self.flag.is_some(),
+            self.base.is_some(),
+            self.x.is_some() || self.y.is_some(),
+        ];
+        let choices = if point_allowed {
+            "robot, flag, base or x and y"
+        } else {
+            "robot, flag or base"
+        };
+        match given.iter().filter(|g| **g).count() {
+            0 => return Err(format!("{verb} needs a target: {choices}")),
+            1 => {}
+            _ => return Err(format!("{verb} takes one target ({choices}), not several")),
+        }
+        if let Some(id) = self.robot {
+            Ok(Target::Robot(id))
+        } else if let Some(f) = &self.flag {
+            Ok(Target::Flag(token("flag team", f)?))
+        } else if let Some(b) = &self.base {
+            Ok(Target::Base(token("base team", b)?))
+        } else if point_allowed {
+            let (x, y) = self.point()?.ok_or("give both x and y (cm)")?;
+            Ok(Target::Point(x, y))
+        } else {
+            Err(format!("{verb} needs a target: {choices}"))
+        }
+    }
+
+    /// Refuses target fields the verb does not take, so a page bug shows
+    /// instead of being half obeyed.
+    fn only(&self, verb: &str, allowed: &[&str]) -> Result<(), String> {
+        let present = [
+            ("robot", self.robot.is_some()),
+            ("flag", self.flag.is_some()),
+            ("base", self.base.is_some()),
+            ("x", self.x.is_some()),
+            ("y", self.y.is_some()),
+        ];
+        for (name, is) in present {
+            if is && !allowed.contains(&name) {
+                return Err(format!("{verb} takes no {name}"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks every field; the error is a sentence for the player.
+    pub fn check(&self) -> Result<SquadOrder, String> {
+        let team = token("team", &self.team)?;
+        let squad = token("squad", &self.squad)?;
+        let verb = match self.verb.as_str() {
+            "gather" => {
+                self.only("gather", &["x", "y"])?;
+                Verb::Gather(self.point()?)
+            }
+            "goto" => {
+                self.only("goto", &["x", "y"])?;
+                let (x, y) = self.point()?.ok_or("goto needs x and y (cm)")?;
+                Verb::Goto(x, y)
+            }
+            "attack" => Verb::Attack(self.target("attack", true)?),
+            "defend" => Verb::Defend(self.target("defend", false)?),
+            "capture" => {
+                self.only("capture", &["flag"])?;
+                let f = self
+                    .flag
+                    .as_deref()
+                    .ok_or("capture needs the flag's team: flag")?;
+                Verb::Capture(token("flag team", f)?)
+            }
+            "stop" => {
+                self.only("stop", &[])?;
+                Verb::Stop
+            }
+            other => {
+                let shown: String = other.chars().take(40).collect();
+                return Err(format!(
+                    "unknown squad command {shown:?} (expected gather, goto, attack, defend, capture or stop)"
+                ));
+            }
+        };
+        let formation = match self.formation.as_deref() {
+            None | Some("") => None,
+            Some(f) => Some(Formation::parse(f).ok_or_else(|| {
+                let shown: String = f.chars().take(40).collect();
+                format!(
+                    "unknown formation {shown:?} (expected line, circle, half-circle, wedge or inverse-wedge)"
+                )
+            })?),
+        };
+        Ok(SquadOrder {
+            team,
+            squad,
+            verb,
+            formation,
+        })
+    }
+}
+
+/// Rounds to 0.01 cm, as the game writes positions: finer than any robot
+/// can stand, and keeps the packet short.
+fn r(v: f64) -> f64 {
+    (v * 100.0).round() / 100.0
+}
+
+impl SquadOrder {
+    /// The channel this order is published on.
+    pub fn channel(&self) -> String {
+        player_channel(&self.team)
+    }
+
+    /// The packet for the game server.
+    pub fn packet(&self) -> Result<Vec<u8>, colony_wire::ParseError> {
+        let mut p = PacketBuilder::new([self.channel()], Priority(0));
+        let mut l = p.line("squad");
+        l.bare("name", &self.squad);
+        let target = |l: &mut colony_wire::LineBuilder<'_>, t: &Target| match t {
+            Target::Robot(id) => {
+                l.field("robot", *id);
+            }
+            Target::Flag(team) => {
+                l.bare("flag", team);
+            }
+            Target::Base(team) => {
+                l.bare("base", team);
+            }
+            Target::Point(x, y) => {
+                l.field("x", r(*x)).field("y", r(*y));
+            }
+        };
+        match &self.verb {
+            Verb::Gather(at) => {
+                l.bare("do", "gather");
+                if let Some((x, y)) = at {
+                    l.field("x", r(*x)).field("y", r(*y));
+                }
+            }
+            Verb::Goto(x, y) => {
+                l.bare("do", "goto").field("x", r(*x)).field("y", r(*y));
+            }
+            Verb::Attack(t) => {
+                l.bare("do", "attack");
+                target(&mut l, t);
+            }
+            Verb::Defend(t) => {
+                l.bare("do", "defend");
+                target(&mut l, t);
+            }
+            Verb::Capture(team) => {
+                l.bare("do", "capture").bare("flag", team);
+            }
+            Verb::Stop => {
+                l.bare("do", "stop");
+            }
+        }
+        if let Some(f) = self.formation {
+            l.bare("formation", f.name());
+        }
+        p.finish()
+    }
+}
+
+impl fmt::Display for Target {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Target::Robot(id) => write!(f, "robot {id}"),
+            Target::Flag(t) => write!(f, "{t}'s flag"),
+            Target::Base(t) => write!(f, "{t}'s base"),
+            Target::Point(x, y) => write!(f, "({x:.0}, {y:.0})"),
+        }
+    }
+}
+
+impl fmt::Display for SquadOrder {
+    /// The reply the player reads: `red alpha: attack robot 7 in wedge`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} {}: ", self.team, self.squad)?;
+        match &self.verb {
+            Verb::Gather(None) => f.write_str("gather")?,
+            Verb::Gather(Some((x, y))) => write!(f, "gather at ({x:.0}, {y:.0})")?,
+            Verb::Goto(x, y) => write!(f, "go to ({x:.0}, {y:.0})")?,
+            Verb::Attack(t) => write!(f, "attack {t}")?,
+            Verb::Defend(t) => write!(f, "defend {t}")?,
+            Verb::Capture(t) => write!(f, "capture {t}'s flag")?,
+            Verb::Stop => f.write_str("stop")?,
+        }
+        if let Some(form) = self.formation {
+            write!(f, " in {}", form.name())?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(json: &str) -> Result<SquadOrder, String> {
+        serde_json::from_str::<SquadMsg>(json)
+            .map_err(|e| e.to_string())?
+            .check()
+    }
+
+    fn packet(json: &str) -> String {
+        String::from_utf8(check(json).unwrap().packet().unwrap()).unwrap()
+    }
+
+    #[test]
+    fn every_verb_becomes_the_line_the_game_reads() {
+        let cases = [
+            (
+                r#"{"team":"red","squad":"alpha","do":"attack","robot":7,"formation":"wedge"}"#,
+                "squad name alpha do attack robot 7 formation wedge",
+            ),
+            (
+                r#"{"team":"red","squad":"alpha","do":"gather"}"#,
+                "squad name alpha do gather",
+            ),
+            (
+                r#"{"team":"red","squad":"a_1","do":"gather","x":10,"y":-2.5}"#,
+                "squad name a_1 do gather x 10.0 y -2.5",
+            ),
+            (
+                r#"{"team":"red","squad":"alpha","do":"goto","x":310.456,"y":88,"formation":"inverse-wedge"}"#,
+                "squad name alpha do goto x 310.46 y 88.0 formation inverse-wedge",
+            ),
+            (
+                r#"{"team":"red","squad":"alpha","do":"attack","flag":"blue"}"#,
+                "squad name alpha do attack flag blue",
+            ),
+            (
+                r#"{"team":"red","squad":"alpha","do":"attack","x":1,"y":2}"#,
+                "squad name alpha do attack x 1.0 y 2.0",
+            ),
+            (
+                r#"{"team":"red","squad":"alpha","do":"defend","flag":"red","formation":"circle"}"#,
+                "squad name alpha do defend flag red formation circle",
+            ),
+            (
+                r#"{"team":"red","squad":"alpha","do":"defend","robot":3}"#,
+                "squad name alpha do defend robot 3",
+            ),
+            (
+                r#"{"team":"red","squad":"alpha","do":"defend","base":"red","formation":"half-circle"}"#,
+                "squad name alpha do defend base red formation half-circle",
+            ),
+            (
+                r#"{"team":"red","squad":"alpha","do":"capture","flag":"blue","formation":"line"}"#,
+                "squad name alpha do capture flag blue formation line",
+            ),
+            (
+                r#"{"team":"red","squad":"alpha","do":"stop","formation":""}"#,
+                "squad name alpha do stop",
+            ),
+        ];
+        for (json, line) in cases {
+            assert_eq!(
+                packet(json),
+                format!("@ <game.player.red> 0\n{line}\n"),
+                "{json}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_reply_says_what_was_ordered() {
+        let o = check(r#"{"team":"red","squad":"alpha","do":"attack","robot":7,"formation":"wedge"}"#)
+            .unwrap();
+        assert_eq!(o.to_string(), "red alpha: attack robot 7 in wedge");
+        assert_eq!(o.channel(), "game.player.red");
+    }
+
+    #[test]
+    fn bad_commands_are_refused_with_a_reason() {
+        for (json, says) in [
+            (r#"{"team":"red team","squad":"a","do":"stop"}"#, "team \"red team\" is not a name"),
+            (r#"{"team":"","squad":"a","do":"stop"}"#, "is not a name"),
+            (r#"{"team":"red","squad":"a\nb","do":"stop"}"#, "squad"),
+            (&format!(r#"{{"team":"red","squad":"{}","do":"stop"}}"#, "a".repeat(33)), "is not a name"),
+            (r#"{"team":"red","squad":"a","do":"dance"}"#, "unknown squad command \"dance\""),
+            (r#"{"team":"red","squad":"a","do":"goto"}"#, "goto needs x and y"),
+            (r#"{"team":"red","squad":"a","do":"goto","x":1}"#, "both x and y"),
+            (r#"{"team":"red","squad":"a","do":"goto","x":2e6,"y":0}"#, "within ±"),
+            (r#"{"team":"red","squad":"a","do":"goto","x":1,"y":1,"robot":3}"#, "goto takes no robot"),
+            (r#"{"team":"red","squad":"a","do":"attack"}"#, "attack needs a target"),
+            (r#"{"team":"red","squad":"a","do":"attack","robot":1,"flag":"blue"}"#, "one target"),
+            (r#"{"team":"red","squad":"a","do":"defend","x":1,"y":1}"#, "defend needs a target: robot, flag or base"),
+            (r#"{"team":"red","squad":"a","do":"capture"}"#, "capture needs the flag"),
+            (r#"{"team":"red","squad":"a","do":"capture","flag":"<blue>"}"#, "is not a name"),
+            (r#"{"team":"red","squad":"a","do":"stop","x":1}"#, "stop takes no x"),
+            (r#"{"team":"red","squad":"a","do":"stop","formation":"square"}"#, "unknown formation \"square\""),
+        ] {
+            let e = check(json).unwrap_err();
+            assert!(e.contains(says), "{json}: {e}");
+        }
+    }
+}
