@@ -481,13 +481,15 @@ impl Order {
             match Command::read(&l)? {
                 Some(c) if commands.len() < MAX_COMMANDS => commands.push(c),
                 Some(_) => return Err(bad(&l, format!("more than {MAX_COMMANDS} commands"))),
-                None => return Err(bad(
-                    &l,
-                    format!(
+                None => {
+                    return Err(bad(
+                        &l,
+                        format!(
                         "unknown command {:?} (expected beep, rotate, goto, shoot, pickup or stop)",
                         l.label()
                     ),
-                )),
+                    ))
+                }
             }
         }
         Ok(Order {

@@ -16,7 +16,7 @@ use crate::nav::Nav;
 use crate::node::Node;
 use crate::path::Mover;
 use crate::protocol::{
-    self, Action, Event, Order, RobotDebug, SquadCommand, Target, Verb, WorldFrame,
+    self, Action, Command, Event, Order, RobotDebug, SquadCommand, Target, Verb, WorldFrame,
 };
 use crate::rules::Rules;
 use crate::squad::{SeenRobot, Squad, SquadMotion, View};
@@ -26,6 +26,10 @@ use crate::squad::{SeenRobot, Squad, SquadMotion, View};
 const THINK_EVERY: u64 = 2;
 /// The game state goes out every this many world frames.
 const STATE_EVERY: u64 = 2;
+/// Each robot's order is repeated every this many world frames, so a robot
+/// that restarted (or lost the packet) picks up where its squad is; a robot
+/// that already holds it ignores the repeat (same sequence number).
+const RESEND_EVERY: u64 = 20;
 /// The map goes out every this many world frames (new players need it).
 const MAP_EVERY: u64 = 30;
 /// Spacing of robots in formation (the paper's d), cm: a body and a half.
@@ -38,6 +42,7 @@ pub struct Server {
     referee: Referee,
     squads: Vec<Squad>,
     seq: Vec<u64>,
+    last_orders: Vec<Option<Order>>,
     frames: u64,
     last_centroids: BTreeMap<(String, String), (f64, Vec2)>,
     velocities: BTreeMap<(String, String), Vec2>,
@@ -75,6 +80,7 @@ impl Server {
         }
         Server {
             seq: vec![0; roster.len()],
+            last_orders: vec![None; roster.len()],
             field,
             roster,
             referee,
@@ -237,6 +243,37 @@ impl Server {
                     Ok(p) => out.push(p),
                     Err(e) => tracing::warn!(robot, error = %e, "an order too large to send"),
                 }
+                self.last_orders[robot as usize] = Some(order);
+            }
+        }
+    }
+
+    /// Repeats every living robot's order from the leg it is on: the GoTo
+    /// nearest to it and what follows.
+    fn resend(&mut self, out: &mut Vec<Vec<u8>>) {
+        for (id, order) in self.last_orders.iter().enumerate() {
+            let Some(order) = order else { continue };
+            let Some((pose, true)) = self.referee.robot(id as u32) else {
+                continue;
+            };
+            let here = pose.position();
+            let nearest = order
+                .commands
+                .iter()
+                .enumerate()
+                .filter_map(|(k, c)| match c {
+                    Command::GoTo { to, .. } => Some((k, to.distance(here))),
+                    _ => None,
+                })
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .map_or(0, |(k, _)| k);
+            let rest = Order {
+                robot: order.robot,
+                seq: order.seq,
+                commands: order.commands[nearest..].to_vec(),
+            };
+            if let Ok(p) = rest.encode() {
+                out.push(p);
             }
         }
     }
@@ -302,6 +339,9 @@ impl Node for Server {
                     self.flush_events(out);
                     if self.frames % STATE_EVERY == 0 || self.referee.is_over() {
                         self.publish_state(out);
+                    }
+                    if self.frames % RESEND_EVERY == 0 && !self.referee.is_over() {
+                        self.resend(out);
                     }
                     if self.frames % MAP_EVERY == 1 {
                         match protocol::map_packets(&self.field) {

@@ -1,14 +1,15 @@
 //! The hub side: a thread of its own that owns two hub clients and the
 //! [`MonitorState`], so nothing in the web server ever blocks on a socket.
 //!
-//! - The *data* client subscribes to `vision`, `debug`, `metrics`, `radio`
-//!   and every channel the hub's status report names (up to
-//!   [`EXTRA_CHANNELS`] more), so the hub view can show each one's last packet.
+//! - The *data* client subscribes to `vision`, `debug`, `metrics`, `radio`,
+//!   the game's `game.state`, `game.map` and `game.event`, and every channel
+//!   the hub's status report names (up to [`EXTRA_CHANNELS`] more), so the
+//!   hub view can show each one's last packet.
 //! - The *control* client holds a lease on [`LEASE_CHANNEL`] (the hub answers
 //!   `status` only to a client with a lease), asks for status every second,
 //!   sends minimum-priority requests, and publishes the operator's packets.
 //!
-//! The web side reads snapshots from two `watch` channels (the latest value
+//! The web side reads snapshots from `watch` channels (the latest value
 //! only: a slow browser never builds a queue) and sends requests over a
 //! bounded channel, each with a one-shot for its answer.
 
@@ -23,6 +24,7 @@ use colony_client::UdpClient;
 use colony_wire::{Packet, Reply, Request, HUB_SUBJECT};
 use tokio::sync::{oneshot, watch};
 
+use crate::game::{GameView, GAME_CHANNELS};
 use crate::state::{Command, MonitorState, CORE_CHANNELS};
 
 /// The channel the control client leases, so the hub will answer `status`.
@@ -35,6 +37,11 @@ const WORLD_EVERY: Duration = Duration::from_millis(33);
 const WORLD_AT_LEAST: Duration = Duration::from_millis(250);
 const STATUS_EVERY: Duration = Duration::from_secs(1);
 const HUB_VIEW_EVERY: Duration = Duration::from_secs(1);
+/// The game view is sent at most this often (the game's state comes 5
+/// times a game second, faster when the game runs fast)...
+const GAME_EVERY: Duration = Duration::from_millis(50);
+/// ...and at least this often, so the page sees the game go stale.
+const GAME_AT_LEAST: Duration = Duration::from_millis(500);
 /// Held robots are commanded on every new frame, and at least this often.
 const OVERRIDE_EVERY: Duration = Duration::from_millis(80);
 /// The longest the loop sleeps, so browser requests are taken promptly.
@@ -48,15 +55,20 @@ pub struct Bridge {
     data: UdpClient,
     control: UdpClient,
     state: MonitorState,
+    game: GameView,
     subscribed: BTreeSet<String>,
     world_tx: watch::Sender<Arc<str>>,
     hub_tx: watch::Sender<Arc<str>>,
+    game_tx: watch::Sender<Arc<str>>,
+    map_tx: watch::Sender<Arc<str>>,
 }
 
 /// The web side's ends of the bridge.
 pub struct Handles {
     pub world: watch::Receiver<Arc<str>>,
     pub hub: watch::Receiver<Arc<str>>,
+    pub game: watch::Receiver<Arc<str>>,
+    pub map: watch::Receiver<Arc<str>>,
 }
 
 impl Bridge {
@@ -69,24 +81,35 @@ impl Bridge {
             .duration_since(UNIX_EPOCH)
             .map_or(0, |d| d.as_millis() as u64);
         let state = MonitorState::new(now, wall);
+        let game = GameView::new(now, wall);
         let (world_tx, world) = watch::channel(Arc::from(state.world_json(now)));
         let (hub_tx, hub) = watch::channel(Arc::from(state.hub_json(now)));
+        let (game_tx, game_rx) = watch::channel(Arc::from(game.game_json(now)));
+        let (map_tx, map) = watch::channel(Arc::from(game.map_json()));
         Ok((
             Bridge {
                 data,
                 control,
                 state,
+                game,
                 subscribed: BTreeSet::new(),
                 world_tx,
                 hub_tx,
+                game_tx,
+                map_tx,
             },
-            Handles { world, hub },
+            Handles {
+                world,
+                hub,
+                game: game_rx,
+                map,
+            },
         ))
     }
 
     fn subscribe(&mut self, subject: &str) {
         if self.subscribed.contains(subject)
-            || self.subscribed.len() >= CORE_CHANNELS.len() + EXTRA_CHANNELS
+            || self.subscribed.len() >= CORE_CHANNELS.len() + GAME_CHANNELS.len() + EXTRA_CHANNELS
         {
             return;
         }
@@ -101,7 +124,7 @@ impl Bridge {
     /// Runs until `stop`, then lets every held robot go, restores the hub's
     /// minimum priority if it raised it, and drops its subscriptions.
     pub fn run(mut self, requests: Receiver<Envelope>, stop: Arc<AtomicBool>) {
-        for c in CORE_CHANNELS {
+        for c in CORE_CHANNELS.into_iter().chain(GAME_CHANNELS) {
             self.subscribe(c);
         }
         if let Err(e) = self.control.subscribe(LEASE_CHANNEL) {
@@ -115,6 +138,9 @@ impl Bridge {
         let mut last_world = start;
         let mut world_version = 0;
         let mut next_hub_view = start;
+        let mut last_game = start;
+        let mut game_version = 0;
+        let mut map_version = 0;
         while !stop.load(Ordering::Relaxed) {
             let now = Instant::now();
             let wake = [self.data.next_deadline(), self.control.next_deadline()]
@@ -197,6 +223,21 @@ impl Bridge {
                 self.world_tx
                     .send_replace(Arc::from(self.state.world_json(now)));
             }
+            let since = now.saturating_duration_since(last_game);
+            if (self.game.version() != game_version && since >= GAME_EVERY)
+                || since >= GAME_AT_LEAST
+            {
+                game_version = self.game.version();
+                last_game = now;
+                self.game_tx
+                    .send_replace(Arc::from(self.game.game_json(now)));
+            }
+            // The map only when it changes: it can be large, and every tab
+            // gets the newest on connecting anyway.
+            if self.game.map_version() != map_version {
+                map_version = self.game.map_version();
+                self.map_tx.send_replace(Arc::from(self.game.map_json()));
+            }
             if now >= next_hub_view || new_status {
                 next_hub_view = now + HUB_VIEW_EVERY;
                 self.hub_tx
@@ -214,7 +255,10 @@ impl Bridge {
     fn receive(&mut self, now: Instant) {
         for _ in 0..50_000 {
             match self.data.recv() {
-                Ok(Some(packet)) => self.state.on_packet(now, &packet),
+                Ok(Some(packet)) => {
+                    self.state.on_packet(now, &packet);
+                    self.game.on_packet(now, &packet);
+                }
                 Ok(None) => return,
                 Err(e) => {
                     tracing::debug!(error = %e, "data socket");
@@ -245,6 +289,14 @@ impl Bridge {
             }
             self.control
                 .publish(bytes)
+                .map_err(|e| format!("cannot publish: {e}"))?;
+        }
+        if let Command::Squad(order) = &command {
+            let bytes = order
+                .packet()
+                .map_err(|e| format!("cannot write the squad command: {e}"))?;
+            self.control
+                .publish(&bytes)
                 .map_err(|e| format!("cannot publish: {e}"))?;
         }
         self.state.apply(now, command)

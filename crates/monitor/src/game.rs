@@ -210,7 +210,10 @@ fn path(s: &str) -> Option<Vec<(f64, f64)>> {
     for pt in s.split_whitespace().take(MAX_PATH) {
         let (x, y) = pt.split_once(',')?;
         let (x, y) = (x.parse::<f64>().ok()?, y.parse::<f64>().ok()?);
-        if !(x.is_finite() && y.is_finite() && x.abs() <= MAX_GAME_COORD && y.abs() <= MAX_GAME_COORD)
+        if !(x.is_finite()
+            && y.is_finite()
+            && x.abs() <= MAX_GAME_COORD
+            && y.abs() <= MAX_GAME_COORD)
         {
             return None;
         }
@@ -382,7 +385,11 @@ impl GameView {
         self.bad_lines += bad;
         s.robots.sort_by_key(|r| r.id);
         // Game time going back is a new game: the old one's log is history.
-        if self.state.as_ref().is_some_and(|old| s.time + 1.0 < old.time) {
+        if self
+            .state
+            .as_ref()
+            .is_some_and(|old| s.time + 1.0 < old.time)
+        {
             self.events.clear();
             self.refusal = None;
         }
@@ -486,7 +493,10 @@ squad team red name alpha formation wedge order \"attack robot 4\" behaviour att
         let (mut g, t0) = view();
         g.on_packet(t0, &parse(STATE_PACKET));
         let s = g.state().unwrap();
-        assert_eq!((s.mode.as_str(), s.status.as_str(), s.time), ("ctf", "running", 12.4));
+        assert_eq!(
+            (s.mode.as_str(), s.status.as_str(), s.time),
+            ("ctf", "running", 12.4)
+        );
         assert_eq!(s.winner, None);
         assert_eq!(s.teams[1].score, 1);
         assert_eq!(s.flags[0].carrier, Some(3));
@@ -494,21 +504,33 @@ squad team red name alpha formation wedge order \"attack robot 4\" behaviour att
         assert_eq!(s.robots[0].id, 3, "sorted by id");
         assert_eq!(s.robots[0].reason, "enemy 4 in range");
         assert_eq!(s.squads[0].order, "attack robot 4");
-        assert_eq!(s.squads[0].path, [(310.0, 88.0), (400.0, 120.0), (700.0, 800.0)]);
+        assert_eq!(
+            s.squads[0].path,
+            [(310.0, 88.0), (400.0, 120.0), (700.0, 800.0)]
+        );
         assert_eq!(g.bad_lines(), 0);
         assert_eq!(g.version(), 1);
         let json: serde_json::Value = serde_json::from_str(&g.game_json(t0)).unwrap();
         assert_eq!(json["t"], "game");
         assert_eq!(json["stale"], false);
-        assert_eq!(json["state"]["squads"][0]["path"][1], serde_json::json!([400.0, 120.0]));
-        assert_eq!(json["state"]["flags"][1]["carrier"], serde_json::Value::Null);
+        assert_eq!(
+            json["state"]["squads"][0]["path"][1],
+            serde_json::json!([400.0, 120.0])
+        );
+        assert_eq!(
+            json["state"]["flags"][1]["carrier"],
+            serde_json::Value::Null
+        );
         assert_eq!(json["state"]["robots"][1]["alive"], true);
     }
 
     #[test]
     fn unreadable_lines_are_skipped_and_the_rest_kept() {
         let (mut g, t0) = view();
-        g.on_packet(t0, &parse("@ <game.state> 0\nteam name red score 0 kills 0\n"));
+        g.on_packet(
+            t0,
+            &parse("@ <game.state> 0\nteam name red score 0 kills 0\n"),
+        );
         assert!(g.state().is_none(), "no game line: not a state");
         let text = "@ <game.state> 0\n\
 game mode ctf status running time 1 winner red reason \"flag home\" future (a 1)\n\
@@ -537,15 +559,22 @@ ufo x 1\n";
         let (mut g, t0) = view();
         g.on_packet(
             t0,
-            &parse("@ <game.event> 0\nevent kind refused time 1 text \"squad zulu: no such squad\"\n"),
+            &parse(
+                "@ <game.event> 0\nevent kind refused time 1 text \"squad zulu: no such squad\"\n",
+            ),
         );
         for i in 0..60 {
             g.on_packet(
                 t0,
-                &parse(&format!("@ <game.event> 0\nevent kind hit time {i} text \"hit {i}\"\n")),
+                &parse(&format!(
+                    "@ <game.event> 0\nevent kind hit time {i} text \"hit {i}\"\n"
+                )),
             );
         }
-        g.on_packet(t0, &parse("@ <game.event> 0\nevent kind \"two words\" time 1\nevent time 1\n"));
+        g.on_packet(
+            t0,
+            &parse("@ <game.event> 0\nevent kind \"two words\" time 1\nevent time 1\n"),
+        );
         let events: Vec<_> = g.events().collect();
         assert_eq!(events.len(), MAX_EVENTS);
         assert_eq!(events[0].text, "hit 10");
@@ -554,10 +583,7 @@ ufo x 1\n";
         assert_eq!(g.bad_lines(), 2);
         // A new game (time went back) starts a new log.
         g.on_packet(t0, &parse(STATE_PACKET));
-        g.on_packet(
-            t0,
-            &parse(&STATE_PACKET.replace("time 12.4", "time 0.2")),
-        );
+        g.on_packet(t0, &parse(&STATE_PACKET.replace("time 12.4", "time 0.2")));
         assert_eq!(g.events().count(), 0);
         assert!(g.refusal().is_none());
     }
@@ -583,14 +609,20 @@ ufo x 1\n";
         assert_eq!(json["map"]["rows"][0], ".W");
         let game: serde_json::Value = serde_json::from_str(&g.game_json(t0)).unwrap();
         assert_eq!(game["map_version"], 1);
-        assert!(game.get("map").is_none(), "the map is not in every game message");
+        assert!(
+            game.get("map").is_none(),
+            "the map is not in every game message"
+        );
     }
 
     /// A tiny generator, so the test needs no crate and repeats exactly.
     struct Lcg(u64);
     impl Lcg {
         fn next(&mut self) -> u64 {
-            self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             self.0 >> 33
         }
     }
@@ -627,7 +659,10 @@ ufo x 1\n";
                 let _ = g.game_json(t0);
             }
         }
-        assert!(read > 1000, "the mangling left enough packets to read ({read})");
+        assert!(
+            read > 1000,
+            "the mangling left enough packets to read ({read})"
+        );
         assert!(g.events().count() <= MAX_EVENTS);
         assert!(g.map().is_none_or(|m| m.rows.len() == m.height as usize));
     }

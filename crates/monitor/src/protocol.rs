@@ -8,7 +8,13 @@
 //! {"t":"release","ids":[0]}   {"t":"release_all"}      hand back to the AI
 //! {"t":"drive","ids":[0],"forward":0.8,"turn":-0.2}    keys (ids optional: all held)
 //! {"t":"goto","ids":[0],"x":40.5,"y":-12}              a point on the arena, cm
+//! {"t":"squad","team":"red","squad":"alpha","do":"attack","robot":7,"formation":"wedge"}
+//!                                                      a game squad command
 //! ```
+//!
+//! The squad command's fields are in [`crate::game::squad`]; `"type"` is
+//! read as `"t"` when `"t"` is missing, since that is how the game's
+//! documentation writes it.
 //!
 //! Anything else (bad JSON, unknown `t`, values out of range) is refused
 //! with a message for the operator; nothing the browser sends can panic the
@@ -16,6 +22,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::game::squad::SquadMsg;
 use crate::state::{check_forged, Command, MAX_COORD, MAX_HELD};
 
 /// The longest message the server reads from a browser (a forged packet at
@@ -48,6 +55,7 @@ enum ClientMsg {
         x: f64,
         y: f64,
     },
+    Squad(SquadMsg),
 }
 
 /// Why a browser message was refused; `line` and `column` point into a forged packet.
@@ -88,11 +96,25 @@ pub struct ReplyJson<'a> {
 pub fn kind_of(text: &str) -> Option<String> {
     #[derive(Deserialize)]
     struct Kind {
-        t: String,
+        t: Option<String>,
+        #[serde(rename = "type")]
+        kind: Option<String>,
     }
     serde_json::from_str::<Kind>(text)
         .ok()
-        .map(|k| k.t.chars().take(20).collect())
+        .and_then(|k| k.t.or(k.kind))
+        .map(|t| t.chars().take(20).collect())
+}
+
+/// Reads a message named by `"type"` instead of `"t"`; None when it isn't one.
+fn with_type_as_t(text: &str) -> Option<ClientMsg> {
+    let mut map: serde_json::Map<String, serde_json::Value> = serde_json::from_str(text).ok()?;
+    if map.contains_key("t") {
+        return None;
+    }
+    let kind = map.remove("type")?;
+    map.insert("t".into(), kind);
+    serde_json::from_value(serde_json::Value::Object(map)).ok()
 }
 
 fn unit(name: &str, v: f64) -> Result<f64, Refusal> {
@@ -133,11 +155,14 @@ pub fn parse_message(text: &str) -> Result<Command, Refusal> {
             text.len()
         )));
     }
-    let msg: ClientMsg = serde_json::from_str(text).map_err(|e| {
-        Refusal::new(format!(
-            "cannot read the request: {e} (expected JSON like {{\"t\":\"take\",\"ids\":[0]}})"
-        ))
-    })?;
+    let msg: ClientMsg = match serde_json::from_str(text) {
+        Ok(m) => m,
+        Err(e) => with_type_as_t(text).ok_or_else(|| {
+            Refusal::new(format!(
+                "cannot read the request: {e} (expected JSON like {{\"t\":\"take\",\"ids\":[0]}})"
+            ))
+        })?,
+    };
     Ok(match msg {
         ClientMsg::Publish { text } => {
             if text.len() > colony_wire::MAX_PACKET {
@@ -176,6 +201,7 @@ pub fn parse_message(text: &str) -> Result<Command, Refusal> {
             x: coord("x", x)?,
             y: coord("y", y)?,
         },
+        ClientMsg::Squad(m) => Command::Squad(m.check().map_err(Refusal::new)?),
     })
 }
 
@@ -262,6 +288,84 @@ mod tests {
     #[test]
     fn the_kind_of_a_request_is_read_for_the_reply() {
         assert_eq!(kind_of(r#"{"t":"goto","x":"no"}"#).as_deref(), Some("goto"));
+        assert_eq!(kind_of(r#"{"type":"squad"}"#).as_deref(), Some("squad"));
         assert_eq!(kind_of("nonsense"), None);
+    }
+
+    #[test]
+    fn a_squad_command_is_checked_whether_named_by_t_or_type() {
+        for text in [
+            r#"{"t":"squad","team":"red","squad":"alpha","do":"attack","robot":7,"formation":"wedge"}"#,
+            r#"{"type":"squad","team":"red","squad":"alpha","do":"attack","robot":7,"formation":"wedge"}"#,
+        ] {
+            let Command::Squad(order) = parse_message(text).unwrap() else {
+                panic!("{text} is not a squad command");
+            };
+            assert_eq!(
+                order.packet().unwrap(),
+                b"@ <game.player.red> 0\nsquad name alpha do attack robot 7 formation wedge\n"
+            );
+        }
+        for (bad, says) in [
+            (
+                r#"{"t":"squad","team":"red","squad":"alpha","do":"fly"}"#,
+                "unknown squad command",
+            ),
+            (
+                r#"{"t":"squad","team":"red","do":"stop"}"#,
+                "missing field `squad`",
+            ),
+            (
+                r#"{"t":"squad","team":"red","squad":"a","do":"attack","robot":-7}"#,
+                "cannot read",
+            ),
+            (
+                r#"{"t":"squad","team":"red","squad":"a","do":"goto","x":1e999,"y":0}"#,
+                "cannot read",
+            ),
+            (
+                r#"{"t":"squad","team":"red","squad":"a","do":"goto","x":"1","y":0}"#,
+                "cannot read",
+            ),
+            (
+                r#"{"t":"squad","team":"../x","squad":"a","do":"stop"}"#,
+                "is not a name",
+            ),
+            (r#"{"type":"squad","t":"explode"}"#, "cannot read"),
+        ] {
+            let e = parse_message(bad).unwrap_err();
+            assert!(e.message.contains(says), "{bad}: {}", e.message);
+        }
+    }
+
+    #[test]
+    fn arbitrary_bytes_and_mangled_json_are_refused_never_a_panic() {
+        let seed = r#"{"t":"squad","team":"red","squad":"alpha","do":"goto","x":12.5,"y":-3,"robot":7,"flag":"blue","formation":"wedge"}"#;
+        let alphabet = br#"{}[]":,.-+eE0123456789 tnulrsqadgoxyfbw"#;
+        let mut state = 99u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) as usize
+        };
+        for _ in 0..20_000 {
+            let mut bytes = seed.as_bytes().to_vec();
+            for _ in 0..(1 + next() % 8) {
+                let at = next() % bytes.len().max(1);
+                match next() % 3 {
+                    0 if !bytes.is_empty() => bytes[at] = alphabet[next() % alphabet.len()],
+                    1 if !bytes.is_empty() => {
+                        bytes.remove(at);
+                    }
+                    _ => bytes.insert(at.min(bytes.len()), alphabet[next() % alphabet.len()]),
+                }
+            }
+            let text = String::from_utf8_lossy(&bytes);
+            let _ = kind_of(&text);
+            if let Ok(Command::Squad(o)) = parse_message(&text) {
+                o.packet().expect("a checked order always makes a packet");
+            }
+        }
     }
 }

@@ -4,6 +4,8 @@
 //! Server to browser: `{"t":"world",...}` snapshots at most 30 times a
 //! second (coalesced: a slow tab gets the newest, never a backlog),
 //! `{"t":"hub",...}` about once a second, and `{"t":"reply",...}` answers.
+//! The game page opens `/ws?view=game` and gets `{"t":"game",...}` and
+//! `{"t":"map",...}` (see [`crate::game`]) instead of world and hub.
 //! Browser to server: the requests of [`crate::protocol`].
 
 use std::net::SocketAddr;
@@ -14,7 +16,7 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
-use axum::extract::State;
+use axum::extract::{RawQuery, State};
 use axum::http::header;
 use axum::response::{Html, IntoResponse, Response};
 use axum::routing::get;
@@ -28,6 +30,9 @@ use crate::protocol::{kind_of, parse_message, ReplyJson, MAX_MESSAGE};
 const INDEX_HTML: &str = include_str!("../web/index.html");
 const APP_JS: &str = include_str!("../web/app.js");
 const STYLE_CSS: &str = include_str!("../web/style.css");
+const GAME_HTML: &str = include_str!("../web/game.html");
+const GAME_JS: &str = include_str!("../web/game.js");
+const GAME_CSS: &str = include_str!("../web/game.css");
 
 /// The browser gets world snapshots at most this often.
 const MIN_SEND_INTERVAL: Duration = Duration::from_millis(33);
@@ -78,6 +83,8 @@ struct App {
     requests: SyncSender<Envelope>,
     world: watch::Receiver<Arc<str>>,
     hub: watch::Receiver<Arc<str>>,
+    game: watch::Receiver<Arc<str>>,
+    map: watch::Receiver<Arc<str>>,
     shutdown: watch::Receiver<bool>,
 }
 
@@ -122,6 +129,8 @@ impl Monitor {
             requests,
             world: handles.world,
             hub: handles.hub,
+            game: handles.game,
+            map: handles.map,
             shutdown: shutdown.clone(),
         };
         let server = std::thread::Builder::new()
@@ -226,6 +235,9 @@ async fn serve(
         .route("/index.html", get(index))
         .route("/app.js", get(app_js))
         .route("/style.css", get(style_css))
+        .route("/game", get(game_html))
+        .route("/game.js", get(|| asset("text/javascript", GAME_JS)))
+        .route("/game.css", get(|| asset("text/css", GAME_CSS)))
         .route("/ws", get(ws))
         .with_state(app);
     axum::serve(listener, router)
@@ -261,11 +273,47 @@ async fn style_css() -> Response {
         .into_response()
 }
 
-async fn ws(upgrade: WebSocketUpgrade, State(app): State<App>) -> Response {
+async fn game_html() -> Html<&'static str> {
+    Html(GAME_HTML)
+}
+
+async fn asset(kind: &'static str, body: &'static str) -> Response {
+    let kind = match kind {
+        "text/css" => "text/css; charset=utf-8",
+        _ => "text/javascript; charset=utf-8",
+    };
+    (
+        [
+            (header::CONTENT_TYPE, kind),
+            (header::CACHE_CONTROL, "no-cache"),
+        ],
+        body,
+    )
+        .into_response()
+}
+
+/// What a tab is sent besides replies.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum View {
+    /// The system monitor: world snapshots and the hub view.
+    Monitor,
+    /// The game page: game state, events and the map.
+    Game,
+}
+
+async fn ws(
+    upgrade: WebSocketUpgrade,
+    RawQuery(query): RawQuery,
+    State(app): State<App>,
+) -> Response {
+    let view = match query.as_deref() {
+        Some(q) if q.split('&').any(|kv| kv == "view=game") => View::Game,
+        _ => View::Monitor,
+    };
     upgrade
         .max_message_size(MAX_MESSAGE)
         .max_frame_size(MAX_MESSAGE)
-        .on_upgrade(move |socket| session(socket, app))
+        .on_upgrade(move |socket| session(socket, app, view))
 }
 
 fn reply(to: Option<&str>, result: &Result<String, crate::protocol::Refusal>) -> String {
@@ -324,13 +372,18 @@ async fn handle(app: &App, text: &str) -> String {
     reply(to.as_deref(), &answer)
 }
 
-async fn session(mut socket: WebSocket, app: App) {
+async fn session(mut socket: WebSocket, app: App, view: View) {
     let mut world = app.world.clone();
     let mut hub = app.hub.clone();
+    let mut game = app.game.clone();
+    let mut map = app.map.clone();
     let mut shutdown = app.shutdown.clone();
+    let monitor = view == View::Monitor;
     // The newest of each, at once.
     world.mark_changed();
     hub.mark_changed();
+    game.mark_changed();
+    map.mark_changed();
     let mut next_world = Instant::now();
     loop {
         tokio::select! {
@@ -356,7 +409,7 @@ async fn session(mut socket: WebSocket, app: App) {
                     break;
                 }
             }
-            changed = world.changed() => {
+            changed = world.changed(), if monitor => {
                 if changed.is_err() {
                     break;
                 }
@@ -368,11 +421,29 @@ async fn session(mut socket: WebSocket, app: App) {
                 }
                 next_world = Instant::now() + MIN_SEND_INTERVAL;
             }
-            changed = hub.changed() => {
+            changed = hub.changed(), if monitor => {
                 if changed.is_err() {
                     break;
                 }
                 let snapshot = hub.borrow_and_update().clone();
+                if socket.send(Message::Text(snapshot.as_ref().into())).await.is_err() {
+                    break;
+                }
+            }
+            changed = map.changed(), if !monitor => {
+                if changed.is_err() {
+                    break;
+                }
+                let snapshot = map.borrow_and_update().clone();
+                if socket.send(Message::Text(snapshot.as_ref().into())).await.is_err() {
+                    break;
+                }
+            }
+            changed = game.changed(), if !monitor => {
+                if changed.is_err() {
+                    break;
+                }
+                let snapshot = game.borrow_and_update().clone();
                 if socket.send(Message::Text(snapshot.as_ref().into())).await.is_err() {
                     break;
                 }

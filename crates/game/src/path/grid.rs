@@ -25,14 +25,6 @@ pub(crate) fn class_of(terrain: Terrain, mover: Mover) -> u8 {
     }
 }
 
-/// Octile distance: the length of the shortest 8-connected path on an empty
-/// grid, a consistent heuristic for our costs.
-#[inline]
-pub(crate) fn octile(dx: u32, dy: u32) -> f64 {
-    let (lo, hi) = if dx < dy { (dx, dy) } else { (dy, dx) };
-    f64::from(hi - lo) + SQRT2 * f64::from(lo)
-}
-
 /// A path cost as counts of straight and diagonal steps, worth
 /// `straight + diagonal * sqrt(2)`.
 ///
@@ -60,6 +52,21 @@ impl Cost {
         straight: 0,
         diagonal: 1,
     };
+    /// "No path": absorbs anything added to it.
+    pub const INFINITE: Cost = Cost {
+        straight: u32::MAX,
+        diagonal: u32::MAX,
+    };
+
+    /// The length, with [`Cost::INFINITE`] as infinity.
+    #[inline]
+    pub fn length(self) -> f64 {
+        if self == Cost::INFINITE {
+            f64::INFINITY
+        } else {
+            self.value()
+        }
+    }
 
     /// The cost as a length.
     #[inline]
@@ -104,9 +111,6 @@ pub(crate) struct ClassGrid {
 pub(crate) const DIAG_PARTS: [(usize, usize); 4] = [(0, 2), (1, 2), (0, 3), (1, 3)];
 
 /// Cost of a step in each direction, in the order of [`ClassGrid::offsets`].
-pub(crate) const STEP_COST: [f64; 8] = [1.0, 1.0, 1.0, 1.0, SQRT2, SQRT2, SQRT2, SQRT2];
-
-/// [`STEP_COST`] as exact counts.
 pub(crate) const STEP: [Cost; 8] = [
     Cost::STRAIGHT,
     Cost::STRAIGHT,

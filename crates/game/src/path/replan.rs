@@ -32,7 +32,7 @@ use std::collections::BinaryHeap;
 
 use crate::map::{Cell, GridMap};
 
-use super::grid::{ClassGrid, STEP_COST};
+use super::grid::{ClassGrid, Cost, STEP};
 use super::{Mover, Path};
 
 /// An LPA* priority: `[min(g, rhs) + h + km, min(g, rhs)]`, compared
@@ -89,8 +89,8 @@ pub struct Replanner {
     grid: ClassGrid,
     /// The map's own classes, restored when a cell is unblocked.
     base: Vec<u8>,
-    g: Vec<f64>,
-    rhs: Vec<f64>,
+    g: Vec<Cost>,
+    rhs: Vec<Cost>,
     /// The key a cell is queued under, valid while `queued` is set.
     key: Vec<Key>,
     queued: Vec<bool>,
@@ -114,8 +114,8 @@ impl Replanner {
         let mut r = Replanner {
             base: grid.class.clone(),
             grid,
-            g: vec![f64::INFINITY; n],
-            rhs: vec![f64::INFINITY; n],
+            g: vec![Cost::INFINITE; n],
+            rhs: vec![Cost::INFINITE; n],
             key: vec![Key(0.0, 0.0); n],
             queued: vec![false; n],
             queued_count: 0,
@@ -165,8 +165,8 @@ impl Replanner {
             start.x.min(self.grid.width.saturating_sub(1)),
             start.y.min(self.grid.height.saturating_sub(1)),
         );
-        self.g.fill(f64::INFINITY);
-        self.rhs.fill(f64::INFINITY);
+        self.g.fill(Cost::INFINITE);
+        self.rhs.fill(Cost::INFINITE);
         self.queued.fill(false);
         self.queued_count = 0;
         self.heap.clear();
@@ -175,7 +175,7 @@ impl Replanner {
         // An empty map has no cells; index 0 is then a border cell of class 0.
         self.start = self.grid.index(start).unwrap_or(0);
         self.key_goal = self.grid.index(self.goal).unwrap_or(self.start);
-        self.rhs[self.start] = 0.0;
+        self.rhs[self.start] = Cost::ZERO;
         self.enqueue(self.start);
     }
 
@@ -215,15 +215,19 @@ impl Replanner {
             return None;
         }
         self.compute(t);
-        if !self.g[t].is_finite() {
+        if self.g[t] == Cost::INFINITE {
             return None;
         }
         self.extract(t)
     }
 
     fn calc_key(&self, i: usize) -> Key {
-        let m = self.g[i].min(self.rhs[i]);
-        Key(m + self.grid.distance(i, self.key_goal) + self.km, m)
+        let m = min(self.g[i], self.rhs[i]);
+        if m == Cost::INFINITE {
+            return Key(f64::INFINITY, f64::INFINITY);
+        }
+        let f = m.plus(self.grid.octile_cost(i, self.key_goal)).value();
+        Key(f + self.km, m.value())
     }
 
     /// Queues `i` under its current key (replacing an older entry).
@@ -256,11 +260,11 @@ impl Replanner {
     /// `rhs` from the neighbours, and the queue membership that follows.
     fn update(&mut self, u: usize) {
         if u != self.start {
-            let mut best = f64::INFINITY;
+            let mut best = Cost::INFINITE;
             let moves = self.grid.moves(u);
-            for (dir, cost) in STEP_COST.iter().enumerate() {
+            for (dir, &cost) in STEP.iter().enumerate() {
                 if moves & (1 << dir) != 0 {
-                    best = best.min(self.g[self.grid.step(u, dir)] + cost);
+                    best = min(best, self.g[self.grid.step(u, dir)].plus(cost));
                 }
             }
             self.rhs[u] = best;
@@ -306,11 +310,11 @@ impl Replanner {
             self.heap.pop();
             self.expanded += 1;
             let moves_before = self.grid.moves(u);
-            if self.g[u] > self.rhs[u] {
+            if self.g[u].length() > self.rhs[u].length() {
                 self.g[u] = self.rhs[u];
                 self.dequeue(u);
             } else {
-                self.g[u] = f64::INFINITY;
+                self.g[u] = Cost::INFINITE;
                 self.update(u);
             }
             for dir in 0..8 {
@@ -332,26 +336,35 @@ impl Replanner {
                 cells.reverse();
                 return Some(Path {
                     cells,
-                    length: self.g[t],
+                    length: self.g[t].value(),
                 });
             }
             let moves = self.grid.moves(u);
             let mut best = (f64::INFINITY, u);
-            for (dir, cost) in STEP_COST.iter().enumerate() {
+            for (dir, &cost) in STEP.iter().enumerate() {
                 if moves & (1 << dir) != 0 {
                     let v = self.grid.step(u, dir);
-                    let d = self.g[v] + cost;
+                    let d = self.g[v].plus(cost).length();
                     if d < best.0 {
                         best = (d, v);
                     }
                 }
             }
-            if best.1 == u || self.g[best.1] >= self.g[u] {
+            if best.1 == u || self.g[best.1].length() >= self.g[u].length() {
                 return None;
             }
             u = best.1;
             cells.push(self.grid.cell(u));
         }
         None
+    }
+}
+
+/// The smaller of two costs.
+fn min(a: Cost, b: Cost) -> Cost {
+    if b.length() < a.length() {
+        b
+    } else {
+        a
     }
 }

@@ -30,8 +30,7 @@ pub const MAX_NAME: usize = 32;
 pub fn is_token(s: &str) -> bool {
     !s.is_empty()
         && s.len() <= MAX_NAME
-        && s
-            .bytes()
+        && s.bytes()
             .all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'_')
 }
 
@@ -432,8 +431,9 @@ mod tests {
 
     #[test]
     fn the_reply_says_what_was_ordered() {
-        let o = check(r#"{"team":"red","squad":"alpha","do":"attack","robot":7,"formation":"wedge"}"#)
-            .unwrap();
+        let o =
+            check(r#"{"team":"red","squad":"alpha","do":"attack","robot":7,"formation":"wedge"}"#)
+                .unwrap();
         assert_eq!(o.to_string(), "red alpha: attack robot 7 in wedge");
         assert_eq!(o.channel(), "game.player.red");
     }
@@ -441,22 +441,67 @@ mod tests {
     #[test]
     fn bad_commands_are_refused_with_a_reason() {
         for (json, says) in [
-            (r#"{"team":"red team","squad":"a","do":"stop"}"#, "team \"red team\" is not a name"),
+            (
+                r#"{"team":"red team","squad":"a","do":"stop"}"#,
+                "team \"red team\" is not a name",
+            ),
             (r#"{"team":"","squad":"a","do":"stop"}"#, "is not a name"),
             (r#"{"team":"red","squad":"a\nb","do":"stop"}"#, "squad"),
-            (&format!(r#"{{"team":"red","squad":"{}","do":"stop"}}"#, "a".repeat(33)), "is not a name"),
-            (r#"{"team":"red","squad":"a","do":"dance"}"#, "unknown squad command \"dance\""),
-            (r#"{"team":"red","squad":"a","do":"goto"}"#, "goto needs x and y"),
-            (r#"{"team":"red","squad":"a","do":"goto","x":1}"#, "both x and y"),
-            (r#"{"team":"red","squad":"a","do":"goto","x":2e6,"y":0}"#, "within ±"),
-            (r#"{"team":"red","squad":"a","do":"goto","x":1,"y":1,"robot":3}"#, "goto takes no robot"),
-            (r#"{"team":"red","squad":"a","do":"attack"}"#, "attack needs a target"),
-            (r#"{"team":"red","squad":"a","do":"attack","robot":1,"flag":"blue"}"#, "one target"),
-            (r#"{"team":"red","squad":"a","do":"defend","x":1,"y":1}"#, "defend needs a target: robot, flag or base"),
-            (r#"{"team":"red","squad":"a","do":"capture"}"#, "capture needs the flag"),
-            (r#"{"team":"red","squad":"a","do":"capture","flag":"<blue>"}"#, "is not a name"),
-            (r#"{"team":"red","squad":"a","do":"stop","x":1}"#, "stop takes no x"),
-            (r#"{"team":"red","squad":"a","do":"stop","formation":"square"}"#, "unknown formation \"square\""),
+            (
+                &format!(
+                    r#"{{"team":"red","squad":"{}","do":"stop"}}"#,
+                    "a".repeat(33)
+                ),
+                "is not a name",
+            ),
+            (
+                r#"{"team":"red","squad":"a","do":"dance"}"#,
+                "unknown squad command \"dance\"",
+            ),
+            (
+                r#"{"team":"red","squad":"a","do":"goto"}"#,
+                "goto needs x and y",
+            ),
+            (
+                r#"{"team":"red","squad":"a","do":"goto","x":1}"#,
+                "both x and y",
+            ),
+            (
+                r#"{"team":"red","squad":"a","do":"goto","x":2e6,"y":0}"#,
+                "within ±",
+            ),
+            (
+                r#"{"team":"red","squad":"a","do":"goto","x":1,"y":1,"robot":3}"#,
+                "goto takes no robot",
+            ),
+            (
+                r#"{"team":"red","squad":"a","do":"attack"}"#,
+                "attack needs a target",
+            ),
+            (
+                r#"{"team":"red","squad":"a","do":"attack","robot":1,"flag":"blue"}"#,
+                "one target",
+            ),
+            (
+                r#"{"team":"red","squad":"a","do":"defend","x":1,"y":1}"#,
+                "defend needs a target: robot, flag or base",
+            ),
+            (
+                r#"{"team":"red","squad":"a","do":"capture"}"#,
+                "capture needs the flag",
+            ),
+            (
+                r#"{"team":"red","squad":"a","do":"capture","flag":"<blue>"}"#,
+                "is not a name",
+            ),
+            (
+                r#"{"team":"red","squad":"a","do":"stop","x":1}"#,
+                "stop takes no x",
+            ),
+            (
+                r#"{"team":"red","squad":"a","do":"stop","formation":"square"}"#,
+                "unknown formation \"square\"",
+            ),
         ] {
             let e = check(json).unwrap_err();
             assert!(e.contains(says), "{json}: {e}");

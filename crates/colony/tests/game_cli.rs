@@ -1,0 +1,185 @@
+//! `colony game`: fast-forwarded matches with a replayable record, bad
+//! input, and a live match whose parts are separate processes over a real
+//! hub, one of which is killed and restarted.
+
+mod common;
+
+use std::process::{Child, Stdio};
+use std::time::{Duration, Instant};
+
+use common::{colony, drain_until, subscribed, HubProcess};
+
+fn run(args: &[&str]) -> (bool, String, String) {
+    let out = colony().args(args).output().unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn a_fast_forwarded_capture_the_flag_match_ends_and_its_record_replays() {
+    let dir = tempfile::tempdir().unwrap();
+    let record = dir.path().join("ctf.clog");
+    let (ok, out, err) = run(&[
+        "game",
+        "ctf",
+        "--fast",
+        "--record",
+        record.to_str().unwrap(),
+    ]);
+    assert!(ok, "{out}\n{err}");
+    let result = out.lines().find(|l| l.starts_with("result: ")).unwrap();
+    assert!(
+        result.contains("wins") || result.contains("draw"),
+        "{result}"
+    );
+    // The record is an ordinary traffic log: `colony log` lists its game states.
+    let (ok, listed, err) = run(&["log", record.to_str().unwrap(), "-c", "game.state"]);
+    assert!(ok, "{err}");
+    assert!(
+        listed.contains("game mode ctf status running"),
+        "{listed:.300}"
+    );
+    assert!(listed.contains("status over"));
+}
+
+#[test]
+fn a_fast_forwarded_death_match_ends_with_a_team_standing_or_the_clock() {
+    let (ok, out, err) = run(&["game", "dm", "--fast", "--time-limit", "300"]);
+    assert!(ok, "{out}\n{err}");
+    let result = out.lines().find(|l| l.starts_with("result: ")).unwrap();
+    assert!(
+        result.contains("last robots standing") || result.contains("time is up"),
+        "{result}"
+    );
+}
+
+#[test]
+fn bad_setups_give_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad_map = dir.path().join("bad.map");
+    std::fs::write(&bad_map, "type octile\nheight 2\nwidth 3\nmap\n...\n.x.\n").unwrap();
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["game", "ctf", "--fast", "--red", "a:tank,robot"],
+            "unknown robot type \"robot\"",
+        ),
+        (
+            &[
+                "game",
+                "ctf",
+                "--fast",
+                "--red",
+                "a:tank,tank,tank,tank,tank,tank,tank",
+            ],
+            "team red costs 35 points; the budget is 30",
+        ),
+        (
+            &["game", "ctf", "--fast", "--player", "green"],
+            "--player green: no such team",
+        ),
+        (
+            &["game", "ctf", "--fast", "--map", bad_map.to_str().unwrap()],
+            "line 6, column 2",
+        ),
+        (
+            &["game", "ctf", "--fast", "--time-limit=-3"],
+            "--time-limit",
+        ),
+    ];
+    for (args, want) in cases {
+        let (ok, out, err) = run(args);
+        assert!(!ok, "{args:?} succeeded: {out}");
+        assert!(err.contains(want), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+/// A child process killed when dropped.
+struct Part(Child);
+
+impl Drop for Part {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn part(hub: &HubProcess, args: &[&str]) -> Part {
+    let addr = hub.addr.to_string();
+    let mut all = vec!["game", "part"];
+    all.extend_from_slice(args);
+    all.extend_from_slice(&["--hub", &addr]);
+    Part(
+        colony()
+            .args(&all)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    )
+}
+
+/// Robot ids whose pose in the newest two game states differ.
+fn moving(states: &[String]) -> Vec<i64> {
+    let parsed: Vec<Vec<(i64, f64, f64)>> = states
+        .iter()
+        .filter_map(|t| {
+            colony_wire::Packet::parse(t.as_bytes()).ok().map(|p| {
+                p.lines_labelled("robot")
+                    .filter_map(|l| Some((l.i64("id").ok()?, l.f64("x").ok()?, l.f64("y").ok()?)))
+                    .collect()
+            })
+        })
+        .collect();
+    let (Some(a), Some(b)) = (parsed.first(), parsed.last()) else {
+        return Vec::new();
+    };
+    a.iter()
+        .zip(b)
+        .filter(|(p, q)| (p.1 - q.1).hypot(p.2 - q.2) > 5.0)
+        .map(|(p, _)| p.0)
+        .collect()
+}
+
+#[test]
+fn the_parts_of_a_live_match_are_processes_and_the_robots_can_restart() {
+    let hub = HubProcess::start(&[]);
+    let speed = ["--speed", "5"];
+    let _world = part(&hub, &["world", speed[0], speed[1]]);
+    let _server = part(&hub, &["server"]);
+    let robots = part(&hub, &["robots"]);
+    let _red = part(&hub, &["bot", "--team", "red"]);
+    let _blue = part(&hub, &["bot", "--team", "blue"]);
+    let mut watch = subscribed(hub.addr, &["game.state"]);
+    let states = drain_until(&mut watch, Instant::now() + Duration::from_secs(20), |g| {
+        g.len() > 40 && !moving(&g[g.len() - 20..]).is_empty()
+    });
+    assert!(
+        !moving(&states[states.len().saturating_sub(20)..]).is_empty(),
+        "no robot moved in {} states",
+        states.len()
+    );
+    // Kill every robot's intelligence: the world stops them (their commands lapse).
+    drop(robots);
+    std::thread::sleep(Duration::from_millis(600));
+    let still = drain_until(&mut watch, Instant::now() + Duration::from_secs(3), |g| {
+        g.len() > 8
+    });
+    assert!(
+        moving(&still[still.len().saturating_sub(4)..]).is_empty(),
+        "robots kept driving with no intelligence"
+    );
+    // Restart them: the swarm intelligence's next orders set them going again.
+    let _robots = part(&hub, &["robots"]);
+    let again = drain_until(&mut watch, Instant::now() + Duration::from_secs(20), |g| {
+        g.len() > 20 && !moving(&g[g.len() - 20..]).is_empty()
+    });
+    assert!(
+        !moving(&again[again.len().saturating_sub(20)..]).is_empty(),
+        "the restarted robots never moved"
+    );
+}

@@ -1,0 +1,54 @@
+//! What the game's fuzz targets do with arbitrary bytes: every decoder of
+//! the game's packets, and the map and scenario parsers; whatever decodes
+//! must encode and decode again to the same value. Shared with
+//! `crates/game/tests/fuzz_corpus.rs`, which runs the seed corpus in plain
+//! `cargo test`.
+
+use colony_game::protocol::{
+    decode_wheels, Action, Event, GameState, Order, RobotDebug, Sense, SquadCommand, WorldFrame,
+};
+use colony_wire::Packet;
+
+/// Feeds a datagram to every game decoder.
+pub fn walk_messages(data: &[u8]) {
+    let Ok(p) = Packet::parse(data) else { return };
+    if let Ok(s) = Sense::decode(&p) {
+        if let Ok(b) = s.encode(0) {
+            let again = Sense::decode(&Packet::parse(&b).unwrap()).unwrap();
+            assert_eq!(again.step, s.step);
+        }
+    }
+    if let Ok(o) = Order::decode(&p) {
+        let b = o.encode().unwrap();
+        let again = Order::decode(&Packet::parse(&b).unwrap()).unwrap();
+        assert_eq!(again.commands.len(), o.commands.len());
+    }
+    if let Ok(cmds) = SquadCommand::decode("red", &p) {
+        for c in cmds {
+            let b = c.encode().unwrap();
+            let again = SquadCommand::decode("red", &Packet::parse(&b).unwrap()).unwrap();
+            assert_eq!(again.len(), 1);
+        }
+    }
+    let _ = WorldFrame::decode(&p);
+    let _ = Action::decode(&p);
+    let _ = RobotDebug::decode(&p);
+    let _ = Event::decode(&p);
+    let _ = decode_wheels(&p);
+    if let Ok(s) = GameState::decode(&p) {
+        let b = s.encode().unwrap();
+        let again = GameState::decode(&Packet::parse(&b).unwrap()).unwrap();
+        assert_eq!(again.robots.len(), s.robots.len());
+    }
+}
+
+/// Feeds a file to the map and scenario parsers.
+pub fn walk_map(data: &[u8]) {
+    if let Ok(field) = colony_game::map::Battlefield::parse_bytes(data) {
+        for t in &field.teams {
+            assert!(field.grid.contains(t.base) && field.grid.contains(t.flag));
+        }
+    }
+    let _ = colony_game::map::GridMap::parse_bytes(data);
+    let _ = colony_game::path::scen::parse_bytes(data);
+}
