@@ -113,3 +113,58 @@ fn an_amphibian_crosses_the_river_where_others_must_use_a_crossing() {
     assert!(swam, "the amphibian took the short way, through the water");
     assert!(!waded, "the infantry never entered the water");
 }
+
+#[test]
+fn illegal_squad_commands_are_refused_with_a_reason_and_change_nothing() {
+    use colony_game::protocol::{SquadCommand, Target, Verb};
+    let teams = [
+        TeamSetup::parse("red", "alpha:tank").unwrap(),
+        TeamSetup::parse("blue", "alpha:scout").unwrap(),
+    ];
+    let mut m = Match::new(
+        map("ctf.map"),
+        Rules::new(Mode::CaptureTheFlag),
+        &teams,
+        &[],
+    )
+    .unwrap();
+    let cmd = |squad: &str, verb| SquadCommand {
+        team: "red".into(),
+        squad: squad.into(),
+        verb,
+        formation: None,
+    };
+    for c in [
+        cmd("nosuch", Verb::Stop),
+        cmd("alpha", Verb::Attack(Target::Robot(0))),
+        cmd("alpha", Verb::Attack(Target::Robot(77))),
+        cmd("alpha", Verb::Capture("red".into())),
+        cmd("alpha", Verb::GoTo(colony_sim::Vec2::new(-500.0, 10.0))),
+    ] {
+        m.send(c.encode().unwrap());
+    }
+    m.send(b"@ <game.player.red> 0\nsquad name alpha do dance\n".to_vec());
+    m.step(&mut |_, _| {});
+    let refused: Vec<&str> = m
+        .events()
+        .iter()
+        .filter(|e| e.kind == "refused")
+        .map(|e| e.text.as_str())
+        .collect();
+    assert_eq!(
+        refused,
+        [
+            "red squad nosuch: team red has no squad nosuch",
+            "red squad alpha: robot 0 is on your own team",
+            "red squad alpha: there is no robot 77",
+            "red squad alpha: that is your own flag",
+            "red squad alpha: (-500, 10) is off the map",
+            "a bad command from red: line 2: unknown squad command \"dance\" (expected gather, goto, defend, attack, capture or stop)",
+        ]
+    );
+    for _ in 0..20 {
+        m.step(&mut |_, _| {});
+    }
+    let s = m.state().unwrap();
+    assert_eq!(s.squads[0].order, "none", "nothing was ordered");
+}

@@ -62,3 +62,6 @@ mod parse;
 pub use battlefield::{Battlefield, TeamSite, DEFAULT_CELL_CM};
 pub use error::{MapError, Problem};
 pub use grid::{Cell, GridMap, Terrain};
+
+#[cfg(test)]
+mod tests;

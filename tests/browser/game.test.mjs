@@ -1,0 +1,182 @@
+// The game page in a real browser against a real match: `colony game ctf
+// --player red --speed 4` (hub, monitor, simulated battlefield, game server,
+// one hub client per robot, a scripted blue) with red played from the page
+// in Debian's headless Chromium. Screenshots go to test-artifacts/browser/.
+import assert from 'node:assert/strict';
+import path from 'node:path';
+import { after, before, describe, test } from 'node:test';
+import {
+  ColonyProcess, ROOT, freeTcpPort, freeUdpPort, launchBrowser, screenshot, sleep,
+} from './lib.mjs';
+
+// The formation's spacing: a squad in formation keeps every robot within
+// three spacings of its nearest mate.
+const SPACING_CM = 22;
+
+describe('the game page, playing red against the scripted blue', { concurrency: false }, () => {
+  let match;
+  let browser;
+  let page;
+  let url;
+
+  before(async () => {
+    match = new ColonyProcess('game-ctf', [
+      'game', 'ctf', '--map', path.join(ROOT, 'maps', 'ctf.map'), '--player', 'red', '--speed', '4',
+      '--hub-bind', `127.0.0.1:${await freeUdpPort()}`,
+      '--monitor-bind', `127.0.0.1:${await freeTcpPort()}`,
+    ]);
+    const [, base] = await match.waitFor(/open (http:\/\/127\.0\.0\.1:\d+)\/game/, 60000);
+    url = `${base}/game?team=red`;
+    browser = await launchBrowser({ width: 1400, height: 900 });
+    page = browser.page;
+    await page.goto(url);
+  });
+
+  after(async () => {
+    if (browser) await browser.close();
+    if (match) await match.stop('SIGINT');
+  });
+
+  // Polls the page until `fn` returns something truthy; on a timeout, says what the page had.
+  async function until(fn, arg, timeoutMs, what) {
+    try {
+      const h = await page.waitForFunction(fn, arg, { timeout: timeoutMs, polling: 100 });
+      return await h.jsonValue();
+    } catch (e) {
+      const seen = await page.evaluate(() => {
+        const g = window.colonyGame;
+        return g && {
+          connected: g.connected, stale: g.stale, team: g.team, selected: g.selected, map: g.map && [g.map.width, g.map.height, g.map.cell],
+          squads: g.state && g.state.squads, lastReply: g.lastReply, lastCommand: g.lastCommand, refusal: g.refusal,
+        };
+      }).catch(() => null);
+      throw new Error(`${what} within ${timeoutMs} ms (page: ${JSON.stringify(seen)}): ${e.message.split('\n')[0]}`);
+    }
+  }
+
+  const squadOf = (team, name) => page.evaluate(([t, n]) => {
+    const s = window.colonyGame.state;
+    const q = s.squads.find((x) => x.team === t && x.name === n);
+    const robots = s.robots.filter((r) => r.team === t && r.squad === n && r.alive).map((r) => [r.id, r.x, r.y]);
+    return { ...q, robots, time: s.time };
+  }, [team, name]);
+
+  const centroid = (robots) => [
+    robots.reduce((a, r) => a + r[1], 0) / robots.length,
+    robots.reduce((a, r) => a + r[2], 0) / robots.length,
+  ];
+
+  // The largest distance from a robot to its nearest squad mate.
+  const spread = (robots) => Math.max(...robots.map((r) => Math.min(
+    ...robots.filter((o) => o !== r).map((o) => Math.hypot(o[1] - r[1], o[2] - r[2])),
+  )));
+
+  test('the page shows the battlefield, both teams and red\'s squads', async () => {
+    await until(() => {
+      const g = window.colonyGame;
+      return g.connected && g.map && g.state && g.state.robots.length > 0 && !g.stale
+        && g.state.squads.some((q) => q.team === 'red');
+    }, undefined, 30000, 'no map and game state on the page');
+    const info = await page.evaluate(() => {
+      const g = window.colonyGame;
+      return {
+        team: g.team, map: g.map, teams: g.state.teams.map((t) => t.name),
+        red: g.state.robots.filter((r) => r.team === 'red').length,
+        blue: g.state.robots.filter((r) => r.team === 'blue').length,
+        squads: [...document.querySelectorAll('#squads [data-squad]')].map((e) => e.dataset.squad),
+      };
+    });
+    assert.equal(info.team, 'red');
+    assert.deepEqual(info.teams.slice().sort(), ['blue', 'red']);
+    assert.ok(info.map.width === 64 && info.map.height === 48, `the ctf map is 64 x 48 cells (${info.map.width} x ${info.map.height})`);
+    assert.ok(info.red > 0 && info.blue > 0, `robots on both sides (red ${info.red}, blue ${info.blue})`);
+    assert.ok(info.squads.length >= 1, 'red\'s squads are listed');
+    assert.deepEqual(browser.errors, [], 'no script errors');
+    await screenshot(page, 'g1-game-start');
+  });
+
+  test('red\'s first squad, in a wedge, attacks a clicked blue robot: it moves, in formation, along a planned path', async () => {
+    const name = await page.evaluate(() => window.colonyGame.state.squads.find((q) => q.team === 'red').name);
+    await page.locator(`#squads [data-squad="${name}"]`).click();
+    await until((n) => window.colonyGame.selected === n, name, 5000, `squad ${name} not selected`);
+    await page.selectOption('#formation', 'wedge');
+
+    // The blue robot standing furthest from any other robot, so the click
+    // can't land on a neighbour; clicked where it is now.
+    const target = await page.evaluate(() => {
+      const rs = window.colonyGame.state.robots.filter((r) => r.alive);
+      const blue = rs.filter((r) => r.team === 'blue');
+      const room = (b) => Math.min(...rs.filter((o) => o !== b).map((o) => Math.hypot(o.x - b.x, o.y - b.y)));
+      blue.sort((a, b) => room(b) - room(a));
+      return blue[0].id;
+    });
+    const before = await squadOf('red', name);
+    assert.ok(before.robots.length >= 2, `squad ${name} has robots to keep in formation (${before.robots.length})`);
+    const at = await page.evaluate((id) => {
+      const r = window.colonyGame.state.robots.find((x) => x.id === id);
+      return window.colonyGame.worldToClient(r.x, r.y);
+    }, target);
+    await page.mouse.click(at.x, at.y);
+    const sent = await until(() => {
+      const g = window.colonyGame;
+      return g.lastReply && g.lastReply.to === 'squad' && g.lastCommand && g.lastReply;
+    }, undefined, 5000, 'no answer to the attack order');
+    assert.ok(sent.ok, `the monitor accepted the order: ${sent.msg}`);
+    const cmd = await page.evaluate(() => window.colonyGame.lastCommand);
+    assert.deepEqual(cmd, { t: 'squad', team: 'red', squad: name, do: 'attack', robot: target, formation: 'wedge' });
+
+    // The game took it: the squad's order and formation change.
+    await until(([n, id]) => {
+      const q = window.colonyGame.state.squads.find((x) => x.team === 'red' && x.name === n);
+      return q && q.order === `attack robot ${id}` && q.formation === 'wedge';
+    }, [name, target], 10000, `squad ${name} did not take "attack robot ${target}" in a wedge`);
+    const start = await squadOf('red', name);
+    const c0 = centroid(start.robots);
+
+    // Within 20 s it moves off, keeps its formation, and has a planned path.
+    const t0 = Date.now();
+    let pathSeen = 0;
+    let last = start;
+    let moved = 0;
+    let worst = 0;
+    while (Date.now() - t0 < 20000) {
+      await sleep(200);
+      last = await squadOf('red', name);
+      if (last.robots.length < 2) break;
+      pathSeen = Math.max(pathSeen, last.path.length);
+      const c = centroid(last.robots);
+      moved = Math.hypot(c[0] - c0[0], c[1] - c0[1]);
+      worst = spread(last.robots);
+      if (moved > 40 && worst <= 3 * SPACING_CM && pathSeen >= 2) break;
+    }
+    console.log(`# squad ${name} attacking robot ${target}: moved ${moved.toFixed(0)} cm in ${((Date.now() - t0) / 1000).toFixed(1)} s, `
+      + `largest gap to a mate ${worst.toFixed(0)} cm, path of ${pathSeen} points, order "${last.order}", behaviour "${last.behaviour}"`);
+    assert.ok(last.robots.length >= 2, `squad ${name} still has robots (${JSON.stringify(last.robots)})`);
+    assert.ok(moved > 40, `the squad's centroid moved ${moved.toFixed(1)} cm (more than 40 wanted)`);
+    assert.ok(worst <= 3 * SPACING_CM, `every robot within ${3 * SPACING_CM} cm of a squad mate (largest gap ${worst.toFixed(1)} cm): ${JSON.stringify(last.robots)}`);
+    assert.ok(pathSeen >= 2, `a planned path of 2 or more points was drawn (${pathSeen})`);
+    assert.equal(last.formation, 'wedge');
+    assert.deepEqual(browser.errors, [], 'no script errors');
+    await screenshot(page, 'g2-squad-attacking');
+  });
+
+  test('a command the page refuses never reaches the game, and Stop halts the squad', async () => {
+    const reply = await page.evaluate(() => new Promise((resolve) => {
+      window.colonyGame.send({ t: 'squad', team: 'red', squad: 'no such squad', do: 'stop' });
+      const t0 = Date.now();
+      const poll = setInterval(() => {
+        const r = window.colonyGame.lastReply;
+        if ((r && !r.ok) || Date.now() - t0 > 5000) { clearInterval(poll); resolve(r); }
+      }, 50);
+    }));
+    assert.ok(reply && !reply.ok && /is not a name/.test(reply.msg), `refused with a reason: ${JSON.stringify(reply)}`);
+    assert.match(await page.locator('#game-msg').textContent(), /is not a name/);
+
+    await page.click('#stop');
+    const name = await page.evaluate(() => window.colonyGame.selected);
+    await until((n) => {
+      const q = window.colonyGame.state.squads.find((x) => x.team === 'red' && x.name === n);
+      return q && q.order === 'stop';
+    }, name, 10000, `squad ${name} did not take "stop"`);
+  });
+});
