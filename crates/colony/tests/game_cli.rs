@@ -149,7 +149,7 @@ fn moving(states: &[String]) -> Vec<i64> {
 fn the_parts_of_a_live_match_are_processes_and_the_robots_can_restart() {
     let hub = HubProcess::start(&[]);
     let speed = ["--speed", "5"];
-    let _world = part(&hub, &["world", speed[0], speed[1]]);
+    let world = part(&hub, &["world", speed[0], speed[1]]);
     let _server = part(&hub, &["server"]);
     let robots = part(&hub, &["robots"]);
     let _red = part(&hub, &["bot", "--team", "red"]);
@@ -182,4 +182,29 @@ fn the_parts_of_a_live_match_are_processes_and_the_robots_can_restart() {
         !moving(&again[again.len().saturating_sub(20)..]).is_empty(),
         "the restarted robots never moved"
     );
+    // Restart the world: it takes up the game's clock and poses from the
+    // game state instead of starting the match over.
+    let before = game_time(again.last().unwrap());
+    drop(world);
+    let _world = part(&hub, &["world", speed[0], speed[1]]);
+    let resumed = drain_until(&mut watch, Instant::now() + Duration::from_secs(20), |g| {
+        g.len() > 30 && !moving(&g[g.len() - 20..]).is_empty()
+    });
+    let after: Vec<f64> = resumed.iter().map(|t| game_time(t)).collect();
+    assert!(
+        after.iter().all(|&t| t >= before - 0.5),
+        "the game clock went back from {before} to {:?}",
+        after.iter().cloned().fold(f64::INFINITY, f64::min)
+    );
+    assert!(
+        !moving(&resumed[resumed.len().saturating_sub(20)..]).is_empty(),
+        "nothing moved after the world restarted"
+    );
+}
+
+fn game_time(state: &str) -> f64 {
+    colony_wire::Packet::parse(state.as_bytes())
+        .ok()
+        .and_then(|p| p.line("game").and_then(|l| l.f64("time").ok()))
+        .unwrap_or(f64::NAN)
 }

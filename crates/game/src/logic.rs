@@ -310,9 +310,12 @@ impl Referee {
 
     /// Takes the world's poses and advances the game to its time.
     pub fn on_world(&mut self, frame: &WorldFrame) {
-        if frame.time.is_finite() && frame.time >= self.time {
-            self.time = frame.time;
+        // A frame from before our time is a restarted world that hasn't yet
+        // taken up the game from our state: its poses are its spawn points.
+        if !(frame.time.is_finite() && frame.time >= self.time) {
+            return;
         }
+        self.time = frame.time;
         for rp in &frame.robots {
             if let Some(r) = self.robots.get_mut(rp.id as usize) {
                 r.pose = rp.pose;
@@ -715,6 +718,16 @@ mod tests {
             target: 9,
         });
         assert!(last(&mut r).text.contains("no such robot"));
+    }
+
+    #[test]
+    fn a_frame_from_before_the_games_time_is_ignored() {
+        let (_, mut r, _) = game(Mode::DeathMatch);
+        place(&mut r, 50.0, &[(0, Vec2::new(100.0, 60.0))]);
+        // A restarted world, still at its spawn points and its own clock.
+        place(&mut r, 0.1, &[(0, Vec2::new(50.0, 60.0))]);
+        assert_eq!(r.time(), 50.0);
+        assert_eq!(r.robot(0).unwrap().0.position(), Vec2::new(100.0, 60.0));
     }
 
     #[test]

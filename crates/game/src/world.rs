@@ -17,11 +17,17 @@ use crate::protocol::{self, GameState, RobotPose, Sense, WorldFrame};
 /// A robot whose newest command is older than this many steps stops: a dead
 /// controller must not leave its robot driving.
 const COMMAND_TIMEOUT_STEPS: u64 = 10;
+/// A world restarted into a running game adopts its state only this early.
+const SYNC_WINDOW_STEPS: u64 = 10;
 
 /// The world's side of the game.
 pub struct GameWorld {
     field: Field,
     commands: Vec<Held>,
+    /// Game time when this world started: a restarted world takes the
+    /// game's clock and poses from the first game state it hears.
+    time_offset: f64,
+    synced: bool,
 }
 
 #[derive(Debug, Clone, Copy, Default)]
@@ -66,6 +72,8 @@ impl GameWorld {
         Ok(GameWorld {
             commands: vec![Held::default(); roster.len()],
             field: sim,
+            time_offset: 0.0,
+            synced: false,
         })
     }
 
@@ -76,7 +84,33 @@ impl GameWorld {
 
     /// Game time, s.
     pub fn time(&self) -> f64 {
-        self.field.time()
+        self.field.time() + self.time_offset
+    }
+
+    /// Picks up a game already under way: a world that was restarted puts
+    /// every robot where the game logic last saw it and takes up its clock.
+    /// Only in the first second; after that the world is the authority.
+    fn sync(&mut self, state: &GameState) {
+        if self.synced || self.field.step_count() > SYNC_WINDOW_STEPS {
+            self.synced = true;
+            return;
+        }
+        self.synced = true;
+        if state.time <= self.time() {
+            return;
+        }
+        self.time_offset = state.time - self.field.time();
+        // Out of play first, so nobody is refused a place someone else left.
+        for r in &state.robots {
+            let _ = self.field.set_active(FieldRobotId(r.id as usize), false);
+        }
+        for r in state.robots.iter().filter(|r| r.alive) {
+            let id = FieldRobotId(r.id as usize);
+            if self.field.respawn(id, r.pose).is_err() {
+                let _ = self.field.set_active(id, true);
+            }
+        }
+        tracing::info!(time = state.time, "joined a game under way");
     }
 
     /// Takes a wheel command; one of lower priority than a fresh one in force
@@ -112,7 +146,7 @@ impl GameWorld {
             })
             .collect();
         self.field.step(&cmds);
-        let (step, time) = (self.field.step_count(), self.field.time());
+        let (step, time) = (self.field.step_count(), self.time());
         let mut frame = WorldFrame {
             step,
             time,
@@ -171,6 +205,7 @@ impl Node for GameWorld {
             // restarted world catches up with the next state.
             match GameState::decode(packet) {
                 Ok(state) => {
+                    self.sync(&state);
                     for r in state.robots.iter().filter(|r| !r.alive) {
                         let _ = self.field.set_active(FieldRobotId(r.id as usize), false);
                     }

@@ -70,6 +70,27 @@ impl Ord for Entry {
     }
 }
 
+/// One cell's LPA* state.
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    g: Cost,
+    rhs: Cost,
+    /// The key the cell is queued under, valid while `queued` is set.
+    key: Key,
+    queued: bool,
+    epoch: u32,
+}
+
+impl Node {
+    const FRESH: Node = Node {
+        g: Cost::INFINITE,
+        rhs: Cost::INFINITE,
+        key: Key(f64::INFINITY, f64::INFINITY),
+        queued: false,
+        epoch: 0,
+    };
+}
+
 /// An incremental planner from a fixed start to a goal that may move, on a
 /// map whose cells may become blocked or clear again.
 ///
@@ -89,11 +110,11 @@ pub struct Replanner {
     grid: ClassGrid,
     /// The map's own classes, restored when a cell is unblocked.
     base: Vec<u8>,
-    g: Vec<Cost>,
-    rhs: Vec<Cost>,
-    /// The key a cell is queued under, valid while `queued` is set.
-    key: Vec<Key>,
-    queued: Vec<bool>,
+    /// Search state per cell, valid where its `epoch` is the current one.
+    nodes: Vec<Node>,
+    /// Bumped when the search is re-rooted, which makes every node stale
+    /// without touching the array.
+    epoch: u32,
     queued_count: usize,
     heap: BinaryHeap<Entry>,
     start: usize,
@@ -106,18 +127,16 @@ pub struct Replanner {
 
 impl Replanner {
     /// A replanner on `map` for `mover` from `start` to `goal`. Allocates
-    /// and initialises arrays the size of the map; plans nothing yet. A start
-    /// off the map is clamped onto it.
+    /// arrays the size of the map; plans nothing yet. A start off the map is
+    /// clamped onto it.
     pub fn new(map: &GridMap, mover: Mover, start: Cell, goal: Cell) -> Replanner {
         let grid = ClassGrid::new(map, mover);
         let n = grid.len();
         let mut r = Replanner {
             base: grid.class.clone(),
             grid,
-            g: vec![Cost::INFINITE; n],
-            rhs: vec![Cost::INFINITE; n],
-            key: vec![Key(0.0, 0.0); n],
-            queued: vec![false; n],
+            nodes: vec![Node::FRESH; n],
+            epoch: 0,
             queued_count: 0,
             heap: BinaryHeap::new(),
             start: 0,
@@ -158,16 +177,23 @@ impl Replanner {
         }
     }
 
-    /// Re-roots the search at `start` (clamped onto the map): as costly as
-    /// planning afresh.
+    /// Re-roots the search at `start` (clamped onto the map). The same start
+    /// again changes nothing; a new one makes the next [`Replanner::plan`] as
+    /// costly as a fresh search (but no costlier: nothing the size of the map
+    /// is cleared).
     pub fn set_start(&mut self, start: Cell) {
         let start = Cell::new(
             start.x.min(self.grid.width.saturating_sub(1)),
             start.y.min(self.grid.height.saturating_sub(1)),
         );
-        self.g.fill(Cost::INFINITE);
-        self.rhs.fill(Cost::INFINITE);
-        self.queued.fill(false);
+        if self.epoch != 0 && self.grid.index(start) == Some(self.start) {
+            return;
+        }
+        if self.epoch == u32::MAX {
+            self.nodes.fill(Node::FRESH);
+            self.epoch = 0;
+        }
+        self.epoch += 1;
         self.queued_count = 0;
         self.heap.clear();
         self.km = 0.0;
@@ -175,7 +201,7 @@ impl Replanner {
         // An empty map has no cells; index 0 is then a border cell of class 0.
         self.start = self.grid.index(start).unwrap_or(0);
         self.key_goal = self.grid.index(self.goal).unwrap_or(self.start);
-        self.rhs[self.start] = Cost::ZERO;
+        self.node_mut(self.start).rhs = Cost::ZERO;
         self.enqueue(self.start);
     }
 
@@ -215,14 +241,40 @@ impl Replanner {
             return None;
         }
         self.compute(t);
-        if self.g[t] == Cost::INFINITE {
+        if self.node(t).g == Cost::INFINITE {
             return None;
         }
         self.extract(t)
     }
 
+    /// The state of cell `i` (fresh if not touched since re-rooting).
+    #[inline]
+    fn node(&self, i: usize) -> Node {
+        let n = self.nodes[i];
+        if n.epoch == self.epoch {
+            n
+        } else {
+            Node::FRESH
+        }
+    }
+
+    /// The state of cell `i` for writing, made current first.
+    #[inline]
+    fn node_mut(&mut self, i: usize) -> &mut Node {
+        let epoch = self.epoch;
+        let n = &mut self.nodes[i];
+        if n.epoch != epoch {
+            *n = Node {
+                epoch,
+                ..Node::FRESH
+            };
+        }
+        n
+    }
+
     fn calc_key(&self, i: usize) -> Key {
-        let m = min(self.g[i], self.rhs[i]);
+        let n = self.node(i);
+        let m = min(n.g, n.rhs);
         if m == Cost::INFINITE {
             return Key(f64::INFINITY, f64::INFINITY);
         }
@@ -233,26 +285,30 @@ impl Replanner {
     /// Queues `i` under its current key (replacing an older entry).
     fn enqueue(&mut self, i: usize) {
         let key = self.calc_key(i);
-        if !self.queued[i] {
-            self.queued[i] = true;
+        let n = self.node_mut(i);
+        let newly = !n.queued;
+        n.queued = true;
+        n.key = key;
+        if newly {
             self.queued_count += 1;
         }
-        self.key[i] = key;
         self.heap.push(Entry {
             key,
             index: i as u32,
         });
         if self.heap.len() > 4 * self.queued_count + 4096 {
             // Drop superseded entries so the heap tracks the open set.
-            let (queued, keys) = (&self.queued, &self.key);
-            self.heap
-                .retain(|e| queued[e.index as usize] && keys[e.index as usize] == e.key);
+            let nodes = &self.nodes;
+            self.heap.retain(|e| {
+                let n = &nodes[e.index as usize];
+                n.queued && n.key == e.key
+            });
         }
     }
 
     fn dequeue(&mut self, i: usize) {
-        if self.queued[i] {
-            self.queued[i] = false;
+        if self.node(i).queued {
+            self.node_mut(i).queued = false;
             self.queued_count -= 1;
         }
     }
@@ -264,12 +320,15 @@ impl Replanner {
             let moves = self.grid.moves(u);
             for (dir, &cost) in STEP.iter().enumerate() {
                 if moves & (1 << dir) != 0 {
-                    best = min(best, self.g[self.grid.step(u, dir)].plus(cost));
+                    best = min(best, self.node(self.grid.step(u, dir)).g.plus(cost));
                 }
             }
-            self.rhs[u] = best;
+            if best != self.node(u).rhs {
+                self.node_mut(u).rhs = best;
+            }
         }
-        if self.g[u] != self.rhs[u] {
+        let n = self.node(u);
+        if n.g != n.rhs {
             self.enqueue(u);
         } else {
             self.dequeue(u);
@@ -279,8 +338,10 @@ impl Replanner {
     /// The smallest current entry, dropping superseded ones.
     fn top(&mut self) -> Option<Entry> {
         while let Some(&e) = self.heap.peek() {
-            let i = e.index as usize;
-            if self.queued[i] && self.key[i] == e.key {
+            // Entries in the heap were pushed this epoch, so their nodes
+            // are current.
+            let n = &self.nodes[e.index as usize];
+            if n.queued && n.key == e.key {
                 return Some(e);
             }
             self.heap.pop();
@@ -292,7 +353,8 @@ impl Replanner {
     fn compute(&mut self, t: usize) {
         while let Some(top) = self.top() {
             let goal_key = self.calc_key(t);
-            if top.key.cmp(&goal_key) != Ordering::Less && self.g[t] == self.rhs[t] {
+            let goal = self.node(t);
+            if top.key.cmp(&goal_key) != Ordering::Less && goal.g == goal.rhs {
                 break;
             }
             let u = top.index as usize;
@@ -300,7 +362,7 @@ impl Replanner {
             if top.key.cmp(&fresh) == Ordering::Less {
                 // Queued before the goal moved: a lower bound; requeue.
                 self.heap.pop();
-                self.key[u] = fresh;
+                self.node_mut(u).key = fresh;
                 self.heap.push(Entry {
                     key: fresh,
                     index: u as u32,
@@ -310,11 +372,12 @@ impl Replanner {
             self.heap.pop();
             self.expanded += 1;
             let moves_before = self.grid.moves(u);
-            if self.g[u].length() > self.rhs[u].length() {
-                self.g[u] = self.rhs[u];
+            let n = self.node(u);
+            if n.g.length() > n.rhs.length() {
+                self.node_mut(u).g = n.rhs;
                 self.dequeue(u);
             } else {
-                self.g[u] = Cost::INFINITE;
+                self.node_mut(u).g = Cost::INFINITE;
                 self.update(u);
             }
             for dir in 0..8 {
@@ -336,7 +399,7 @@ impl Replanner {
                 cells.reverse();
                 return Some(Path {
                     cells,
-                    length: self.g[t].value(),
+                    length: self.node(t).g.value(),
                 });
             }
             let moves = self.grid.moves(u);
@@ -344,13 +407,13 @@ impl Replanner {
             for (dir, &cost) in STEP.iter().enumerate() {
                 if moves & (1 << dir) != 0 {
                     let v = self.grid.step(u, dir);
-                    let d = self.g[v].plus(cost).length();
+                    let d = self.node(v).g.plus(cost).length();
                     if d < best.0 {
                         best = (d, v);
                     }
                 }
             }
-            if best.1 == u || self.g[best.1].length() >= self.g[u].length() {
+            if best.1 == u || self.node(best.1).g.length() >= self.node(u).g.length() {
                 return None;
             }
             u = best.1;
