@@ -101,15 +101,16 @@ describe('the game page, playing red against the scripted blue', { concurrency: 
     await until((n) => window.colonyGame.selected === n, name, 5000, `squad ${name} not selected`);
     await page.selectOption('#formation', 'wedge');
 
-    // The blue robot standing furthest from any other robot, so the click
-    // can't land on a neighbour; clicked where it is now.
-    const target = await page.evaluate(() => {
+    // The blue robot nearest the squad, clicked where it stands now.
+    const target = await page.evaluate((n) => {
       const rs = window.colonyGame.state.robots.filter((r) => r.alive);
+      const mine = rs.filter((r) => r.team === 'red' && r.squad === n);
+      const cx = mine.reduce((a, r) => a + r.x, 0) / mine.length;
+      const cy = mine.reduce((a, r) => a + r.y, 0) / mine.length;
       const blue = rs.filter((r) => r.team === 'blue');
-      const room = (b) => Math.min(...rs.filter((o) => o !== b).map((o) => Math.hypot(o.x - b.x, o.y - b.y)));
-      blue.sort((a, b) => room(b) - room(a));
+      blue.sort((a, b) => Math.hypot(a.x - cx, a.y - cy) - Math.hypot(b.x - cx, b.y - cy));
       return blue[0].id;
-    });
+    }, name);
     const before = await squadOf('red', name);
     assert.ok(before.robots.length >= 2, `squad ${name} has robots to keep in formation (${before.robots.length})`);
     const at = await page.evaluate((id) => {
@@ -134,11 +135,14 @@ describe('the game page, playing red against the scripted blue', { concurrency: 
     const c0 = centroid(start.robots);
 
     // Within 20 s it moves off, keeps its formation, and has a planned path.
+    // The robots may start scattered and gather on the way: wait for the
+    // formation to hold for three samples in a row (0.6 s), not one lucky one.
     const t0 = Date.now();
     let pathSeen = 0;
     let last = start;
     let moved = 0;
     let worst = 0;
+    let held = 0;
     while (Date.now() - t0 < 20000) {
       await sleep(200);
       last = await squadOf('red', name);
@@ -147,7 +151,8 @@ describe('the game page, playing red against the scripted blue', { concurrency: 
       const c = centroid(last.robots);
       moved = Math.hypot(c[0] - c0[0], c[1] - c0[1]);
       worst = spread(last.robots);
-      if (moved > 40 && worst <= 3 * SPACING_CM && pathSeen >= 2) break;
+      held = worst <= 3 * SPACING_CM ? held + 1 : 0;
+      if (moved > 40 && held >= 3 && pathSeen >= 2) break;
     }
     console.log(`# squad ${name} attacking robot ${target}: moved ${moved.toFixed(0)} cm in ${((Date.now() - t0) / 1000).toFixed(1)} s, `
       + `largest gap to a mate ${worst.toFixed(0)} cm, path of ${pathSeen} points, order "${last.order}", behaviour "${last.behaviour}"`);

@@ -1,7 +1,8 @@
 //! The monitor's browser tests (`tests/browser/`, run by node's own test
 //! runner with playwright-core driving Debian's headless Chromium) against
-//! this build of `colony`: a real hub, a real simulator, a real monitor.
-//! Screenshots land in `test-artifacts/browser/`.
+//! this build of `colony`: a real hub, a real simulator, a real monitor, and
+//! (`game.test.mjs`) a real match of `colony game ctf` played from the game
+//! page. Screenshots land in `test-artifacts/browser/`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -54,5 +55,11 @@ fn the_monitor_page_passes_its_browser_tests_in_headless_chromium() {
     assert!(
         stdout.contains("# fail 0") && !stdout.contains("# pass 0"),
         "the browser tests ran no test:\n{stdout}"
+    );
+    // node finds every *.test.mjs in the folder; make sure the game's ran.
+    assert!(
+        stdout.lines().any(|l| l.starts_with("ok ")
+            && l.ends_with(" - the game page, playing red against the scripted blue")),
+        "the game page's browser test (tests/browser/game.test.mjs) did not run or failed:\n{stdout}"
     );
 }

@@ -66,6 +66,26 @@ impl Nav {
         self.cell(p).is_some_and(|c| self.passable(mover, c))
     }
 
+    /// Whether a body of `radius` cm centred on `p` touches only cells
+    /// `mover` may enter: a formation slot must leave room for the robot, not
+    /// just have its centre on open ground.
+    pub fn has_room(&self, p: Vec2, mover: Mover, radius: f64) -> bool {
+        let d = radius * std::f64::consts::FRAC_1_SQRT_2;
+        self.is_free(p, mover)
+            && [
+                (radius, 0.0),
+                (-radius, 0.0),
+                (0.0, radius),
+                (0.0, -radius),
+                (d, d),
+                (d, -d),
+                (-d, d),
+                (-d, -d),
+            ]
+            .iter()
+            .all(|&(dx, dy)| self.is_free(p + Vec2::new(dx, dy), mover))
+    }
+
     /// The free cell nearest to `p` (breadth-first over the grid, at most
     /// `limit` cells searched), or None.
     pub fn nearest_free(&self, p: Vec2, mover: Mover) -> Option<Cell> {

@@ -177,8 +177,15 @@ impl SquadCtx {
             [] => 0.0,
         };
         let nav = &self.nav;
+        // Room for the widest member plus a margin, so no slot puts a robot
+        // against a wall or the water's edge, where its reflexes would fight.
+        let room = members
+            .iter()
+            .map(|m| m.2.stats().radius_cm)
+            .fold(0.0, f64::max)
+            + ROOM_MARGIN_CM;
         let slots = along_path(&path, formation, members.len(), self.spacing, facing, |p| {
-            nav.is_free(p, mover)
+            nav.has_room(p, mover, room)
         });
         let starts: Vec<Vec2> = slots.iter().map(|s| s[0]).collect();
         let positions: Vec<Vec2> = members.iter().map(|m| m.1).collect();
@@ -235,6 +242,9 @@ impl SquadCtx {
         self.path = path;
     }
 }
+
+/// Clearance kept around a formation slot beyond the robot's radius, cm.
+const ROOM_MARGIN_CM: f64 = 4.0;
 
 /// Automatic shooting: every member with an enemy in range shoots the
 /// nearest one; the others hold their ground.
@@ -451,6 +461,9 @@ struct OrderBehaviour {
     replans: u64,
 }
 
+/// A squad this many cells (Chebyshev) from the replanner's root re-roots it.
+const REROOT_CELLS: u32 = 3;
+
 /// A moving target is followed once it has moved this many cells.
 const FOLLOW_CELLS: f64 = 1.5;
 
@@ -552,9 +565,30 @@ impl OrderBehaviour {
         let Some(r) = self.replanner.as_mut() else {
             return self.start(ctx, false);
         };
-        r.set_start(from);
+        // The paper's partial A*: the search stays rooted where the attack
+        // began, so a moving target only re-keys the goal and the earlier
+        // search is reused; the squad joins the new path at its cell nearest
+        // to where the squad is. Only a squad that strayed from the old
+        // search's root re-roots it (as costly as a fresh search).
+        let root = r.start();
+        let strayed = (root.x.abs_diff(from.x)).max(root.y.abs_diff(from.y)) > REROOT_CELLS;
+        if strayed {
+            r.set_start(from);
+        }
         r.set_goal(cell);
-        let path = r.plan().map(|p| ctx.nav.points(&p, mover));
+        let path = r.plan().map(|mut p| {
+            let join = p
+                .cells
+                .iter()
+                .enumerate()
+                .min_by_key(|(_, c)| {
+                    let (dx, dy) = (c.x.abs_diff(from.x), c.y.abs_diff(from.y));
+                    dx.max(dy)
+                })
+                .map_or(0, |(k, _)| k);
+            p.cells.drain(..join);
+            ctx.nav.points(&p, mover)
+        });
         self.replans += 1;
         if let Some(path) = path {
             ctx.dispatch(path, formation, false, None);

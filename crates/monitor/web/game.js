@@ -402,19 +402,14 @@
         canvas.width / 2, canvas.height / 2, '#f2f4f7', 16 * dpr, 'center');
       return;
     }
-    const r = Math.max(ROBOT_RADIUS_CM * k, 5 * dpr);
-    // Planned paths: each squad's turn points, from its robots' centroid.
+    const r = Math.max(ROBOT_RADIUS_CM * k, 6 * dpr);
+    // Planned paths: each squad's turn points as the game planned them; the
+    // enemy's faint, since the player has no business following them.
     for (const q of s.squads) {
-      if (!q.path.length) continue;
-      const members = s.robots.filter((b) => b.alive && b.team === q.team && b.squad === q.name);
+      if (q.path.length < 2) continue;
       const mine = q.team === team;
       ctx.beginPath();
-      if (members.length) {
-        ctx.moveTo(X(avg(members, 'x')), Y(avg(members, 'y')));
-        for (const [px, py] of q.path) ctx.lineTo(X(px), Y(py));
-      } else {
-        q.path.forEach(([px, py], i) => (i ? ctx.lineTo(X(px), Y(py)) : ctx.moveTo(X(px), Y(py))));
-      }
+      q.path.forEach(([px, py], i) => (i ? ctx.lineTo(X(px), Y(py)) : ctx.moveTo(X(px), Y(py))));
       ctx.strokeStyle = colour(q.team);
       ctx.globalAlpha = mine ? 0.9 : 0.35;
       ctx.lineWidth = (q.name === selected && mine ? 3 : 2) * dpr;
@@ -495,10 +490,6 @@
       if (r >= 7 * dpr) text(KIND_LETTER[b.kind] || '?', bx, by + 4 * dpr, '#fff', 10 * dpr, 'center');
       text(`${b.id}`, bx + r + 2 * dpr, by + r + 8 * dpr, '#fff', 10 * dpr, 'left', true);
     }
-  }
-
-  function avg(list, key) {
-    return list.reduce((a, b) => a + b[key], 0) / list.length;
   }
 
   function grid(X, Y, k) {

@@ -149,6 +149,7 @@ fn default_map(mode: Mode) -> PathBuf {
 
 /// Everything a part needs, checked.
 struct Game {
+    map: PathBuf,
     field: Arc<Battlefield>,
     rules: Rules,
     roster: Vec<RobotEntry>,
@@ -171,6 +172,7 @@ fn load(mode: Mode, setup: &Setup) -> anyhow::Result<Game> {
     ];
     let roster = roster(&field, &rules, &teams)?;
     Ok(Game {
+        map: path,
         field: Arc::new(field),
         rules,
         roster,
@@ -313,9 +315,11 @@ fn live_match(
     let parts = spawn_parts(game, &bots, hub, args.speed, stop)?;
     match &monitor {
         Some(m) => println!(
-            "colony game: {} on {}; open {}/game{} (hub {hub}); Ctrl-C stops",
+            "colony game: {} on {} ({} x {} cells); open {}/game{} (hub {hub}); Ctrl-C stops",
             game.rules.mode,
+            game.map.display(),
             game.field.grid.width(),
+            game.field.grid.height(),
             m.url().trim_end_matches('/'),
             args.player
                 .as_ref()
@@ -339,7 +343,7 @@ fn live_match(
         watcher.poll(Instant::now())?;
         while let Some(packet) = watcher.recv()? {
             if let Ok(e) = Event::decode(&packet) {
-                if e.kind != "hit" && e.kind != "beep" {
+                if worth_printing(&e) {
                     println!("{:>7.1} s  {}: {}", e.time, e.kind, e.text);
                 }
             } else if let Ok(s) = GameState::decode(&packet) {
@@ -370,6 +374,16 @@ fn live_match(
         m.shutdown()?;
     }
     outcome
+}
+
+/// Whether an event is worth a line on the terminal: not every hit, and not
+/// the shots robots fire in the moment before they learn their target is gone.
+fn worth_printing(e: &Event) -> bool {
+    match e.kind.as_str() {
+        "hit" | "beep" => false,
+        "refused" => !e.text.contains(" fires at "),
+        _ => true,
+    }
 }
 
 fn result_line(s: &GameState) -> String {
@@ -416,7 +430,7 @@ fn fast(game: Game, args: &MatchArgs) -> anyhow::Result<()> {
     while !m.is_over() && m.world().field().step_count() < steps {
         m.step(&mut tap);
         for e in &m.events()[shown..] {
-            if e.kind != "hit" && e.kind != "beep" {
+            if worth_printing(e) {
                 println!("{:>7.1} s  {}: {}", e.time, e.kind, e.text);
             }
         }
