@@ -69,7 +69,7 @@ impl RobotKind {
                 range_cm: 70.0,
                 speed_cm_s: 30.0,
                 turn_rad_s: 3.0,
-                radius_cm: 6.0,
+                radius_cm: 5.0,
                 amphibious: false,
             },
             RobotKind::Tank => KindStats {
@@ -80,7 +80,7 @@ impl RobotKind {
                 range_cm: 100.0,
                 speed_cm_s: 14.0,
                 turn_rad_s: 1.5,
-                radius_cm: 7.5,
+                radius_cm: 6.5,
                 amphibious: false,
             },
             RobotKind::Infantry => KindStats {
@@ -91,7 +91,7 @@ impl RobotKind {
                 range_cm: 80.0,
                 speed_cm_s: 20.0,
                 turn_rad_s: 2.5,
-                radius_cm: 6.5,
+                radius_cm: 5.5,
                 amphibious: false,
             },
             RobotKind::Amphibian => KindStats {
@@ -102,7 +102,7 @@ impl RobotKind {
                 range_cm: 70.0,
                 speed_cm_s: 18.0,
                 turn_rad_s: 2.5,
-                radius_cm: 6.5,
+                radius_cm: 5.5,
                 amphibious: true,
             },
         }

@@ -224,10 +224,25 @@ impl SquadCtx {
                 to: first,
                 speed: if gather { None } else { Some(speed) },
             });
-            cmds.extend(own[1..].iter().map(|&to| Command::GoTo {
-                to,
-                speed: Some(speed),
-            }));
+            // A slot beside the squad's path can see round a corner the
+            // path itself clears: where the straight leg from one slot to the
+            // next is blocked, the robot takes its own way round.
+            for leg in own.windows(2) {
+                let (a, b) = (leg[0], leg[1]);
+                if !self.nav.line_of_sight(a, b, robot_mover) {
+                    if let Some(way) = self.nav.plan(a, b, robot_mover) {
+                        let inner = way.len().saturating_sub(1);
+                        cmds.extend(way[1..inner].iter().map(|&to| Command::GoTo {
+                            to,
+                            speed: Some(speed),
+                        }));
+                    }
+                }
+                cmds.push(Command::GoTo {
+                    to: b,
+                    speed: Some(speed),
+                });
+            }
             if let (Some(p), Some((flag, at))) = (picker, &pickup) {
                 if p == k {
                     cmds.push(Command::GoTo {
