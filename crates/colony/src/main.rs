@@ -40,6 +40,9 @@ enum Command {
     Game(cmd::game::GameCommand),
     /// Run a Moving AI path-finding benchmark scenario and check every length.
     Path(cmd::path::Args),
+    /// MURDOCH task allocation: live demo, the paper's two experiments, greedy vs optimal.
+    #[command(subcommand)]
+    Tasks(cmd::tasks::TasksCommand),
 }
 
 fn main() -> ExitCode {
@@ -63,6 +66,7 @@ fn main() -> ExitCode {
         Command::Sort(c) => cmd::sort::run(c),
         Command::Game(c) => cmd::game::run(c),
         Command::Path(a) => cmd::path::run(a),
+        Command::Tasks(c) => cmd::tasks::run(c),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -43,6 +43,42 @@ fn a_fast_forwarded_capture_the_flag_match_ends_and_its_record_replays() {
         "{listed:.300}"
     );
     assert!(listed.contains("status over"));
+    // `colony replay` publishes it to a hub, where a monitor (or anyone)
+    // sees the match again: here, its states and its map.
+    let hub = HubProcess::start(&[]);
+    let mut watch = subscribed(hub.addr, &["game.state"]);
+    let mut map = subscribed(hub.addr, &["game.map"]);
+    let _replay = Part(
+        colony()
+            .args([
+                "replay",
+                record.to_str().unwrap(),
+                "--hub",
+                &hub.addr.to_string(),
+                "--speed",
+                "50",
+                "-c",
+                "game.state",
+                "-c",
+                "game.map",
+            ])
+            .stdout(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let states = drain_until(&mut watch, Instant::now() + Duration::from_secs(10), |g| {
+        g.len() >= 20
+    });
+    assert!(states.len() >= 20, "{} states replayed", states.len());
+    assert!(states[0].contains("game mode ctf"));
+    let maps = drain_until(&mut map, Instant::now() + Duration::from_secs(5), |g| {
+        !g.is_empty()
+    });
+    assert!(
+        maps[0].contains("map width 64 height 48"),
+        "{:.200}",
+        maps[0]
+    );
 }
 
 #[test]

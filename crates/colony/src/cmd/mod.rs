@@ -8,6 +8,7 @@ pub mod path;
 pub mod pubsub;
 pub mod sort;
 pub mod status;
+pub mod tasks;
 pub mod traffic;
 
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -1,0 +1,301 @@
+//! `colony tasks`: MURDOCH task allocation. `demo` runs it live over a hub;
+//! `longterm` and `boxpush` are the paper's two experiments on simulated time;
+//! `compare` sets its greedy auctions against the optimal assignment.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+use anyhow::Context as _;
+use colony_hub::{HubConfig, Server};
+use colony_tasks::experiment::{boxpush, longterm, optimal};
+
+#[derive(clap::Subcommand, Debug)]
+pub enum TasksCommand {
+    /// Run agents and a user agent live over a hub, printing every allocation.
+    Demo(DemoArgs),
+    /// The long-term experiment: 7 agents, 4 task types, batteries, failures.
+    Longterm(LongtermArgs),
+    /// The box-pushing experiment: a watcher and two pushers in the physics field.
+    Boxpush(BoxpushArgs),
+    /// MURDOCH's greedy auctions against the optimal assignment, over seeds.
+    Compare(CompareArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct DemoArgs {
+    /// How long to run, seconds.
+    #[arg(long, default_value_t = 20.0)]
+    pub seconds: f64,
+    /// Seeds the tasks.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Use this running hub instead of starting one in this process.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub hub: Option<String>,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct LongtermArgs {
+    /// Simulated hours of task introductions.
+    #[arg(long, default_value_t = 3.0)]
+    pub hours: f64,
+    /// Seeds every random choice.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Write longterm-summary.json and longterm-events.csv here.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct BoxpushArgs {
+    /// Switch one pusher off at this simulated time, s.
+    #[arg(long = "off-at", value_name = "S")]
+    pub off_at: Option<f64>,
+    /// Switch it on again at this simulated time, s.
+    #[arg(long = "on-at", value_name = "S")]
+    pub on_at: Option<f64>,
+    /// The goal, `X,Y` in cm (the field is 700 x 600 cm).
+    #[arg(long, value_name = "X,Y")]
+    pub goal: Option<String>,
+    /// Give up after this many simulated seconds.
+    #[arg(long, default_value_t = 900.0)]
+    pub max_seconds: f64,
+    /// Write boxpush-summary.json and boxpush-track.csv here.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct CompareArgs {
+    /// How many seeds (0 to N-1).
+    #[arg(long, default_value_t = 20)]
+    pub seeds: u64,
+    /// Robots per stream.
+    #[arg(long, default_value_t = 12)]
+    pub robots: usize,
+    /// Tasks per stream.
+    #[arg(long, default_value_t = 10)]
+    pub tasks: usize,
+}
+
+pub fn run(cmd: TasksCommand) -> anyhow::Result<()> {
+    match cmd {
+        TasksCommand::Demo(a) => demo(a),
+        TasksCommand::Longterm(a) => longterm(a),
+        TasksCommand::Boxpush(a) => boxpush(a),
+        TasksCommand::Compare(a) => compare(a),
+    }
+}
+
+fn demo(args: DemoArgs) -> anyhow::Result<()> {
+    if !(args.seconds.is_finite() && args.seconds > 0.0 && args.seconds < 1e6) {
+        anyhow::bail!(
+            "--seconds must be a positive number of seconds, not {}",
+            args.seconds
+        );
+    }
+    let stop = super::stop_flag()?;
+    let mut own_hub = None;
+    let addr = match &args.hub {
+        Some(a) => super::HubAddr { addr: a.clone() }.connect()?.hub_addr(),
+        None => {
+            let mut server = Server::bind("127.0.0.1:0", HubConfig::default())
+                .context("cannot start a hub on loopback")?;
+            let addr = server.local_addr()?;
+            let s = stop.clone();
+            own_hub = Some(std::thread::spawn(move || server.run(&s)));
+            println!("hub on {addr}");
+            addr
+        }
+    };
+    let config = colony_tasks::demo::DemoConfig {
+        duration: Duration::from_secs_f64(args.seconds),
+        seed: args.seed,
+        ..Default::default()
+    };
+    let summary = colony_tasks::demo::run(addr, &config, &stop, |line| println!("{line}"))
+        .context("the demo's hub clients failed")?;
+    println!(
+        "introduced {}, allocated {}, completed {}, unachievable reports {}, recharges {}",
+        summary.introduced,
+        summary.allocated,
+        summary.completed,
+        summary.unachievable,
+        summary.recharges
+    );
+    stop.store(true, Ordering::Relaxed);
+    if let Some(h) = own_hub {
+        let _ = h.join();
+    }
+    Ok(())
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let path = dir.join(name);
+    std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
+fn longterm(args: LongtermArgs) -> anyhow::Result<()> {
+    let cfg = longterm::LongtermConfig {
+        hours: args.hours,
+        seed: args.seed,
+        ..Default::default()
+    };
+    let out = longterm::run(&cfg).map_err(anyhow::Error::msg)?;
+    let r = &out.report;
+    println!(
+        "MURDOCH long-term run: {} agents, {} h of tasks, seed {} ({:.1} simulated hours in all)",
+        r.agents,
+        r.hours,
+        r.seed,
+        r.simulated_s / 3600.0
+    );
+    println!(
+        "  tasks introduced           {:>6} ({} achievable by the roster)",
+        r.introduced, r.achievable
+    );
+    println!("  auctions announced         {:>6}", r.announced);
+    println!("  allocated (started)        {:>6}", r.allocated);
+    println!(
+        "  completed                  {:>6} ({} of the achievable)",
+        r.completed, r.completed_achievable
+    );
+    println!(
+        "  re-allocated after failure {:>6}",
+        r.reallocated_after_failure
+    );
+    println!("  unachievable reports       {:>6}", r.unachievable_reports);
+    println!(
+        "  given up by the user agent {:>6} ({} achievable)",
+        r.gave_up, r.gave_up_achievable
+    );
+    println!("  recharges                  {:>6}", r.recharges);
+    println!(
+        "  failures injected          {:>6} ({} at work)",
+        r.failures, r.failures_at_work
+    );
+    println!("  messages                   {:>6}", r.messages);
+    println!(
+        "  messages per allocation    {:>9.1} ({:.1} without renewals)",
+        r.messages_per_allocation, r.negotiation_per_allocation
+    );
+    println!("  mean wait for a robot      {:>9.1} s", r.mean_wait_s);
+    for (name, k) in &r.by_task {
+        println!(
+            "    {name:<16} introduced {:>3}  completed {:>3}  given up {:>3}",
+            k.introduced, k.completed, k.gave_up
+        );
+    }
+    if let Some(dir) = &args.out {
+        write(dir, "longterm-summary.json", &r.to_json())?;
+        write(dir, "longterm-events.csv", &out.log_csv())?;
+    }
+    Ok(())
+}
+
+fn parse_goal(s: &str) -> anyhow::Result<colony_sim::Vec2> {
+    let (x, y) = s
+        .split_once(',')
+        .with_context(|| format!("--goal `{s}` is not X,Y"))?;
+    let num = |v: &str| {
+        v.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .with_context(|| format!("--goal `{s}`: `{v}` is not a number"))
+    };
+    Ok(colony_sim::Vec2::new(num(x)?, num(y)?))
+}
+
+fn boxpush(args: BoxpushArgs) -> anyhow::Result<()> {
+    let mut cfg = boxpush::BoxPushConfig {
+        off_at: args.off_at,
+        on_at: args.on_at,
+        max_s: args.max_seconds,
+        ..Default::default()
+    };
+    if let Some(g) = &args.goal {
+        cfg.goal = parse_goal(g)?;
+    }
+    let out = boxpush::run(&cfg).map_err(anyhow::Error::msg)?;
+    for (t, e) in &out.events {
+        println!("{t:7.1} s  {e}");
+    }
+    let r = &out.report;
+    println!(
+        "box {} after {:.1} s ({:.1} cm from the goal); {} push tasks announced, {} left and {} right pushes done, by pusher {:?}; {} unachievable, {} re-allocated, {} role swaps, {} messages",
+        if r.reached { "at the goal" } else { "NOT at the goal" },
+        r.time_s,
+        r.final_distance_cm,
+        r.announced,
+        r.pushes_left,
+        r.pushes_right,
+        r.pushes_by,
+        r.unachievable,
+        r.reallocated,
+        r.role_swaps,
+        r.messages
+    );
+    if let Some(dir) = &args.out {
+        write(dir, "boxpush-summary.json", &r.to_json())?;
+        write(dir, "boxpush-track.csv", &out.track_csv())?;
+    }
+    if !r.reached {
+        anyhow::bail!("the box did not reach the goal in {} s", cfg.max_s);
+    }
+    Ok(())
+}
+
+fn compare(args: CompareArgs) -> anyhow::Result<()> {
+    if args.seeds == 0 || args.seeds > 10_000 {
+        anyhow::bail!("--seeds must be between 1 and 10000");
+    }
+    println!(
+        "seed  metrics           greedy tasks  greedy cost  optimal tasks  optimal cost  ratio"
+    );
+    for resources_term in [false, true] {
+        let mut ratios = Vec::new();
+        let (mut g_done, mut o_done) = (0, 0);
+        for seed in 0..args.seeds {
+            let c = optimal::compare(&optimal::CompareConfig {
+                seed,
+                robots: args.robots,
+                tasks: args.tasks,
+                resources_term,
+            })
+            .map_err(anyhow::Error::msg)?;
+            g_done += c.greedy_allocated;
+            o_done += c.optimal_allocated;
+            let ratio = c.cost_ratio();
+            ratios.extend(ratio);
+            println!(
+                "{seed:>4}  {:<16}  {:>12}  {:>11.0}  {:>13}  {:>12.0}  {}",
+                if resources_term {
+                    "dist+batt+res"
+                } else {
+                    "dist+batt"
+                },
+                c.greedy_allocated,
+                c.greedy_cost,
+                c.optimal_allocated,
+                c.optimal_cost,
+                ratio.map_or("-".to_string(), |r| format!("{r:.3}"))
+            );
+        }
+        ratios.sort_by(f64::total_cmp);
+        let mean = ratios.iter().sum::<f64>() / ratios.len().max(1) as f64;
+        let median = ratios.get(ratios.len() / 2).copied().unwrap_or(f64::NAN);
+        println!(
+            "{}: tasks allocated greedy {g_done} / optimal {o_done}; cost ratio greedy/optimal mean {mean:.3}, median {median:.3}, worst {:.3} (over {} seeds where both allocated as many)",
+            if resources_term { "distance + battery + resources" } else { "distance + battery" },
+            ratios.last().copied().unwrap_or(f64::NAN),
+            ratios.len()
+        );
+    }
+    Ok(())
+}

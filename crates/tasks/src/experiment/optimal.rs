@@ -1,0 +1,208 @@
+//! MURDOCH's greedy allocation against the optimal one.
+//!
+//! The paper calls MURDOCH "an instantaneous greedy task scheduler": each task
+//! goes to the best robot free when it is announced, and an early task can take
+//! the robot a later one needed. Here one stream of tasks is allocated twice:
+//! by real auctions (agents and an announcer on the in-memory bus, the tasks
+//! announced one after another, each robot taking at most one), and centrally,
+//! with full knowledge of every robot and task, by the Kuhn-Munkres algorithm
+//! on the same metrics. Both are scored by the number of tasks allocated and
+//! the total of the winners' scores.
+
+use std::time::Duration;
+
+use colony_sim::Vec2;
+use pathfinding::kuhn_munkres::kuhn_munkres;
+use pathfinding::matrix::Matrix;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+use super::longterm::{roster, PAPER_TASKS};
+use crate::agent::{Agent, AgentConfig};
+use crate::announcer::{Announcer, AnnouncerEvent, AuctionConfig};
+use crate::bus::Bus;
+use crate::metric::{Metrics, RobotView};
+use crate::node::Node;
+use crate::protocol::TaskSpec;
+use crate::resource::{ResourceSet, Token};
+use crate::time::Time;
+
+/// One comparison's setting.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompareConfig {
+    /// Seeds positions, batteries and the stream.
+    pub seed: u64,
+    /// Robots (their sensor sets cycle through the long-term roster's).
+    pub robots: usize,
+    /// Tasks in the stream (of the paper's three mobile kinds).
+    pub tasks: usize,
+    /// Whether tasks add the `resources` metric, the paper's proposed remedy
+    /// for greedy allocation (specialists before generalists).
+    pub resources_term: bool,
+}
+
+/// Both allocations of one stream.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Comparison {
+    /// The seed.
+    pub seed: u64,
+    /// Robots.
+    pub robots: usize,
+    /// Tasks.
+    pub tasks: usize,
+    /// Tasks MURDOCH allocated.
+    pub greedy_allocated: usize,
+    /// Total score of MURDOCH's winners.
+    pub greedy_cost: f64,
+    /// Tasks the optimal assignment allocates (the most possible).
+    pub optimal_allocated: usize,
+    /// Its total score (the least for that many tasks).
+    pub optimal_cost: f64,
+    /// Packets the auctions took.
+    pub messages: u64,
+}
+
+impl Comparison {
+    /// Greedy cost over optimal cost, when both allocated as many tasks.
+    pub fn cost_ratio(&self) -> Option<f64> {
+        (self.greedy_allocated == self.optimal_allocated && self.optimal_cost > 0.0)
+            .then(|| self.greedy_cost / self.optimal_cost)
+    }
+}
+
+struct Robot {
+    name: String,
+    resources: ResourceSet,
+    position: Vec2,
+    battery: f64,
+}
+
+/// Integer weights for Kuhn-Munkres: scores in hundredths.
+const SCALE: f64 = 100.0;
+
+/// Allocates one stream both ways.
+pub fn compare(cfg: &CompareConfig) -> Result<Comparison, String> {
+    if cfg.robots == 0 || cfg.tasks == 0 || cfg.robots > 500 || cfg.tasks > 500 {
+        return Err("robots and tasks must be between 1 and 500".into());
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+    let kinds: Vec<_> = roster().into_iter().filter(|a| a.robot).collect();
+    let robots: Vec<Robot> = (0..cfg.robots)
+        .map(|i| {
+            let kind = &kinds[i % kinds.len()];
+            Robot {
+                name: format!("r{i}"),
+                resources: kind.resources.parse().unwrap_or_default(),
+                position: Vec2::new(rng.random_range(0.0..2000.0), rng.random_range(0.0..2000.0)),
+                battery: rng.random_range(0.4..1.0),
+            }
+        })
+        .collect();
+    let tasks: Vec<TaskSpec> = (0..cfg.tasks)
+        .map(|_| {
+            let kind = PAPER_TASKS[rng.random_range(0..3)];
+            let mut spec = TaskSpec::new(kind.name, kind.resources.parse().unwrap_or_default())
+                .length(3600.0)
+                .param("x", rng.random_range(0.0..2000.0))
+                .param("y", rng.random_range(0.0..2000.0))
+                .metric("distance", 1.0)
+                .metric("battery", 500.0);
+            if cfg.resources_term {
+                spec = spec.metric("resources", 100.0);
+            }
+            spec
+        })
+        .collect();
+
+    // MURDOCH: the real protocol, tasks announced one by one.
+    let mut bus = Bus::new(Duration::from_millis(2));
+    let mut agents = Vec::new();
+    for r in &robots {
+        let token = Token::new(&r.name).map_err(|e| e.to_string())?;
+        let mut a = Agent::new(
+            token,
+            r.resources.clone(),
+            AgentConfig::default(),
+            Time::ZERO,
+        );
+        a.set_position(r.position);
+        a.set_battery(r.battery);
+        agents.push(a);
+    }
+    let mut announcer = Announcer::new(
+        Token::new("user").map_err(|e| e.to_string())?,
+        AuctionConfig::default(),
+    );
+    let mut greedy_allocated = 0;
+    let mut greedy_cost = 0.0;
+    let mut now = Time::ZERO;
+    for spec in &tasks {
+        announcer
+            .announce(now, spec.clone())
+            .map_err(|e| e.to_string())?;
+        now = now + Duration::from_secs(1);
+        let mut nodes: Vec<&mut dyn Node> = agents.iter_mut().map(|a| a as &mut dyn Node).collect();
+        nodes.push(&mut announcer);
+        bus.run_until(&mut nodes, now);
+        while let Some(e) = announcer.poll_event() {
+            if let AnnouncerEvent::Awarded { score, .. } = e {
+                greedy_allocated += 1;
+                greedy_cost += score;
+            }
+        }
+    }
+
+    // The optimum, centrally, on the same metrics.
+    let metrics = Metrics::standard();
+    let cost = |r: &Robot, t: &TaskSpec| -> Option<f64> {
+        if !t.resources.is_subset(&r.resources) {
+            return None;
+        }
+        let view = RobotView {
+            position: Some(r.position),
+            battery: r.battery,
+            resources: &r.resources,
+        };
+        metrics.score(t, &view).ok()
+    };
+    let costs: Vec<Vec<Option<f64>>> = tasks
+        .iter()
+        .map(|t| robots.iter().map(|r| cost(r, t)).collect())
+        .collect();
+    let worst = costs
+        .iter()
+        .flatten()
+        .flatten()
+        .fold(0.0f64, |m, &c| m.max(c.abs()));
+    // One more allocated task is worth more than any difference in total cost.
+    let big = ((worst * SCALE).ceil() as i64 + 1) * (cfg.tasks.max(cfg.robots) as i64 + 1);
+    let weight = |c: Option<f64>| c.map_or(0, |c| big - (c * SCALE).round() as i64);
+    // kuhn_munkres wants no more rows than columns.
+    let (rows, cols) = (cfg.tasks.min(cfg.robots), cfg.tasks.max(cfg.robots));
+    let tasks_are_rows = cfg.tasks <= cfg.robots;
+    let m = Matrix::from_fn(rows, cols, |(i, j)| {
+        let (t, r) = if tasks_are_rows { (i, j) } else { (j, i) };
+        weight(costs[t][r])
+    });
+    let (_, assignment) = kuhn_munkres(&m);
+    let mut optimal_allocated = 0;
+    let mut optimal_cost = 0.0;
+    for (i, &j) in assignment.iter().enumerate() {
+        let (t, r) = if tasks_are_rows { (i, j) } else { (j, i) };
+        if let Some(c) = costs[t][r] {
+            optimal_allocated += 1;
+            optimal_cost += c;
+        }
+    }
+    Ok(Comparison {
+        seed: cfg.seed,
+        robots: cfg.robots,
+        tasks: cfg.tasks,
+        greedy_allocated,
+        greedy_cost,
+        optimal_allocated,
+        optimal_cost,
+        messages: bus.stats().sent,
+    })
+}

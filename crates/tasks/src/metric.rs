@@ -1,0 +1,134 @@
+//! Metrics: how a robot scores its own fitness for a task.
+//!
+//! Every robot knows the same metric names (the shared vocabulary the paper
+//! assumes); a task lists the ones to use with their weights, and a robot's
+//! score is `Σ weight · metric`. Scores are costs, lowest wins. A robot that
+//! cannot evaluate one of a task's metrics does not bid.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use colony_sim::Vec2;
+
+use crate::protocol::TaskSpec;
+use crate::resource::ResourceSet;
+
+/// What a metric may look at: the robot's own view of itself.
+#[derive(Debug, Clone, Copy)]
+pub struct RobotView<'a> {
+    /// Where the robot believes it is, cm (none for a robot with no localisation).
+    pub position: Option<Vec2>,
+    /// Its battery's charge, 0 (flat) to 1 (full).
+    pub battery: f64,
+    /// Its resources.
+    pub resources: &'a ResourceSet,
+}
+
+/// A metric: `None` when it cannot be evaluated for this robot and task.
+pub type MetricFn = dyn Fn(&TaskSpec, &RobotView<'_>) -> Option<f64> + Send;
+
+/// Why a robot cannot score a task.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MetricError {
+    /// The task names a metric this robot does not know.
+    #[error("unknown metric `{0}`")]
+    Unknown(String),
+    /// The metric does not apply (a distance without a goal, or without a position).
+    #[error("metric `{0}` cannot be evaluated for this task and robot")]
+    NotApplicable(String),
+}
+
+/// The metrics a robot knows, by name.
+///
+/// ```
+/// use colony_tasks::{Metrics, RobotView, TaskSpec, ResourceSet};
+/// use colony_sim::Vec2;
+/// let metrics = Metrics::standard();
+/// let task = TaskSpec::new("goto", "mobile".parse().unwrap())
+///     .param("x", 30.0).param("y", 40.0)
+///     .metric("distance", 1.0).metric("battery", 100.0);
+/// let resources: ResourceSet = "mobile camera".parse().unwrap();
+/// let me = RobotView { position: Some(Vec2::ZERO), battery: 0.75, resources: &resources };
+/// assert_eq!(metrics.score(&task, &me).unwrap(), 50.0 + 25.0);
+/// ```
+pub struct Metrics {
+    table: BTreeMap<String, Box<MetricFn>>,
+}
+
+impl Metrics {
+    /// No metrics at all.
+    pub fn empty() -> Metrics {
+        Metrics {
+            table: BTreeMap::new(),
+        }
+    }
+
+    /// The standard vocabulary:
+    /// - `distance`: straight-line distance, cm, from the robot to the task's
+    ///   `x`, `y` parameters;
+    /// - `battery`: charge used, `1 - battery`, so fuller robots score better;
+    /// - `resources`: how many resources the robot would tie up, so a
+    ///   specialist beats a generalist who may be needed later (the paper's
+    ///   proposed fix for greedy allocation);
+    /// - `length`: the task's expected length, s (the same for every bidder;
+    ///   useful only to weight tasks against each other in comparisons).
+    pub fn standard() -> Metrics {
+        let mut m = Metrics::empty();
+        m.insert("distance", |task, robot| {
+            let goal = Vec2::new(task.number("x")?, task.number("y")?);
+            Some(robot.position?.distance(goal))
+        });
+        m.insert("battery", |_, robot| {
+            Some(1.0 - robot.battery.clamp(0.0, 1.0))
+        });
+        m.insert("resources", |_, robot| Some(robot.resources.len() as f64));
+        m.insert("length", |task, _| Some(task.length_s));
+        m
+    }
+
+    /// Adds or replaces a metric.
+    pub fn insert(
+        &mut self,
+        name: &str,
+        f: impl Fn(&TaskSpec, &RobotView<'_>) -> Option<f64> + Send + 'static,
+    ) {
+        self.table.insert(name.to_owned(), Box::new(f));
+    }
+
+    /// Whether a metric of this name is known.
+    pub fn knows(&self, name: &str) -> bool {
+        self.table.contains_key(name)
+    }
+
+    /// The task's score for this robot: the weighted sum of its metrics (0 if it lists none).
+    pub fn score(&self, task: &TaskSpec, robot: &RobotView<'_>) -> Result<f64, MetricError> {
+        let mut total = 0.0;
+        for term in &task.metrics {
+            let f = self
+                .table
+                .get(&term.name)
+                .ok_or_else(|| MetricError::Unknown(term.name.clone()))?;
+            let v = f(task, robot)
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| MetricError::NotApplicable(term.name.clone()))?;
+            total += term.weight * v;
+        }
+        if total.is_finite() {
+            Ok(total)
+        } else {
+            Err(MetricError::NotApplicable("(sum)".into()))
+        }
+    }
+}
+
+impl Default for Metrics {
+    fn default() -> Self {
+        Metrics::standard()
+    }
+}
+
+impl fmt::Debug for Metrics {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_list().entries(self.table.keys()).finish()
+    }
+}

@@ -1,0 +1,77 @@
+//! The long-term experiment (section 6.2) on simulated time.
+
+use colony_tasks::experiment::longterm::{run, LongtermConfig};
+
+#[test]
+fn a_long_run_completes_every_achievable_task_and_reports_the_rest() {
+    let cfg = LongtermConfig {
+        hours: 3.0,
+        seed: 7,
+        ..LongtermConfig::default()
+    };
+    let out = run(&cfg).unwrap();
+    let r = &out.report;
+    println!("{}", serde_json::to_string_pretty(r).unwrap());
+    assert!(r.introduced >= 50, "{r:?}");
+    assert_eq!(r.completed_achievable, r.achievable, "{r:?}");
+    assert_eq!(r.gave_up_achievable, 0);
+    assert_eq!(r.gave_up, r.introduced - r.achievable);
+    assert!(r.recharges > 0 && r.failures > 0, "{r:?}");
+    assert!(r.unachievable_reports > 0);
+    assert!(r.messages_per_allocation > 3.0);
+    assert!(out.log.iter().any(|l| l.kind == "unachievable"
+        && l.detail
+            .contains("no robot with {gripper mobile} is available")));
+}
+
+#[test]
+fn the_same_seed_gives_the_same_run() {
+    let cfg = LongtermConfig {
+        hours: 0.5,
+        seed: 3,
+        ..LongtermConfig::default()
+    };
+    let a = run(&cfg).unwrap();
+    let b = run(&cfg).unwrap();
+    assert_eq!(a.report, b.report);
+    assert_eq!(a.log, b.log);
+    let other = run(&LongtermConfig { seed: 4, ..cfg }).unwrap();
+    assert_ne!(a.log, other.log);
+}
+
+#[test]
+fn bad_settings_are_refused_with_a_reason() {
+    for (cfg, want) in [
+        (
+            LongtermConfig {
+                hours: -1.0,
+                ..LongtermConfig::default()
+            },
+            "hours",
+        ),
+        (
+            LongtermConfig {
+                hours: f64::NAN,
+                ..LongtermConfig::default()
+            },
+            "hours",
+        ),
+        (
+            LongtermConfig {
+                length_s: (5.0, 1.0),
+                ..LongtermConfig::default()
+            },
+            "lengths",
+        ),
+        (
+            LongtermConfig {
+                chargers: vec![],
+                ..LongtermConfig::default()
+            },
+            "charger",
+        ),
+    ] {
+        let e = run(&cfg).unwrap_err();
+        assert!(e.contains(want), "{e}");
+    }
+}

@@ -1,0 +1,20 @@
+//! Reads arbitrary datagrams as MURDOCH messages; whatever reads must write
+//! back and read again to the same message.
+//!
+//! `cargo +nightly fuzz run tasks_decode` (from the repository root); the seeds
+//! in `fuzz/corpus/tasks_decode/` also run in plain `cargo test -p colony-tasks`
+//! (`crates/tasks/tests/fuzz_corpus.rs`).
+
+#![no_main]
+
+use colony_tasks::Message;
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    if let Ok(message) = Message::decode_bytes(data) {
+        let bytes = message
+            .encode()
+            .expect("a message that reads can be written");
+        assert_eq!(Message::decode_bytes(&bytes), Ok(message));
+    }
+});
