@@ -62,10 +62,11 @@ pub struct Setup {
 pub struct MatchArgs {
     #[command(flatten)]
     pub setup: Setup,
-    /// The team a person plays from the monitor's game page; the others are
-    /// scripted. Default: every team scripted.
-    #[arg(long)]
-    pub player: Option<String>,
+    /// The team a person plays from the monitor's game page against the
+    /// built-in scripted opponent; `none` to watch two scripted teams.
+    /// (With --fast every team is scripted.)
+    #[arg(long, default_value = "red")]
+    pub player: String,
     /// Fast-forward the whole match in this process, with no hub, and print the result.
     #[arg(long)]
     pub fast: bool,
@@ -182,13 +183,12 @@ fn load(mode: Mode, setup: &Setup) -> anyhow::Result<Game> {
 
 fn play(mode: Mode, args: MatchArgs) -> anyhow::Result<()> {
     let game = load(mode, &args.setup)?;
-    if let Some(p) = &args.player {
-        if !game.teams.contains(p) {
-            anyhow::bail!(
-                "--player {p}: no such team (teams: {})",
-                game.teams.join(", ")
-            );
-        }
+    let p = &args.player;
+    if p != "none" && !game.teams.contains(p) {
+        anyhow::bail!(
+            "--player {p}: no such team (teams: {}, or none)",
+            game.teams.join(", ")
+        );
     }
     if args.fast {
         return fast(game, &args);
@@ -309,7 +309,7 @@ fn live_match(
     let bots: Vec<String> = game
         .teams
         .iter()
-        .filter(|t| args.player.as_deref() != Some(t.as_str()))
+        .filter(|t| **t != args.player)
         .cloned()
         .collect();
     let parts = spawn_parts(game, &bots, hub, args.speed, stop)?;
@@ -321,9 +321,11 @@ fn live_match(
             game.field.grid.width(),
             game.field.grid.height(),
             m.url().trim_end_matches('/'),
-            args.player
-                .as_ref()
-                .map_or(String::new(), |p| format!("?team={p}"))
+            if args.player == "none" {
+                String::new()
+            } else {
+                format!("?team={}", args.player)
+            }
         ),
         None => println!(
             "colony game: {} running (hub {hub}); Ctrl-C stops",
