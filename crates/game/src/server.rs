@@ -14,7 +14,6 @@ use crate::logic::{Referee, RobotEntry};
 use crate::map::Battlefield;
 use crate::nav::Nav;
 use crate::node::Node;
-use crate::path::Mover;
 use crate::protocol::{
     self, Action, Command, Event, Order, RobotDebug, SquadCommand, Target, Verb, WorldFrame,
 };
@@ -297,20 +296,6 @@ impl Server {
     /// The robots of the game.
     pub fn roster(&self) -> &[RobotEntry] {
         &self.roster
-    }
-
-    /// Whether the land or water route planner applies to a squad (for tests).
-    pub fn mover_of(&self, team: &str, squad: &str) -> Mover {
-        let all_swim = self
-            .roster
-            .iter()
-            .filter(|e| e.team == team && e.squad == squad)
-            .all(|e| e.kind.stats().amphibious);
-        if all_swim {
-            Mover::Amphibious
-        } else {
-            Mover::Land
-        }
     }
 }
 

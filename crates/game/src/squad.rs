@@ -13,7 +13,6 @@
 //! where the robots are now, so the previous path is resumed.
 
 use std::sync::Arc;
-use std::time::{Duration, Instant};
 
 use colony_behave::{Arbitrator, Behaviour, Reason};
 use colony_sim::Vec2;
@@ -470,10 +469,6 @@ struct OrderBehaviour {
     /// Where the last plan was made to.
     goal: Option<Vec2>,
     replanner: Option<Replanner>,
-    /// Time the last (re)plan took.
-    pub last_plan: Option<Duration>,
-    /// How many replans reused earlier search work.
-    replans: u64,
 }
 
 /// A squad this many cells (Chebyshev) from the replanner's root re-roots it.
@@ -487,7 +482,6 @@ impl OrderBehaviour {
         let Some(verb) = ctx.verb.clone() else {
             return;
         };
-        let t0 = Instant::now();
         self.replanner = None;
         self.goal = None;
         let Some(centroid) = ctx.centroid() else {
@@ -564,12 +558,10 @@ impl OrderBehaviour {
                 }
             }
         }
-        self.last_plan = Some(t0.elapsed());
     }
 
     /// Follows a moving target with a partial replan from the earlier search.
     fn follow(&mut self, ctx: &mut SquadCtx, to: Vec2, formation: Formation) {
-        let t0 = Instant::now();
         let mover = ctx.mover();
         let (Some(cell), Some(from)) = (
             ctx.nav.nearest_free(to, mover),
@@ -604,12 +596,10 @@ impl OrderBehaviour {
             p.cells.drain(..join);
             ctx.nav.points(&p, mover)
         });
-        self.replans += 1;
         if let Some(path) = path {
             ctx.dispatch(path, formation, false, None);
         }
         self.goal = Some(to);
-        self.last_plan = Some(t0.elapsed());
     }
 }
 
@@ -730,8 +720,6 @@ impl Squad {
                 phase: Phase::Done,
                 goal: None,
                 replanner: None,
-                last_plan: None,
-                replans: 0,
             },
         );
         arbitrator.add(0, Hold);
