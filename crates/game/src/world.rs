@@ -215,3 +215,140 @@ impl Node for GameWorld {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::logic::roster;
+    use crate::protocol::{RobotState, Status};
+    use crate::rules::{Mode, Rules, TeamSetup};
+    use colony_wire::Packet;
+
+    fn world() -> (GameWorld, Vec<RobotEntry>) {
+        let mut text = format!(
+            "type octile\nheight 10\nwidth 20\nmap\n{}\n",
+            "@".repeat(20)
+        );
+        for _ in 0..8 {
+            text.push_str(&format!("@{}@\n", ".".repeat(18)));
+        }
+        text.push_str(&"@".repeat(20));
+        text.push_str("\ncell 25\nteam red base 3 3 flag 2 2 spawn 4 4\nteam blue base 16 6 flag 17 7 spawn 15 5\n");
+        let field = Battlefield::parse(&text).unwrap();
+        let teams = [
+            TeamSetup::parse("red", "a:tank").unwrap(),
+            TeamSetup::parse("blue", "a:scout").unwrap(),
+        ];
+        let entries = roster(&field, &Rules::new(Mode::DeathMatch), &teams).unwrap();
+        (GameWorld::new(&field, &entries).unwrap(), entries)
+    }
+
+    fn feed(w: &mut GameWorld, bytes: &[u8]) {
+        w.handle(&Packet::parse(bytes).unwrap(), &mut Vec::new());
+    }
+
+    fn pose(w: &GameWorld, id: usize) -> colony_sim::Pose {
+        w.field().robot_pose(FieldRobotId(id)).unwrap()
+    }
+
+    #[test]
+    fn an_operator_command_holds_a_robot_against_its_intelligence() {
+        let (mut w, _) = world();
+        let mut out = Vec::new();
+        let start = pose(&w, 0).theta;
+        feed(&mut w, b"@ <radio> 10\ncmd id 0 forward 0 turn 1\n");
+        feed(&mut w, b"@ <radio> 0\ncmd id 0 forward 0 turn -1\n");
+        for _ in 0..3 {
+            w.step(&mut out);
+        }
+        assert!(
+            pose(&w, 0).theta > start + 0.1,
+            "turned left, as the operator said"
+        );
+        // Every robot is sensed and the frame lists both.
+        let frame = out
+            .iter()
+            .rev()
+            .find_map(|p| WorldFrame::decode(&Packet::parse(p).ok()?).ok())
+            .unwrap();
+        assert_eq!(frame.robots.len(), 2);
+        assert!(out.iter().any(|p| p.starts_with(b"@ <game.sense.1>")));
+    }
+
+    fn state(
+        time: f64,
+        entries: &[RobotEntry],
+        dead: &[u32],
+        moved: Option<(u32, f64, f64)>,
+    ) -> Vec<u8> {
+        GameState {
+            mode: "dm".into(),
+            status: Status::Running,
+            time,
+            winner: None,
+            reason: String::new(),
+            teams: Vec::new(),
+            flags: Vec::new(),
+            robots: entries
+                .iter()
+                .map(|e| {
+                    let mut pose = e.spawn;
+                    if let Some((_, x, y)) = moved.filter(|m| m.0 == e.id) {
+                        pose.x = x;
+                        pose.y = y;
+                    }
+                    RobotState {
+                        id: e.id,
+                        team: e.team.clone(),
+                        squad: e.squad.clone(),
+                        kind: e.kind,
+                        pose,
+                        health: 1.0,
+                        alive: !dead.contains(&e.id),
+                        behaviour: String::new(),
+                        reason: String::new(),
+                    }
+                })
+                .collect(),
+            squads: Vec::new(),
+        }
+        .encode()
+        .unwrap()
+    }
+
+    #[test]
+    fn a_robot_the_game_logic_destroyed_leaves_the_world() {
+        let (mut w, entries) = world();
+        let mut out = Vec::new();
+        w.step(&mut out);
+        feed(&mut w, &state(0.0, &entries, &[1], None));
+        out.clear();
+        w.step(&mut out);
+        assert_eq!(w.field().is_active(FieldRobotId(1)), Some(false));
+        assert!(
+            !out.iter().any(|p| p.starts_with(b"@ <game.sense.1>")),
+            "no sensing for the dead"
+        );
+    }
+
+    #[test]
+    fn a_restarted_world_takes_up_the_games_clock_and_poses() {
+        let (mut w, entries) = world();
+        feed(
+            &mut w,
+            &state(120.0, &entries, &[], Some((0, 200.0, 100.0))),
+        );
+        assert!((w.time() - 120.0).abs() < 1e-9);
+        assert_eq!((pose(&w, 0).x, pose(&w, 0).y), (200.0, 100.0));
+        // Later states don't move anyone: the world is the authority again.
+        let mut out = Vec::new();
+        for _ in 0..2 {
+            w.step(&mut out);
+        }
+        feed(
+            &mut w,
+            &state(200.0, &entries, &[], Some((0, 300.0, 100.0))),
+        );
+        assert!((pose(&w, 0).x - 200.0).abs() < 1.0);
+    }
+}
