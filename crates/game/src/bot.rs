@@ -116,3 +116,105 @@ impl Node for Bot {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::protocol::{FlagState, RobotState};
+    use crate::rules::RobotKind;
+    use colony_sim::{Pose, Vec2};
+
+    fn robot(id: u32, team: &str, squad: &str, x: f64) -> RobotState {
+        RobotState {
+            id,
+            team: team.into(),
+            squad: squad.into(),
+            kind: RobotKind::Infantry,
+            pose: Pose {
+                x,
+                y: 0.0,
+                theta: 0.0,
+            },
+            health: 60.0,
+            alive: true,
+            behaviour: String::new(),
+            reason: String::new(),
+        }
+    }
+
+    fn state(mode: &str, carrier: Option<u32>) -> GameState {
+        GameState {
+            mode: mode.into(),
+            status: Status::Running,
+            time: 10.0,
+            winner: None,
+            reason: String::new(),
+            teams: Vec::new(),
+            flags: ["red", "blue"]
+                .map(|t| FlagState {
+                    team: t.into(),
+                    at: Vec2::ZERO,
+                    carrier: if t == "red" { carrier } else { None },
+                    home: carrier.is_none(),
+                })
+                .to_vec(),
+            robots: vec![
+                robot(0, "red", "a", 0.0),
+                robot(1, "red", "b", 10.0),
+                robot(2, "blue", "x", 500.0),
+                robot(3, "blue", "x", 100.0),
+            ],
+            squads: Vec::new(),
+        }
+    }
+
+    fn verbs(bot: &Bot, s: &GameState) -> Vec<(String, Verb)> {
+        bot.decide(s)
+            .into_iter()
+            .map(|c| (c.squad, c.verb))
+            .collect()
+    }
+
+    #[test]
+    fn in_capture_the_flag_the_first_squad_attacks_the_flag_and_the_rest_defend() {
+        let bot = Bot::new("red");
+        assert_eq!(
+            verbs(&bot, &state("ctf", None)),
+            [
+                ("a".to_string(), Verb::Capture("blue".into())),
+                ("b".to_string(), Verb::Defend(Target::Flag("red".into()))),
+            ]
+        );
+        // Our flag is carried off: everyone goes after the carrier.
+        assert!(verbs(&bot, &state("ctf", Some(3)))
+            .iter()
+            .all(|(_, v)| *v == Verb::Attack(Target::Robot(3))));
+    }
+
+    #[test]
+    fn in_death_match_every_squad_attacks_the_nearest_enemy() {
+        let bot = Bot::new("red");
+        assert!(verbs(&bot, &state("dm", None))
+            .iter()
+            .all(|(_, v)| *v == Verb::Attack(Target::Robot(3))));
+    }
+
+    #[test]
+    fn the_bot_repeats_nothing_and_stops_when_the_game_is_over() {
+        let mut bot = Bot::new("red");
+        let mut out = Vec::new();
+        let packet = state("ctf", None).encode().unwrap();
+        bot.handle(&Packet::parse(&packet).unwrap(), &mut out);
+        assert_eq!(out.len(), 2);
+        let mut later = state("ctf", None);
+        later.time = 20.0;
+        out.clear();
+        bot.handle(&Packet::parse(&later.encode().unwrap()).unwrap(), &mut out);
+        assert!(out.is_empty(), "the same orders are not sent again");
+        later.status = Status::Over;
+        later.time = 30.0;
+        later.flags[0].carrier = Some(3);
+        bot.handle(&Packet::parse(&later.encode().unwrap()).unwrap(), &mut out);
+        assert!(out.is_empty(), "no orders after the end");
+    }
+}

@@ -58,3 +58,59 @@ impl Bus {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Records what it hears and, on `ping`, answers on `pong`.
+    struct Ear {
+        subs: Vec<String>,
+        heard: Vec<String>,
+    }
+
+    impl Node for Ear {
+        fn subscriptions(&self) -> Vec<String> {
+            self.subs.clone()
+        }
+        fn handle(&mut self, packet: &Packet<'_>, out: &mut Vec<Vec<u8>>) {
+            self.heard.push(packet.subjects_text().to_string());
+            if packet.has_subject("ping") {
+                out.push(b"@ <pong> 0\nx\n".to_vec());
+            }
+        }
+    }
+
+    fn ear(subs: &[&str]) -> Ear {
+        Ear {
+            subs: subs.iter().map(|s| s.to_string()).collect(),
+            heard: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn packets_reach_only_nodes_subscribed_to_all_their_subjects_and_answers_follow() {
+        let (mut a, mut b, mut c) = (
+            ear(&["camera", "laser"]),
+            ear(&["camera"]),
+            ear(&["ping", "pong"]),
+        );
+        let mut bus = Bus::default();
+        bus.send([
+            b"@ <camera> <laser> 0\nt\n".to_vec(),
+            b"@ <camera> 0\nt\n".to_vec(),
+            b"@ <ping> 0\nt\n".to_vec(),
+            b"not a packet".to_vec(),
+        ]);
+        let mut tapped = 0;
+        bus.drain(&mut [&mut a, &mut b, &mut c], |_| tapped += 1);
+        assert_eq!(a.heard, ["<camera> <laser>", "<camera>"]);
+        assert_eq!(b.heard, ["<camera>"]);
+        assert_eq!(
+            c.heard,
+            ["<ping>", "<pong>"],
+            "the answer was delivered in the same drain"
+        );
+        assert_eq!((bus.delivered, bus.malformed, tapped), (4, 1, 5));
+    }
+}
