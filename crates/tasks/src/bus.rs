@@ -177,3 +177,235 @@ impl Bus {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::cell::RefCell;
+    use std::collections::{BTreeSet, VecDeque};
+    use std::rc::Rc;
+
+    use colony_wire::Subject;
+
+    use super::*;
+
+    type Log = Rc<RefCell<Vec<(Time, &'static str, String)>>>;
+
+    /// A node that logs what it hears, answers `ping` with `pong`, and can
+    /// carry one timer.
+    struct Probe {
+        name: &'static str,
+        subs: BTreeSet<Subject>,
+        log: Log,
+        outbox: VecDeque<Vec<u8>>,
+        timer: Option<Time>,
+        timeouts: Vec<Time>,
+        /// Leaves its timer where it is when it fires.
+        stuck: bool,
+    }
+
+    impl Probe {
+        fn new(name: &'static str, subs: &str, log: &Log) -> Probe {
+            Probe {
+                name,
+                subs: subs
+                    .split_whitespace()
+                    .map(|s| Subject::new(s).unwrap())
+                    .collect(),
+                log: log.clone(),
+                outbox: VecDeque::new(),
+                timer: None,
+                timeouts: Vec::new(),
+                stuck: false,
+            }
+        }
+    }
+
+    impl Node for Probe {
+        fn subscriptions(&self) -> &BTreeSet<Subject> {
+            &self.subs
+        }
+        fn handle_packet(&mut self, now: Time, packet: &Packet<'_>) {
+            let body = packet.lines().next().map_or("", |l| l.label()).to_owned();
+            if body == "ping" {
+                self.outbox.push_back(b"@ <b> 0\npong\n".to_vec());
+            }
+            self.log.borrow_mut().push((now, self.name, body));
+        }
+        fn handle_timeout(&mut self, now: Time) {
+            self.timeouts.push(now);
+            if !self.stuck {
+                self.timer = None;
+            }
+        }
+        fn poll_timeout(&self) -> Option<Time> {
+            self.timer
+        }
+        fn poll_transmit(&mut self) -> Option<Vec<u8>> {
+            self.outbox.pop_front()
+        }
+    }
+
+    fn ms(v: u64) -> Time {
+        Time::from_micros(v * 1000)
+    }
+
+    fn heard(log: &Log) -> Vec<(u64, &'static str, String)> {
+        log.borrow()
+            .iter()
+            .map(|(t, n, b)| (t.as_micros() / 1000, *n, b.clone()))
+            .collect()
+    }
+
+    #[test]
+    fn a_packet_reaches_only_nodes_subscribed_to_all_its_subjects() {
+        let log = Log::default();
+        let mut both = Probe::new("both", "a b", &log);
+        let mut only_a = Probe::new("only_a", "a", &log);
+        let mut more = Probe::new("more", "a b c", &log);
+        let mut none = Probe::new("none", "", &log);
+        let mut bus = Bus::new(Duration::from_millis(1));
+        bus.publish(b"@ <a> <b> 0\nhello\n".to_vec());
+        bus.run_until(&mut [&mut both, &mut only_a, &mut more, &mut none], ms(10));
+        let names: Vec<&str> = log.borrow().iter().map(|(_, n, _)| *n).collect();
+        assert_eq!(names, ["both", "more"]);
+        assert_eq!(bus.stats().delivered, 2);
+        assert_eq!(bus.stats().unrouted, 0);
+    }
+
+    #[test]
+    fn a_packet_arrives_exactly_one_latency_after_it_was_sent() {
+        let log = Log::default();
+        let mut p = Probe::new("p", "a", &log);
+        let mut bus = Bus::new(Duration::from_millis(5));
+        bus.publish(b"@ <a> 0\nhello\n".to_vec());
+        bus.run_until(&mut [&mut p], ms(4));
+        assert!(log.borrow().is_empty());
+        assert_eq!(bus.now(), ms(4));
+        bus.run_until(&mut [&mut p], ms(20));
+        assert_eq!(heard(&log), [(5, "p", "hello".to_string())]);
+    }
+
+    #[test]
+    fn a_reply_leaves_at_the_moment_its_cause_arrived() {
+        let log = Log::default();
+        let mut a = Probe::new("a", "a", &log);
+        let mut b = Probe::new("b", "b", &log);
+        let mut bus = Bus::new(Duration::from_millis(3));
+        bus.publish(b"@ <a> 0\nping\n".to_vec());
+        bus.run_until(&mut [&mut a, &mut b], ms(100));
+        assert_eq!(
+            heard(&log),
+            [(3, "a", "ping".to_string()), (6, "b", "pong".to_string())]
+        );
+    }
+
+    #[test]
+    fn simultaneous_packets_go_in_send_order_then_node_order() {
+        let log = Log::default();
+        let mut first = Probe::new("first", "a", &log);
+        let mut second = Probe::new("second", "a", &log);
+        let mut bus = Bus::new(Duration::from_millis(1));
+        for label in ["one", "two", "three"] {
+            bus.publish(format!("@ <a> 0\n{label}\n").into_bytes());
+        }
+        bus.run_until(&mut [&mut first, &mut second], ms(5));
+        let got: Vec<(&str, String)> = log
+            .borrow()
+            .iter()
+            .map(|(_, n, b)| (*n, b.clone()))
+            .collect();
+        let want: Vec<(&str, String)> = ["one", "two", "three"]
+            .iter()
+            .flat_map(|l| [("first", l.to_string()), ("second", l.to_string())])
+            .collect();
+        assert_eq!(got, want);
+    }
+
+    #[test]
+    fn a_packet_nobody_wants_is_counted_unrouted() {
+        let log = Log::default();
+        let mut p = Probe::new("p", "a", &log);
+        let mut bus = Bus::new(Duration::from_millis(1));
+        bus.publish(b"@ <a> <z> 0\nhello\n".to_vec());
+        bus.run_until(&mut [&mut p], ms(5));
+        assert!(log.borrow().is_empty());
+        assert_eq!(bus.stats().unrouted, 1);
+        assert_eq!(bus.stats().delivered, 0);
+    }
+
+    #[test]
+    fn a_malformed_packet_is_counted_and_dropped_unrecorded() {
+        let log = Log::default();
+        let mut p = Probe::new("p", "a", &log);
+        let mut bus = Bus::new(Duration::from_millis(1));
+        bus.record();
+        bus.publish(b"not a packet".to_vec());
+        bus.publish(b"@ <a> 0\nbid x 1\n".to_vec());
+        bus.publish(b"@ <a> 0\nbid x 2\n".to_vec());
+        bus.run_until(&mut [&mut p], ms(5));
+        let s = bus.stats();
+        assert_eq!((s.sent, s.malformed, s.delivered), (3, 1, 2));
+        assert_eq!(s.by_label.get("bid"), Some(&2));
+        assert_eq!(s.by_label.len(), 1);
+        assert_eq!(bus.take_recorded().len(), 2);
+    }
+
+    #[test]
+    fn recording_keeps_each_packet_with_its_send_time_once() {
+        let log = Log::default();
+        let mut a = Probe::new("a", "a", &log);
+        let mut b = Probe::new("b", "b", &log);
+        let mut bus = Bus::new(Duration::from_millis(2));
+        bus.publish(b"@ <a> 0\nbefore\n".to_vec());
+        bus.record();
+        bus.publish(b"@ <a> 0\nping\n".to_vec());
+        bus.run_until(&mut [&mut a, &mut b], ms(10));
+        let rec = bus.take_recorded();
+        let times: Vec<u64> = rec.iter().map(|(t, _)| t.as_micros() / 1000).collect();
+        assert_eq!(times, [0, 2]);
+        assert_eq!(rec[1].1, b"@ <b> 0\npong\n");
+        assert!(bus.take_recorded().is_empty());
+    }
+
+    #[test]
+    fn without_record_nothing_is_kept() {
+        let mut bus = Bus::new(Duration::from_millis(1));
+        bus.publish(b"@ <a> 0\nhello\n".to_vec());
+        assert!(bus.take_recorded().is_empty());
+    }
+
+    #[test]
+    fn timers_fire_at_their_time_and_not_past_the_horizon() {
+        let log = Log::default();
+        let mut early = Probe::new("early", "", &log);
+        early.timer = Some(ms(7));
+        let mut late = Probe::new("late", "", &log);
+        late.timer = Some(ms(50));
+        let mut bus = Bus::new(Duration::from_millis(1));
+        bus.run_until(&mut [&mut early, &mut late], ms(20));
+        assert_eq!(early.timeouts, [ms(7)]);
+        assert!(late.timeouts.is_empty());
+        assert_eq!(bus.now(), ms(20));
+    }
+
+    #[test]
+    fn a_timer_that_never_advances_stops_the_bus_instead_of_hanging() {
+        let log = Log::default();
+        let mut stuck = Probe::new("stuck", "", &log);
+        stuck.timer = Some(ms(1));
+        stuck.stuck = true;
+        let mut bus = Bus::new(Duration::from_millis(1));
+        bus.run_until(&mut [&mut stuck], ms(10));
+        assert!(stuck.timeouts.len() > 100_000);
+        assert!(stuck.timeouts.iter().all(|t| *t == ms(1)));
+        assert_eq!(bus.now(), ms(10));
+    }
+
+    #[test]
+    fn the_clock_never_goes_back() {
+        let mut bus = Bus::new(Duration::from_millis(1));
+        bus.run_until(&mut [], ms(10));
+        bus.run_until(&mut [], ms(3));
+        assert_eq!(bus.now(), ms(10));
+    }
+}

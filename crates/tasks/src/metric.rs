@@ -132,3 +132,173 @@ impl fmt::Debug for Metrics {
         f.debug_list().entries(self.table.keys()).finish()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn resources() -> ResourceSet {
+        "camera laser mobile".parse().unwrap()
+    }
+
+    fn view(resources: &ResourceSet, position: Option<Vec2>, battery: f64) -> RobotView<'_> {
+        RobotView {
+            position,
+            battery,
+            resources,
+        }
+    }
+
+    fn goto(x: f64, y: f64) -> TaskSpec {
+        TaskSpec::new("goto", "mobile".parse().unwrap())
+            .param("x", x)
+            .param("y", y)
+            .length(30.0)
+    }
+
+    #[test]
+    fn distance_is_the_straight_line_to_the_tasks_x_and_y() {
+        let r = resources();
+        let task = goto(3.0, 4.0).metric("distance", 1.0);
+        let me = view(&r, Some(Vec2::ZERO), 1.0);
+        assert_eq!(Metrics::standard().score(&task, &me), Ok(5.0));
+    }
+
+    #[test]
+    fn battery_scores_the_charge_used_so_fuller_is_cheaper() {
+        let r = resources();
+        let task = goto(0.0, 0.0).metric("battery", 1.0);
+        let m = Metrics::standard();
+        assert_eq!(m.score(&task, &view(&r, None, 1.0)), Ok(0.0));
+        assert_eq!(m.score(&task, &view(&r, None, 0.25)), Ok(0.75));
+        // Out-of-range charges are clamped, not extrapolated.
+        assert_eq!(m.score(&task, &view(&r, None, 1.5)), Ok(0.0));
+        assert_eq!(m.score(&task, &view(&r, None, -2.0)), Ok(1.0));
+    }
+
+    #[test]
+    fn resources_counts_what_the_robot_would_tie_up() {
+        let r = resources();
+        let task = goto(0.0, 0.0).metric("resources", 1.0);
+        assert_eq!(
+            Metrics::standard().score(&task, &view(&r, None, 1.0)),
+            Ok(3.0)
+        );
+    }
+
+    #[test]
+    fn length_is_the_tasks_own_length_for_every_robot() {
+        let r = resources();
+        let task = goto(0.0, 0.0).metric("length", 2.0);
+        assert_eq!(
+            Metrics::standard().score(&task, &view(&r, Some(Vec2::new(9.0, 9.0)), 0.1)),
+            Ok(60.0)
+        );
+    }
+
+    #[test]
+    fn the_score_is_the_weighted_sum_of_the_tasks_metrics() {
+        let r = resources();
+        let task = goto(6.0, 8.0)
+            .metric("distance", 0.5)
+            .metric("battery", 100.0)
+            .metric("resources", -2.0);
+        let me = view(&r, Some(Vec2::ZERO), 0.5);
+        // 0.5·10 + 100·0.5 − 2·3
+        assert_eq!(Metrics::standard().score(&task, &me), Ok(49.0));
+    }
+
+    #[test]
+    fn a_task_with_no_metrics_scores_zero() {
+        let r = resources();
+        let task = goto(1.0, 1.0);
+        assert_eq!(Metrics::empty().score(&task, &view(&r, None, 0.0)), Ok(0.0));
+    }
+
+    #[test]
+    fn an_unknown_metric_is_named() {
+        let r = resources();
+        let task = goto(0.0, 0.0)
+            .metric("battery", 1.0)
+            .metric("charisma", 1.0);
+        let e = Metrics::standard()
+            .score(&task, &view(&r, None, 1.0))
+            .unwrap_err();
+        assert_eq!(e, MetricError::Unknown("charisma".into()));
+        assert_eq!(e.to_string(), "unknown metric `charisma`");
+    }
+
+    #[test]
+    fn distance_without_a_position_does_not_apply() {
+        let r = resources();
+        let task = goto(3.0, 4.0).metric("distance", 1.0);
+        assert_eq!(
+            Metrics::standard().score(&task, &view(&r, None, 1.0)),
+            Err(MetricError::NotApplicable("distance".into()))
+        );
+    }
+
+    #[test]
+    fn distance_without_a_goal_does_not_apply() {
+        let r = resources();
+        let task = TaskSpec::new("wander", "mobile".parse().unwrap())
+            .param("x", 3.0)
+            .text_param("y", "north")
+            .metric("distance", 1.0);
+        assert_eq!(
+            Metrics::standard().score(&task, &view(&r, Some(Vec2::ZERO), 1.0)),
+            Err(MetricError::NotApplicable("distance".into()))
+        );
+    }
+
+    #[test]
+    fn a_metric_that_returns_a_non_finite_value_does_not_apply() {
+        let r = resources();
+        let mut m = Metrics::empty();
+        m.insert("broken", |_, _| Some(f64::NAN));
+        m.insert("endless", |_, _| Some(f64::INFINITY));
+        for name in ["broken", "endless"] {
+            let task = goto(0.0, 0.0).metric(name, 1.0);
+            assert_eq!(
+                m.score(&task, &view(&r, None, 1.0)),
+                Err(MetricError::NotApplicable(name.into()))
+            );
+        }
+    }
+
+    #[test]
+    fn a_sum_that_overflows_is_refused_rather_than_bid() {
+        let r = resources();
+        let mut m = Metrics::empty();
+        m.insert("huge", |_, _| Some(f64::MAX));
+        m.insert("huge2", |_, _| Some(f64::MAX));
+        let task = goto(0.0, 0.0).metric("huge", 1.0).metric("huge2", 1.0);
+        assert_eq!(
+            m.score(&task, &view(&r, None, 1.0)),
+            Err(MetricError::NotApplicable("(sum)".into()))
+        );
+    }
+
+    #[test]
+    fn insert_replaces_a_metric_of_the_same_name() {
+        let r = resources();
+        let mut m = Metrics::standard();
+        m.insert("battery", |_, _| Some(42.0));
+        let task = goto(0.0, 0.0).metric("battery", 1.0);
+        assert_eq!(m.score(&task, &view(&r, None, 1.0)), Ok(42.0));
+    }
+
+    #[test]
+    fn knows_lists_exactly_the_standard_vocabulary() {
+        let m = Metrics::standard();
+        for name in ["distance", "battery", "resources", "length"] {
+            assert!(m.knows(name), "{name}");
+        }
+        assert!(!m.knows("speed"));
+        assert!(!Metrics::empty().knows("distance"));
+        assert_eq!(
+            format!("{m:?}"),
+            r#"["battery", "distance", "length", "resources"]"#
+        );
+    }
+}

@@ -182,3 +182,152 @@ pub fn negotiation_subject(announcer: &Token, task: u64, attempt: u32) -> Subjec
     Subject::new(&format!("{NEGOTIATION_PREFIX}{announcer}.{task}.{attempt}"))
         .expect("a token and two numbers always make a valid subject")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn set(s: &str) -> ResourceSet {
+        s.parse().unwrap()
+    }
+
+    #[test]
+    fn a_set_reads_blanks_commas_braces_and_angle_brackets_alike() {
+        let want = ResourceSet::from_names(["camera", "laser", "mobile"]).unwrap();
+        for text in [
+            "camera laser mobile",
+            "mobile,camera,laser",
+            " {camera, laser mobile} ",
+            "<laser> <camera> <mobile>",
+            "camera\tlaser\nmobile",
+        ] {
+            assert_eq!(set(text), want, "{text:?}");
+        }
+    }
+
+    #[test]
+    fn an_empty_or_braces_only_text_is_the_empty_set() {
+        assert!(set("").is_empty());
+        assert!(set("{}").is_empty());
+        assert!(set(" , ,").is_empty());
+        assert_eq!(set("{}").to_string(), "{}");
+    }
+
+    #[test]
+    fn a_set_prints_sorted_whatever_the_order_it_was_built_in() {
+        let mut s = ResourceSet::new();
+        for n in ["mobile", "camera", "laser", "camera"] {
+            s.insert(n).unwrap();
+        }
+        assert_eq!(s.len(), 3);
+        assert_eq!(s.to_string(), "{camera laser mobile}");
+        let names: Vec<&str> = s.iter().map(|r| r.as_str()).collect();
+        assert_eq!(names, ["camera", "laser", "mobile"]);
+    }
+
+    #[test]
+    fn subset_needs_every_resource() {
+        let have = set("camera laser mobile");
+        assert!(set("camera mobile").is_subset(&have));
+        assert!(ResourceSet::new().is_subset(&have));
+        assert!(have.is_subset(&have));
+        assert!(!set("camera gripper").is_subset(&have));
+        assert!(!have.is_subset(&set("camera mobile")));
+    }
+
+    #[test]
+    fn contains_looks_names_up_by_text() {
+        let s = set("camera laser");
+        assert!(s.contains("laser"));
+        assert!(!s.contains("las"));
+        assert!(!s.contains("<laser>"));
+    }
+
+    #[test]
+    fn the_protocols_own_names_are_reserved() {
+        for name in ["idle", "<idle>", "hub", "murdoch.user.1.1", "murdoch."] {
+            assert!(
+                matches!(ResourceSet::check(name), Err(ResourceError::Reserved(_))),
+                "{name}"
+            );
+        }
+        // Only the exact prefix is reserved.
+        assert!(ResourceSet::check("murdoch").is_ok());
+        assert!(ResourceSet::check("idler").is_ok());
+        assert!(ResourceSet::check("hubcap").is_ok());
+    }
+
+    #[test]
+    fn a_name_that_is_not_a_subject_is_refused_with_the_name() {
+        for name in ["has space", "", "x\u{e9}", "a".repeat(65).as_str()] {
+            let e = ResourceSet::check(name).unwrap_err();
+            assert!(matches!(e, ResourceError::Subject(_)), "{name:?}: {e:?}");
+        }
+        let e = ResourceSet::check("café").unwrap_err().to_string();
+        assert!(e.contains("café"), "{e}");
+    }
+
+    #[test]
+    fn one_bad_name_spoils_the_whole_set_and_insert_leaves_the_set_alone() {
+        assert!("camera idle laser".parse::<ResourceSet>().is_err());
+        assert!(ResourceSet::from_names(["camera", "not ok"]).is_err());
+        let mut s = set("camera");
+        assert!(s.insert("hub").is_err());
+        assert_eq!(s, set("camera"));
+    }
+
+    #[test]
+    fn the_reserved_error_names_the_resource() {
+        let e = "camera idle".parse::<ResourceSet>().unwrap_err();
+        assert_eq!(e, ResourceError::Reserved("idle".into()));
+        assert!(e.to_string().contains("`idle` is reserved"), "{e}");
+    }
+
+    #[test]
+    fn a_token_is_one_to_24_characters_of_its_alphabet() {
+        for ok in ["r", "r2", "Robot_7-b", "x".repeat(MAX_TOKEN_LEN).as_str()] {
+            assert_eq!(Token::new(ok).unwrap().as_str(), ok);
+        }
+        for bad in [
+            "",
+            "r 1",
+            "r.1",
+            "r:1",
+            "r/1",
+            "\u{e9}",
+            "x".repeat(MAX_TOKEN_LEN + 1).as_str(),
+        ] {
+            assert!(Token::new(bad).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn a_token_error_keeps_at_most_80_characters_of_the_input() {
+        let long = "é".repeat(200);
+        let TokenError(kept) = Token::new(&long).unwrap_err();
+        assert_eq!(kept.chars().count(), 80);
+        let e = Token::new("a b").unwrap_err().to_string();
+        assert!(e.contains("`a b` is not a token"), "{e}");
+    }
+
+    #[test]
+    fn tokens_parse_and_print_as_their_text() {
+        let t: Token = "r2".parse().unwrap();
+        assert_eq!(t.to_string(), "r2");
+        assert!("r 2".parse::<Token>().is_err());
+    }
+
+    #[test]
+    fn a_negotiation_subject_names_announcer_task_and_attempt() {
+        let s = negotiation_subject(&Token::new("user").unwrap(), 17, 2);
+        assert_eq!(s.as_str(), "murdoch.user.17.2");
+        assert!(s.as_str().starts_with(NEGOTIATION_PREFIX));
+    }
+
+    #[test]
+    fn the_longest_negotiation_subject_still_fits_a_subject() {
+        let longest = Token::new(&"z".repeat(MAX_TOKEN_LEN)).unwrap();
+        let s = negotiation_subject(&longest, u64::MAX, u32::MAX);
+        assert_eq!(s.as_str().len(), colony_wire::MAX_SUBJECT_LEN);
+    }
+}

@@ -6,8 +6,8 @@ use std::time::Duration;
 
 use colony_wire::{Packet, PacketBuilder, Priority, Subject, Value};
 
-use super::error::{bad, DecodeError, EncodeError};
-use super::fields::{self, valid_name, MAX_LENGTH_S, MAX_MAGNITUDE, MAX_TEXT};
+use super::error::{bad, unwritable, DecodeError, EncodeError};
+use super::fields::{self, valid_name, MAX_DEADLINE, MAX_LENGTH_S, MAX_MAGNITUDE, MAX_TEXT};
 use crate::resource::{ResourceSet, Token, IDLE, MAX_TASK_RESOURCES, NEGOTIATION_PREFIX};
 
 /// The most `param` lines one task may carry.
@@ -290,9 +290,31 @@ impl Announcement {
         s
     }
 
-    /// The packet.
+    /// The packet. Refuses an announcement no reader would accept: an invalid
+    /// task, a deadline beyond [`MAX_DEADLINE`], a negotiation subject without
+    /// the `murdoch.` prefix. A deadline under a millisecond is written as 1 ms.
     pub fn encode(&self) -> Result<Vec<u8>, EncodeError> {
         self.spec.validate()?;
+        fields::writable_task_number("id", self.id)?;
+        if self.deadline > MAX_DEADLINE {
+            return Err(unwritable(
+                "deadline_ms",
+                format!(
+                    "{} ms is longer than the {} ms a reader accepts",
+                    self.deadline.as_millis(),
+                    MAX_DEADLINE.as_millis()
+                ),
+            ));
+        }
+        if !self.negotiation.as_str().starts_with(NEGOTIATION_PREFIX) {
+            return Err(unwritable(
+                "negotiation",
+                format!(
+                    "`{}` does not start with `{NEGOTIATION_PREFIX}`",
+                    self.negotiation
+                ),
+            ));
+        }
         let mut p = PacketBuilder::new(self.subjects(), Priority(0));
         p.line("task")
             .bare("name", &self.spec.name)
@@ -436,5 +458,314 @@ impl Announcement {
             deadline,
             announcer,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::resource::negotiation_subject;
+
+    fn token(s: &str) -> Token {
+        Token::new(s).unwrap()
+    }
+
+    fn ann(spec: TaskSpec) -> Announcement {
+        Announcement {
+            spec,
+            id: 4,
+            negotiation: negotiation_subject(&token("u"), 4, 1),
+            deadline: Duration::from_millis(100),
+            announcer: token("u"),
+        }
+    }
+
+    fn look() -> TaskSpec {
+        TaskSpec::new("look", "camera".parse().unwrap()).length(3.0)
+    }
+
+    const HEAD: &str = "@ <camera> <idle> 0\ntask name look id 4 negotiation murdoch.u.4.1 deadline_ms 100 length_s 3 announcer u\n";
+
+    fn read(extra: &str) -> Result<Announcement, DecodeError> {
+        let text = format!("{HEAD}{extra}");
+        Announcement::decode(&Packet::parse(text.as_bytes()).unwrap())
+    }
+
+    fn refused(extra: &str) -> String {
+        match read(extra) {
+            Ok(a) => panic!("{extra:?} should be refused, read {a:?}"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn the_bare_header_reads_as_the_task() {
+        assert_eq!(read(""), Ok(ann(look())));
+    }
+
+    #[test]
+    fn a_bare_word_value_is_text_and_a_bare_number_is_a_number() {
+        let a = read("param name color value red\nparam name x value 1e3\n").unwrap();
+        assert_eq!(a.spec.text("color"), Some("red"));
+        assert_eq!(a.spec.number("x"), Some(1000.0));
+    }
+
+    #[test]
+    fn a_quoted_number_stays_text() {
+        let a = read("param name code value \"42\"\nparam name mood value \"inf\"\n").unwrap();
+        assert_eq!(a.spec.params[0].value, ParamValue::Text("42".into()));
+        assert_eq!(a.spec.text("mood"), Some("inf"));
+        assert_eq!(a.spec.number("code"), None);
+    }
+
+    #[test]
+    fn a_bare_value_that_parses_as_a_non_finite_number_is_refused() {
+        for v in ["inf", "NaN", "1e400"] {
+            let e = refused(&format!("param name x value {v}\n"));
+            assert!(e.contains("line 3, field `value`"), "{v}: {e}");
+        }
+    }
+
+    #[test]
+    fn a_group_value_is_refused() {
+        let e = refused("param name x value (a 1)\n");
+        assert!(e.contains("a group is not a parameter value"), "{e}");
+    }
+
+    #[test]
+    fn a_param_without_a_value_is_refused() {
+        let e = refused("param name x\n");
+        assert!(e.contains("line 3") && e.contains("value"), "{e}");
+    }
+
+    #[test]
+    fn more_params_than_allowed_are_refused_at_the_first_extra_line() {
+        let lines: String = (0..=MAX_PARAMS)
+            .map(|i| format!("param name p{i} value {i}\n"))
+            .collect();
+        let e = refused(&lines);
+        assert!(e.contains(&format!("line {}", MAX_PARAMS + 3)), "{e}");
+        assert!(e.contains("more than 32 params"), "{e}");
+        let ok: String = (0..MAX_PARAMS)
+            .map(|i| format!("param name p{i} value {i}\n"))
+            .collect();
+        assert_eq!(read(&ok).unwrap().spec.params.len(), MAX_PARAMS);
+    }
+
+    #[test]
+    fn more_metrics_than_allowed_are_refused() {
+        let lines: String = (0..=MAX_METRICS)
+            .map(|i| format!("metric name m{i} weight 1\n"))
+            .collect();
+        let e = refused(&lines);
+        assert!(e.contains("more than 16 metrics"), "{e}");
+    }
+
+    #[test]
+    fn a_metric_named_twice_is_refused() {
+        let e = refused("metric name distance weight 1\nmetric name distance weight 2\n");
+        assert!(
+            e.contains("line 4") && e.contains("metric `distance` appears twice"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn params_and_metrics_keep_their_order() {
+        let a = read(
+            "metric name b weight 2\nparam name z value 1\nmetric name a weight 1\nparam name y value 2\n",
+        )
+        .unwrap();
+        let params: Vec<&str> = a.spec.params.iter().map(|p| p.name.as_str()).collect();
+        let metrics: Vec<&str> = a.spec.metrics.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!((params, metrics), (vec!["z", "y"], vec!["b", "a"]));
+    }
+
+    #[test]
+    fn a_reserved_resource_in_the_header_is_refused() {
+        let text = "@ <hub> <idle> 0\ntask name look id 4 negotiation murdoch.u.4.1 deadline_ms 100 length_s 3 announcer u\n";
+        let e = Announcement::decode(&Packet::parse(text.as_bytes()).unwrap()).unwrap_err();
+        assert!(
+            matches!(&e, DecodeError::Header(h) if h.contains("`hub` is reserved")),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn an_announcement_on_a_negotiation_subject_is_refused() {
+        let text = "@ <murdoch.u.4.1> <idle> 0\ntask name look id 4 negotiation murdoch.u.4.1 deadline_ms 100 length_s 3 announcer u\n";
+        let e = Announcement::decode(&Packet::parse(text.as_bytes()).unwrap()).unwrap_err();
+        assert!(
+            e.to_string().contains("not to the negotiation subject"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_task_needing_nothing_is_addressed_to_idle_alone() {
+        let a = ann(TaskSpec::new("think", ResourceSet::new()));
+        assert_eq!(a.subjects(), ["idle"]);
+        let bytes = a.encode().unwrap();
+        assert!(bytes.starts_with(b"@ <idle> 0\n"));
+        assert_eq!(Announcement::decode(&Packet::parse(&bytes).unwrap()), Ok(a));
+    }
+
+    #[test]
+    fn the_subjects_are_the_sorted_resources_then_idle() {
+        let a = ann(TaskSpec::new("t", "mobile camera laser".parse().unwrap()));
+        assert_eq!(a.subjects(), ["camera", "laser", "mobile", "idle"]);
+    }
+
+    #[test]
+    fn a_task_can_need_fifteen_resources_and_still_be_read() {
+        let names: Vec<String> = (0..MAX_TASK_RESOURCES)
+            .map(|i| format!("r{i:02}"))
+            .collect();
+        let a = ann(TaskSpec::new(
+            "big",
+            ResourceSet::from_names(&names).unwrap(),
+        ));
+        let bytes = a.encode().unwrap();
+        assert_eq!(Announcement::decode(&Packet::parse(&bytes).unwrap()), Ok(a));
+    }
+
+    #[test]
+    fn a_deadline_under_a_millisecond_is_written_as_one() {
+        let mut a = ann(look());
+        a.deadline = Duration::from_micros(300);
+        let text = String::from_utf8(a.encode().unwrap()).unwrap();
+        assert!(text.contains(" deadline_ms 1 "), "{text}");
+    }
+
+    #[test]
+    fn a_deadline_no_reader_accepts_is_not_written() {
+        let mut a = ann(look());
+        a.deadline = MAX_DEADLINE;
+        assert!(a.encode().is_ok());
+        a.deadline = MAX_DEADLINE + Duration::from_millis(1);
+        let e = a.encode().unwrap_err();
+        assert!(
+            matches!(
+                &e,
+                EncodeError::Field {
+                    field: "deadline_ms",
+                    ..
+                }
+            ),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_task_number_no_reader_accepts_is_not_written() {
+        let mut a = ann(look());
+        a.id = i64::MAX as u64 + 1;
+        assert!(matches!(
+            a.encode(),
+            Err(EncodeError::Field { field: "id", .. })
+        ));
+    }
+
+    #[test]
+    fn an_announcement_naming_a_plain_subject_for_negotiation_is_not_written() {
+        let mut a = ann(look());
+        a.negotiation = Subject::new("camera").unwrap();
+        assert!(matches!(
+            a.encode(),
+            Err(EncodeError::Field {
+                field: "negotiation",
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn an_invalid_spec_is_not_written() {
+        let a = ann(look().length(-1.0));
+        assert!(matches!(
+            a.encode(),
+            Err(EncodeError::Spec(SpecError::Range { .. }))
+        ));
+    }
+
+    #[test]
+    fn lookups_find_parameters_by_name_and_kind() {
+        let spec = look().param("x", 2.0).text_param("color", "red");
+        assert_eq!(spec.number("x"), Some(2.0));
+        assert_eq!(spec.text("color"), Some("red"));
+        assert_eq!(spec.number("color"), None);
+        assert_eq!(spec.text("x"), None);
+        assert_eq!(spec.number("y"), None);
+    }
+
+    #[test]
+    fn validate_accepts_the_limits_and_refuses_one_past_them() {
+        assert!(look().length(MAX_LENGTH_S).validate().is_ok());
+        assert!(look().length(MAX_LENGTH_S + 1.0).validate().is_err());
+        assert!(look().param("x", MAX_MAGNITUDE).validate().is_ok());
+        assert!(look().param("x", -MAX_MAGNITUDE * 1.5).validate().is_err());
+        assert!(look()
+            .text_param("t", &"é".repeat(MAX_TEXT))
+            .validate()
+            .is_ok());
+        assert!(matches!(
+            look().text_param("t", &"é".repeat(MAX_TEXT + 1)).validate(),
+            Err(SpecError::Range { .. })
+        ));
+    }
+
+    #[test]
+    fn validate_counts_params_and_metrics() {
+        let mut spec = look();
+        for i in 0..=MAX_PARAMS {
+            spec = spec.param(&format!("p{i}"), 1.0);
+        }
+        assert_eq!(
+            spec.validate(),
+            Err(SpecError::TooMany {
+                what: "param",
+                count: MAX_PARAMS + 1,
+                max: MAX_PARAMS
+            })
+        );
+        let mut spec = look();
+        for i in 0..=MAX_METRICS {
+            spec = spec.metric(&format!("m{i}"), 1.0);
+        }
+        assert!(matches!(
+            spec.validate(),
+            Err(SpecError::TooMany { what: "metric", .. })
+        ));
+    }
+
+    #[test]
+    fn validate_names_the_bad_or_repeated_name() {
+        assert_eq!(
+            look().param("x", 1.0).text_param("x", "a").validate(),
+            Err(SpecError::Duplicate {
+                what: "param",
+                name: "x".into()
+            })
+        );
+        assert_eq!(
+            look().metric("not ok", 1.0).validate(),
+            Err(SpecError::Name {
+                what: "metric",
+                name: "not ok".into()
+            })
+        );
+        assert!(matches!(
+            TaskSpec::new("", ResourceSet::new()).validate(),
+            Err(SpecError::Name {
+                what: "task name",
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn a_task_prints_its_name_resources_and_length() {
+        let spec = TaskSpec::new("sentry-duty", "mobile camera".parse().unwrap()).length(120.0);
+        assert_eq!(spec.to_string(), "sentry-duty {camera mobile} 120 s");
     }
 }

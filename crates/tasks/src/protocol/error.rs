@@ -58,4 +58,21 @@ pub enum EncodeError {
     /// The task itself is invalid.
     #[error(transparent)]
     Spec(#[from] crate::protocol::SpecError),
+    /// A value the reader would refuse (a score out of range, a task number
+    /// beyond what a packet carries, a deadline too long, a subject that is
+    /// not a negotiation subject), so it is not sent.
+    #[error("cannot write field `{field}`: {what}")]
+    Field {
+        /// The field (or `subject`, for the header).
+        field: &'static str,
+        /// What is wrong with it.
+        what: String,
+    },
+}
+
+pub(crate) fn unwritable(field: &'static str, what: impl Into<String>) -> EncodeError {
+    EncodeError::Field {
+        field,
+        what: what.into(),
+    }
 }
