@@ -193,3 +193,38 @@ fn in_repo_copies_match_the_shared_originals() {
         }
     }
 }
+
+#[test]
+fn an_error_names_its_cause_once() {
+    let o = colony(&["path", "/nonexistent/a.map", &movingai("arena.map.scen")]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.matches("No such file or directory").count(), 1, "{err}");
+}
+
+#[test]
+fn a_reader_that_stops_early_ends_the_run_quietly() {
+    use std::io::{BufRead as _, BufReader};
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_colony"))
+        .args([
+            "path",
+            &movingai("maze512-32-9.map"),
+            &movingai("maze512-32-9.map.scen"),
+            "--algorithm",
+            "astar",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run colony");
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    assert!(first.starts_with("query 0:"), "{first}");
+    // The pipe's reading end is dropped here, as `| head -1` would.
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{:?} {err}", o.status);
+    assert!(err.is_empty(), "{err}");
+}
