@@ -218,11 +218,10 @@ fn main() {
     squad.tick(Arc::new(view.clone()));
     let mut follow = Vec::new();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-    let start = view.robots[target as usize].at;
-    for _ in 0..300 {
-        // The target wanders 2-3 cells from where it was.
+    for _ in 0..3000 {
+        // The target wanders, up to 2-3 cells a step.
         let step = Vec2::new(rng.random_range(-60.0..60.0), rng.random_range(-60.0..60.0));
-        let to = start + step;
+        let to = view.robots[target as usize].at + step;
         if !Nav::new(ctf.clone()).is_free(to, colony_game::path::Mover::Land) {
             continue;
         }
@@ -230,7 +229,8 @@ fn main() {
         let t0 = Instant::now();
         let orders = squad.tick(Arc::new(view.clone()));
         let t = t0.elapsed();
-        // Moves under 1.5 cells don't call for a new plan; count only replans.
+        // Moves under 1.5 cells, or a quarter of the squad's distance to
+        // the target, don't call for a new plan; count only replans.
         if !orders.is_empty() {
             follow.push(t);
         }

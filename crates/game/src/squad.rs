@@ -474,8 +474,14 @@ struct OrderBehaviour {
 /// A squad this many cells (Chebyshev) from the replanner's root re-roots it.
 const REROOT_CELLS: u32 = 3;
 
-/// A moving target is followed once it has moved this many cells.
+/// A moving target is followed once it has moved this many cells...
 const FOLLOW_CELLS: f64 = 1.5;
+/// ...and this fraction of the squad's distance to it. Every new plan sends
+/// each robot to its slot at the head of the path again, so a squad told
+/// anew each time a distant target stirs keeps re-forming and never sets
+/// off; far away, a small move of the target changes only the end of the
+/// path, which a later plan corrects as the squad closes in.
+const FOLLOW_FRACTION: f64 = 0.25;
 
 impl OrderBehaviour {
     fn start(&mut self, ctx: &mut SquadCtx, gather: bool) {
@@ -633,10 +639,9 @@ impl Behaviour<SquadCtx> for OrderBehaviour {
                     self.phase = Phase::Done;
                     return;
                 };
-                if self
-                    .goal
-                    .is_none_or(|g| g.distance(to) > FOLLOW_CELLS * cell)
-                {
+                let far = ctx.centroid().map_or(0.0, |c| c.distance(to));
+                let tolerance = (FOLLOW_CELLS * cell).max(FOLLOW_FRACTION * far);
+                if self.goal.is_none_or(|g| g.distance(to) > tolerance) {
                     let formation = if matches!(
                         ctx.verb,
                         Some(Verb::Defend(

@@ -168,3 +168,51 @@ fn illegal_squad_commands_are_refused_with_a_reason_and_change_nothing() {
     let s = m.state().unwrap();
     assert_eq!(s.squads[0].order, "none", "nothing was ordered");
 }
+
+#[test]
+fn a_squad_attacking_a_moving_robot_sets_off_rather_than_re_forming_each_time_it_stirs() {
+    use colony_game::formation::Formation;
+    use colony_game::protocol::{SquadCommand, Target, Verb};
+
+    let setup = "alpha:tank,infantry,infantry bravo:scout,scout,amphibian";
+    let teams = [
+        TeamSetup::parse("red", setup).unwrap(),
+        TeamSetup::parse("blue", setup).unwrap(),
+    ];
+    // Blue is scripted, so its alpha squad (robots 6, 7, 8) is on the move.
+    let mut m = Match::new(
+        map("ctf.map"),
+        Rules::new(Mode::CaptureTheFlag),
+        &teams,
+        &["blue"],
+    )
+    .unwrap();
+    run_until(&mut m, 40, |_| false);
+    m.send(
+        SquadCommand {
+            team: "red".into(),
+            squad: "alpha".into(),
+            verb: Verb::Attack(Target::Robot(7)),
+            formation: Some(Formation::Wedge),
+        }
+        .encode()
+        .unwrap(),
+    );
+    let centroid = |m: &Match| {
+        let s = m.state().expect("a state");
+        let mine: Vec<_> = s
+            .robots
+            .iter()
+            .filter(|r| r.team == "red" && r.squad == "alpha" && r.alive)
+            .map(|r| r.pose.position())
+            .collect();
+        mine.iter().fold(colony_sim::Vec2::ZERO, |a, p| a + *p) * (1.0 / mine.len() as f64)
+    };
+    run_until(&mut m, 5, |_| false);
+    let c0 = centroid(&m);
+    // 20 s of game time: the squad's slowest member (the tank) covers well
+    // over a metre if it is let go.
+    run_until(&mut m, 200, |_| false);
+    let moved = centroid(&m).distance(c0);
+    assert!(moved > 80.0, "the squad moved only {moved:.0} cm in 20 s");
+}
