@@ -218,11 +218,12 @@ fn main() {
     squad.tick(Arc::new(view.clone()));
     let mut follow = Vec::new();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let nav = Nav::new(ctf.clone());
     for _ in 0..3000 {
         // The target wanders, up to 2-3 cells a step.
         let step = Vec2::new(rng.random_range(-60.0..60.0), rng.random_range(-60.0..60.0));
         let to = view.robots[target as usize].at + step;
-        if !Nav::new(ctf.clone()).is_free(to, colony_game::path::Mover::Land) {
+        if !nav.is_free(to, colony_game::path::Mover::Land) {
             continue;
         }
         view.robots[target as usize].at = to;

@@ -566,6 +566,14 @@ impl OrderBehaviour {
         }
     }
 
+    /// Whether the object of the order, now at `to`, has moved far enough
+    /// from where the last plan went to call for a new one.
+    fn target_moved(&self, ctx: &SquadCtx, to: Vec2) -> bool {
+        let far = ctx.centroid().map_or(0.0, |c| c.distance(to));
+        let tolerance = (FOLLOW_CELLS * ctx.nav.field().cell_cm).max(FOLLOW_FRACTION * far);
+        self.goal.is_none_or(|g| g.distance(to) > tolerance)
+    }
+
     /// Follows a moving target with a partial replan from the earlier search.
     fn follow(&mut self, ctx: &mut SquadCtx, to: Vec2, formation: Formation) {
         let mover = ctx.mover();
@@ -639,9 +647,7 @@ impl Behaviour<SquadCtx> for OrderBehaviour {
                     self.phase = Phase::Done;
                     return;
                 };
-                let far = ctx.centroid().map_or(0.0, |c| c.distance(to));
-                let tolerance = (FOLLOW_CELLS * cell).max(FOLLOW_FRACTION * far);
-                if self.goal.is_none_or(|g| g.distance(to) > tolerance) {
+                if self.target_moved(ctx, to) {
                     let formation = if matches!(
                         ctx.verb,
                         Some(Verb::Defend(
@@ -662,11 +668,7 @@ impl Behaviour<SquadCtx> for OrderBehaviour {
                 };
                 let ours = carrier.is_some_and(|c| ctx.members.contains(&c));
                 let restart = match self.phase {
-                    Phase::Going => {
-                        ours || self
-                            .goal
-                            .is_none_or(|g| g.distance(at) > FOLLOW_CELLS * cell)
-                    }
+                    Phase::Going => ours || self.target_moved(ctx, at),
                     // Dropped (the carrier was destroyed) or captured and home again.
                     Phase::Returning => !ours,
                     Phase::Done => true,
