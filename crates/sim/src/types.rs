@@ -1,90 +1,6 @@
 //! The types other crates use to drive and read the world.
 
-/// A point or vector in the plane, in centimetres.
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
-pub struct Vec2 {
-    /// x, cm.
-    pub x: f64,
-    /// y, cm.
-    pub y: f64,
-}
-
-impl Vec2 {
-    /// The origin.
-    pub const ZERO: Vec2 = Vec2 { x: 0.0, y: 0.0 };
-
-    /// The vector (x, y).
-    pub fn new(x: f64, y: f64) -> Vec2 {
-        Vec2 { x, y }
-    }
-
-    /// Euclidean length.
-    pub fn length(self) -> f64 {
-        self.x.hypot(self.y)
-    }
-
-    /// Euclidean distance to `other`.
-    pub fn distance(self, other: Vec2) -> f64 {
-        (self - other).length()
-    }
-
-    /// The angle of this vector from +x, in (-pi, pi].
-    pub fn angle(self) -> f64 {
-        self.y.atan2(self.x)
-    }
-}
-
-impl std::ops::Add for Vec2 {
-    type Output = Vec2;
-    fn add(self, o: Vec2) -> Vec2 {
-        Vec2::new(self.x + o.x, self.y + o.y)
-    }
-}
-
-impl std::ops::Sub for Vec2 {
-    type Output = Vec2;
-    fn sub(self, o: Vec2) -> Vec2 {
-        Vec2::new(self.x - o.x, self.y - o.y)
-    }
-}
-
-impl std::ops::Mul<f64> for Vec2 {
-    type Output = Vec2;
-    fn mul(self, k: f64) -> Vec2 {
-        Vec2::new(self.x * k, self.y * k)
-    }
-}
-
-/// Where a robot is and which way it faces, in the world frame.
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
-pub struct Pose {
-    /// x of the robot's centre, cm.
-    pub x: f64,
-    /// y of the robot's centre, cm.
-    pub y: f64,
-    /// Heading, radians counter-clockwise from +x.
-    pub theta: f64,
-}
-
-impl Pose {
-    /// The position, without the heading.
-    pub fn position(&self) -> Vec2 {
-        Vec2::new(self.x, self.y)
-    }
-
-    /// A world-frame point seen from this pose (robot frame: x forward, y left).
-    pub fn to_local(&self, p: Vec2) -> Vec2 {
-        let d = p - self.position();
-        let (s, c) = self.theta.sin_cos();
-        Vec2::new(c * d.x + s * d.y, -s * d.x + c * d.y)
-    }
-
-    /// A robot-frame point in the world frame.
-    pub fn to_world(&self, p: Vec2) -> Vec2 {
-        let (s, c) = self.theta.sin_cos();
-        Vec2::new(self.x + c * p.x - s * p.y, self.y + s * p.x + c * p.y)
-    }
-}
+pub use colony_proto::geometry::{Pose, Vec2, WheelCommand};
 
 /// Index of a robot in the world (0-based, stable for the whole trial).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -120,23 +36,6 @@ pub struct RobotState {
     pub pose: Pose,
     /// The puck in its gripper, if any.
     pub carrying: Option<PuckId>,
-}
-
-/// What a robot's controller asks of its tracks for one control step.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct WheelCommand {
-    /// Forward speed as a fraction of full speed, -1 (full reverse) to 1.
-    pub forward: f64,
-    /// Turn rate as a fraction of the full turn rate, -1 (clockwise) to 1 (counter-clockwise).
-    pub turn: f64,
-}
-
-impl WheelCommand {
-    /// Stand still.
-    pub const STOP: WheelCommand = WheelCommand {
-        forward: 0.0,
-        turn: 0.0,
-    };
 }
 
 /// A puck the forward camera sees, in the robot frame.

@@ -1,5 +1,6 @@
 //! The world: arena, robots, pucks, and one step function.
 
+use colony_proto::geometry::unit;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rapier2d::prelude::RigidBodyHandle;
@@ -481,14 +482,5 @@ impl std::fmt::Debug for World {
             .field("robots", &self.robots().len())
             .field("pucks", &self.pucks.len())
             .finish_non_exhaustive()
-    }
-}
-
-/// A command component clamped to [-1, 1], NaN as 0.
-fn unit(x: f64) -> f64 {
-    if x.is_nan() {
-        0.0
-    } else {
-        x.clamp(-1.0, 1.0)
     }
 }

@@ -51,6 +51,7 @@ mod physics;
 mod place;
 mod sense;
 
+use colony_proto::geometry::unit;
 use std::fmt;
 
 use rapier2d::prelude::RigidBodyHandle;
@@ -334,14 +335,5 @@ impl fmt::Debug for Field {
             .field("robots", &self.robots.len())
             .field("boxes", &self.boxes.len())
             .finish_non_exhaustive()
-    }
-}
-
-/// A command component clamped to [-1, 1], NaN as 0.
-fn unit(x: f64) -> f64 {
-    if x.is_nan() {
-        0.0
-    } else {
-        x.clamp(-1.0, 1.0)
     }
 }
