@@ -16,21 +16,22 @@ fn the_monitor_page_passes_its_browser_tests_in_headless_chromium() {
     assert!(
         Path::new("/usr/bin/chromium").exists(),
         "/usr/bin/chromium is missing: the monitor's browser tests need Debian's chromium; \
-         `.ci/run` installs it (or: apt-get install chromium)"
+         run the README's test command, `scripts/test`, which installs it (or: apt-get install chromium)"
     );
     let root = repo_root();
     let dir = root.join("tests/browser");
     let node = Command::new("node").arg("--version").output();
     assert!(
         node.as_ref().is_ok_and(|o| o.status.success()),
-        "node is missing: the browser tests run under node (apt-get install nodejs npm; `.ci/run` checks)"
+        "node is missing: the browser tests run under node; run `scripts/test`, which installs it \
+         (or: apt-get install nodejs npm)"
     );
     if !dir.join("node_modules/playwright-core").exists() {
         let npm = Command::new("npm")
             .args(["ci", "--no-audit", "--no-fund"])
             .current_dir(&dir)
             .output()
-            .expect("run npm ci in tests/browser (is npm installed?)");
+            .expect("run npm ci in tests/browser (is npm installed? `scripts/test` installs it)");
         assert!(
             npm.status.success(),
             "npm ci in tests/browser failed:\n{}{}",

@@ -42,8 +42,9 @@ fn a_packet_forged_with_printf_and_nc_reaches_colony_sub() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // Give `sub` time to take its lease; resend until it has answered.
-    let deadline = Instant::now() + Duration::from_secs(5);
+    // Give `sub` time to take its lease; resend until it has answered (a generous wait: a busy
+    // machine may be slow to start it).
+    let deadline = Instant::now() + Duration::from_secs(30);
     let script = format!(
         "printf '@ <vision_out> 0\\nball x 5.3 y -2.5\\n' | nc -u -w0 127.0.0.1 {}",
         hub.addr.port()
@@ -57,7 +58,8 @@ fn a_packet_forged_with_printf_and_nc_reaches_colony_sub() {
             .expect("sh");
         assert!(
             status.success(),
-            "nc is needed for this test (Debian package netcat-openbsd)"
+            "nc is needed for this test: run the README's test command, `scripts/test`, which \
+             installs it (or: apt-get install netcat-openbsd)"
         );
         if sub.try_wait().unwrap().is_some() || Instant::now() > deadline {
             break;
