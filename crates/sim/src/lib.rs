@@ -75,6 +75,7 @@ pub mod field;
 mod grid;
 mod layout;
 mod physics;
+mod rapier;
 mod sense;
 mod snapshot;
 mod types;

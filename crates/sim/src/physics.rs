@@ -9,6 +9,7 @@ use rapier2d::prelude::*;
 use crate::arena::Arena;
 use crate::body::{Part, RobotGeometry};
 use crate::config::SceneConfig;
+use crate::rapier::{groups, rapier_pose, vector as v, Rapier};
 use crate::types::{Pose as WorldPose, Vec2};
 
 /// Collision groups: walls, robot bodies (with their grippers), gripper bows, pucks.
@@ -17,27 +18,9 @@ const ROBOT: Group = Group::GROUP_2;
 const BOW: Group = Group::GROUP_3;
 const PUCK: Group = Group::GROUP_4;
 
-fn groups(member: Group, filter: Group) -> InteractionGroups {
-    InteractionGroups::new(member, filter, InteractionTestMode::And)
-}
-
-/// All of rapier's state for one world.
+/// The arena's bodies in rapier.
 pub(crate) struct Physics {
-    pub bodies: RigidBodySet,
-    colliders: ColliderSet,
-    params: IntegrationParameters,
-    pipeline: PhysicsPipeline,
-    islands: IslandManager,
-    broad_phase: BroadPhaseBvh,
-    narrow_phase: NarrowPhase,
-    impulse_joints: ImpulseJointSet,
-    multibody_joints: MultibodyJointSet,
-    soft_bodies: SoftBodySet,
-    ccd: CCDSolver,
-}
-
-fn v(p: Vec2) -> Vector {
-    Vector::new(p.x as f32, p.y as f32)
+    pub rapier: Rapier,
 }
 
 impl Physics {
@@ -58,19 +41,9 @@ impl Physics {
             ..IntegrationParameters::default()
         };
         let mut physics = Physics {
-            bodies: RigidBodySet::new(),
-            colliders: ColliderSet::new(),
-            params,
-            pipeline: PhysicsPipeline::new(),
-            islands: IslandManager::new(),
-            broad_phase: BroadPhaseBvh::new(),
-            narrow_phase: NarrowPhase::new(),
-            impulse_joints: ImpulseJointSet::new(),
-            multibody_joints: MultibodyJointSet::new(),
-            soft_bodies: SoftBodySet::new(),
-            ccd: CCDSolver::new(),
+            rapier: Rapier::new(params),
         };
-        let walls = physics.bodies.insert(RigidBodyBuilder::fixed());
+        let walls = physics.rapier.bodies.insert(RigidBodyBuilder::fixed());
         for b in arena.wall_boxes() {
             let collider =
                 ColliderBuilder::cuboid(b.half_extents.x as f32, b.half_extents.y as f32)
@@ -78,9 +51,7 @@ impl Physics {
                     .rotation(b.angle as f32)
                     .friction(cfg.robots.friction as f32)
                     .collision_groups(groups(WALL, ROBOT | BOW | PUCK));
-            physics
-                .colliders
-                .insert_with_parent(collider, walls, &mut physics.bodies);
+            physics.rapier.attach(collider, walls);
         }
         physics
     }
@@ -100,7 +71,7 @@ impl Physics {
             .pose(rapier_pose(pose))
             .additional_mass_properties(MassProperties::new(Vector::ZERO, m, inertia))
             .can_sleep(false);
-        let handle = self.bodies.insert(body);
+        let handle = self.rapier.bodies.insert(body);
         let shapes: Vec<(Pose, SharedShape)> = geom
             .parts()
             .into_iter()
@@ -124,15 +95,13 @@ impl Physics {
             .density(0.0)
             .friction(cfg.robots.friction as f32)
             .collision_groups(groups(ROBOT, WALL | ROBOT | BOW | PUCK));
-        self.colliders
-            .insert_with_parent(solid, handle, &mut self.bodies);
+        self.rapier.attach(solid, handle);
         let bow = ColliderBuilder::ball(geom.pocket_radius as f32)
             .translation(v(geom.pocket))
             .density(0.0)
             .friction(cfg.robots.friction as f32)
             .collision_groups(groups(BOW, WALL | ROBOT | BOW));
-        self.colliders
-            .insert_with_parent(bow, handle, &mut self.bodies);
+        self.rapier.attach(bow, handle);
         handle
     }
 
@@ -143,62 +112,30 @@ impl Physics {
             .translation(v(pos))
             .linear_damping(rapier_damping(cfg.pucks.linear_damping, dt) as f32)
             .angular_damping(rapier_damping(cfg.pucks.angular_damping, dt) as f32);
-        let handle = self.bodies.insert(body);
+        let handle = self.rapier.bodies.insert(body);
         let collider = ColliderBuilder::ball(cfg.puck_radius() as f32)
             .mass(cfg.pucks.mass as f32)
             .friction(cfg.pucks.friction as f32)
             .collision_groups(groups(PUCK, WALL | ROBOT | PUCK));
-        self.colliders
-            .insert_with_parent(collider, handle, &mut self.bodies);
+        self.rapier.attach(collider, handle);
         handle
-    }
-
-    /// Sets a robot's velocity for the next physics step: `speed` cm/s along its
-    /// heading (nothing sideways: tracks do not slide) and `turn` rad/s.
-    pub fn drive(&mut self, handle: RigidBodyHandle, speed: f64, turn: f64) {
-        let rb = &mut self.bodies[handle];
-        let rot = *rb.rotation();
-        let s = speed as f32;
-        rb.set_linvel(Vector::new(rot.re * s, rot.im * s), true);
-        rb.set_angvel(turn as f32, true);
     }
 
     /// Moves a body to a new place at rest (a disturbance, not physics).
     pub fn teleport(&mut self, handle: RigidBodyHandle, pos: Vec2) {
-        let rb = &mut self.bodies[handle];
-        rb.set_translation(v(pos), true);
-        rb.set_linvel(Vector::ZERO, true);
-        rb.set_angvel(0.0, true);
+        self.rapier.bodies[handle].set_translation(v(pos), true);
+        self.rapier.halt(handle);
     }
 
     /// A body's position, and for robots its heading as (cos, sin).
     pub fn pose_of(&self, handle: RigidBodyHandle) -> (Vec2, f64, f64) {
-        let rb = &self.bodies[handle];
+        let rb = &self.rapier.bodies[handle];
         let t = rb.translation();
         let r = rb.rotation();
         // Renormalise in f64 so headings stay unit vectors to the last bit we use.
         let (c, s) = (r.re as f64, r.im as f64);
         let n = c.hypot(s);
         (Vec2::new(t.x as f64, t.y as f64), c / n, s / n)
-    }
-
-    /// One physics step of `params.dt`.
-    pub fn step(&mut self) {
-        self.pipeline.step(
-            Vector::ZERO,
-            &self.params,
-            &mut self.islands,
-            &mut self.broad_phase,
-            &mut self.narrow_phase,
-            &mut self.bodies,
-            &mut self.colliders,
-            &mut self.impulse_joints,
-            &mut self.multibody_joints,
-            &mut self.soft_bodies,
-            &mut self.ccd,
-            &(),
-            &(),
-        );
     }
 }
 
@@ -213,15 +150,4 @@ pub(crate) fn rapier_damping(box2d: f64, dt: f64) -> f64 {
         return 999.0 / dt;
     }
     (1.0 / keep - 1.0) / dt
-}
-
-fn rapier_pose(p: WorldPose) -> Pose {
-    let (s, c) = libm::sincos(p.theta);
-    Pose::from_parts(
-        Vector::new(p.x as f32, p.y as f32),
-        Rotation {
-            re: c as f32,
-            im: s as f32,
-        },
-    )
 }

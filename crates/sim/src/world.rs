@@ -252,13 +252,13 @@ impl World {
             };
             for (i, r) in self.robots.iter().enumerate() {
                 let c = commands.get(i).copied().unwrap_or(WheelCommand::STOP);
-                self.physics.drive(
+                self.physics.rapier.drive(
                     r.body,
                     unit(c.forward) * share * speed,
                     unit(c.turn) * share * rate,
                 );
             }
-            self.physics.step();
+            self.physics.rapier.step();
         }
         self.step += 1;
         self.refresh();

@@ -238,13 +238,13 @@ impl Field {
                     continue;
                 }
                 let c = commands.get(i).copied().unwrap_or(WheelCommand::STOP);
-                self.physics.drive(
+                self.physics.rapier.drive(
                     r.body,
                     unit(c.forward) * r.spec.max_speed,
                     unit(c.turn) * r.spec.max_turn,
                 );
             }
-            self.physics.step();
+            self.physics.rapier.step();
         }
         self.step += 1;
         for r in &mut self.robots {

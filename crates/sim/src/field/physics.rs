@@ -10,6 +10,7 @@ use rapier2d::prelude::*;
 
 use super::config::{BoxSpec, FieldConfig, RobotSpec};
 use super::map::{Terrain, TileMap};
+use crate::rapier::{groups, rapier_pose, Rapier};
 use crate::types::{Pose as WorldPose, Vec2};
 
 /// Collision groups. Water is its own group so that only land robots and boxes
@@ -20,23 +21,9 @@ const LAND: Group = Group::GROUP_3;
 const AMPHIBIAN: Group = Group::GROUP_4;
 const BOX: Group = Group::GROUP_5;
 
-fn groups(member: Group, filter: Group) -> InteractionGroups {
-    InteractionGroups::new(member, filter, InteractionTestMode::And)
-}
-
-/// All of rapier's state for one field.
+/// The field's bodies in rapier.
 pub(crate) struct FieldPhysics {
-    bodies: RigidBodySet,
-    colliders: ColliderSet,
-    params: IntegrationParameters,
-    pipeline: PhysicsPipeline,
-    islands: IslandManager,
-    broad_phase: BroadPhaseBvh,
-    narrow_phase: NarrowPhase,
-    impulse_joints: ImpulseJointSet,
-    multibody_joints: MultibodyJointSet,
-    soft_bodies: SoftBodySet,
-    ccd: CCDSolver,
+    pub rapier: Rapier,
     friction: f32,
     density: f32,
     cell: f64,
@@ -61,24 +48,14 @@ impl FieldPhysics {
             ..IntegrationParameters::default()
         };
         let mut physics = FieldPhysics {
-            bodies: RigidBodySet::new(),
-            colliders: ColliderSet::new(),
-            params,
-            pipeline: PhysicsPipeline::new(),
-            islands: IslandManager::new(),
-            broad_phase: BroadPhaseBvh::new(),
-            narrow_phase: NarrowPhase::new(),
-            impulse_joints: ImpulseJointSet::new(),
-            multibody_joints: MultibodyJointSet::new(),
-            soft_bodies: SoftBodySet::new(),
-            ccd: CCDSolver::new(),
+            rapier: Rapier::new(params),
             friction: cfg.friction as f32,
             density: cfg.robot_density as f32,
             cell: map.cell_cm(),
             fastest: 0.0,
             boxes: Vec::new(),
         };
-        let ground = physics.bodies.insert(RigidBodyBuilder::fixed());
+        let ground = physics.rapier.bodies.insert(RigidBodyBuilder::fixed());
         let rect = |lo: Vec2, hi: Vec2| {
             let half = (hi - lo) * 0.5;
             let c = (lo + hi) * 0.5;
@@ -113,17 +90,13 @@ impl FieldPhysics {
         let wall = ColliderBuilder::new(SharedShape::compound(walls))
             .friction(friction)
             .collision_groups(groups(WALL, LAND | AMPHIBIAN | BOX));
-        physics
-            .colliders
-            .insert_with_parent(wall, ground, &mut physics.bodies);
+        physics.rapier.attach(wall, ground);
         // A compound needs at least one part.
         if !water.is_empty() {
             let water = ColliderBuilder::new(SharedShape::compound(water))
                 .friction(friction)
                 .collision_groups(groups(WATER, LAND | BOX));
-            physics
-                .colliders
-                .insert_with_parent(water, ground, &mut physics.bodies);
+            physics.rapier.attach(water, ground);
         }
         physics
     }
@@ -131,7 +104,7 @@ impl FieldPhysics {
     /// Whether a body this fast and this thick needs continuous collision detection
     /// not to pass through walls one cell thick.
     fn needs_ccd(&self, speed: f64, thickness: f64) -> bool {
-        speed * self.params.dt as f64 > 0.5 * thickness.min(self.cell)
+        speed * self.rapier.params.dt as f64 > 0.5 * thickness.min(self.cell)
     }
 
     /// Adds a robot: a disc whose mass follows its footprint's area, that never sleeps
@@ -146,13 +119,13 @@ impl FieldPhysics {
             for k in 0..self.boxes.len() {
                 let (handle, thickness) = self.boxes[k];
                 if self.needs_ccd(self.fastest, thickness) {
-                    if let Some(rb) = self.bodies.get_mut(handle) {
+                    if let Some(rb) = self.rapier.bodies.get_mut(handle) {
                         rb.enable_ccd(true);
                     }
                 }
             }
         }
-        let handle = self.bodies.insert(body);
+        let handle = self.rapier.bodies.insert(body);
         let member = if spec.amphibious { AMPHIBIAN } else { LAND };
         let filter = if spec.amphibious {
             WALL | LAND | AMPHIBIAN | BOX
@@ -163,62 +136,48 @@ impl FieldPhysics {
             .density(self.density)
             .friction(self.friction)
             .collision_groups(groups(member, filter));
-        self.colliders
-            .insert_with_parent(collider, handle, &mut self.bodies);
+        self.rapier.attach(collider, handle);
         handle
     }
 
     /// Adds a box, its floor friction as damping. Boxes stop at water as at walls,
     /// so a box stays where land robots can reach it.
     pub fn add_box(&mut self, spec: &BoxSpec, pose: WorldPose) -> RigidBodyHandle {
-        let damping = rapier_damping(spec.damping, self.params.dt as f64) as f32;
+        let damping = rapier_damping(spec.damping, self.rapier.params.dt as f64) as f32;
         let thickness = 2.0 * spec.half_width.min(spec.half_length);
         let body = RigidBodyBuilder::dynamic()
             .pose(rapier_pose(pose))
             .linear_damping(damping)
             .angular_damping(damping)
             .ccd_enabled(self.needs_ccd(self.fastest, thickness));
-        let handle = self.bodies.insert(body);
+        let handle = self.rapier.bodies.insert(body);
         self.boxes.push((handle, thickness));
         let collider = ColliderBuilder::cuboid(spec.half_length as f32, spec.half_width as f32)
             .mass(spec.mass as f32)
             .friction(self.friction)
             .collision_groups(groups(BOX, WALL | WATER | LAND | AMPHIBIAN | BOX));
-        self.colliders
-            .insert_with_parent(collider, handle, &mut self.bodies);
+        self.rapier.attach(collider, handle);
         handle
-    }
-
-    /// Sets a robot's velocity for the next physics step: `speed` cm/s along its
-    /// heading, nothing sideways, and `turn` rad/s.
-    pub fn drive(&mut self, handle: RigidBodyHandle, speed: f64, turn: f64) {
-        if let Some(rb) = self.bodies.get_mut(handle) {
-            let rot = *rb.rotation();
-            let s = speed as f32;
-            rb.set_linvel(Vector::new(rot.re * s, rot.im * s), true);
-            rb.set_angvel(turn as f32, true);
-        }
     }
 
     /// Takes a body out of the simulation (it neither moves nor is met) or puts it back.
     pub fn set_enabled(&mut self, handle: RigidBodyHandle, enabled: bool) {
-        if let Some(rb) = self.bodies.get_mut(handle) {
+        if let Some(rb) = self.rapier.bodies.get_mut(handle) {
             rb.set_enabled(enabled);
         }
     }
 
     /// Puts a body at a pose, at rest (a respawn, not physics).
     pub fn place(&mut self, handle: RigidBodyHandle, pose: WorldPose) {
-        if let Some(rb) = self.bodies.get_mut(handle) {
+        if let Some(rb) = self.rapier.bodies.get_mut(handle) {
             rb.set_position(rapier_pose(pose), true);
-            rb.set_linvel(Vector::ZERO, true);
-            rb.set_angvel(0.0, true);
         }
+        self.rapier.halt(handle);
     }
 
     /// A body's pose as the physics holds it.
     pub fn pose_of(&self, handle: RigidBodyHandle) -> Option<WorldPose> {
-        let rb = self.bodies.get(handle)?;
+        let rb = self.rapier.bodies.get(handle)?;
         let t = rb.translation();
         let r = rb.rotation();
         Some(WorldPose {
@@ -226,25 +185,6 @@ impl FieldPhysics {
             y: t.y as f64,
             theta: libm::atan2(r.im as f64, r.re as f64),
         })
-    }
-
-    /// One physics step.
-    pub fn step(&mut self) {
-        self.pipeline.step(
-            Vector::ZERO,
-            &self.params,
-            &mut self.islands,
-            &mut self.broad_phase,
-            &mut self.narrow_phase,
-            &mut self.bodies,
-            &mut self.colliders,
-            &mut self.impulse_joints,
-            &mut self.multibody_joints,
-            &mut self.soft_bodies,
-            &mut self.ccd,
-            &(),
-            &(),
-        );
     }
 }
 
@@ -254,15 +194,4 @@ impl FieldPhysics {
 fn rapier_damping(rate: f64, dt: f64) -> f64 {
     // Past this a box stops dead within a step anyway; it keeps the value finite.
     ((libm::exp(rate * dt) - 1.0) / dt).min(1e9)
-}
-
-fn rapier_pose(p: WorldPose) -> Pose {
-    let (s, c) = libm::sincos(p.theta);
-    Pose::from_parts(
-        Vector::new(p.x as f32, p.y as f32),
-        Rotation {
-            re: c as f32,
-            im: s as f32,
-        },
-    )
 }
