@@ -52,6 +52,23 @@ impl fmt::Display for Refusal {
     }
 }
 
+/// The error for a refused place, naming what was placed and where.
+fn placement(
+    what: impl fmt::Display,
+    pose: Pose,
+    refusal: Option<Refusal>,
+) -> Result<(), SimError> {
+    match refusal {
+        None => Ok(()),
+        Some(reason) => Err(SimError::Placement {
+            what: what.to_string(),
+            x: pose.x,
+            y: pose.y,
+            reason,
+        }),
+    }
+}
+
 impl Field {
     /// Refuses a place for robot `id` (which may already exist: it is ignored).
     pub(super) fn check_robot_place(
@@ -60,15 +77,7 @@ impl Field {
         spec: &RobotSpec,
         pose: Pose,
     ) -> Result<(), SimError> {
-        match self.robot_refusal(id, spec, pose) {
-            None => Ok(()),
-            Some(reason) => Err(SimError::Placement {
-                what: id.to_string(),
-                x: pose.x,
-                y: pose.y,
-                reason,
-            }),
-        }
+        placement(id, pose, self.robot_refusal(id, spec, pose))
     }
 
     /// Refuses a place for box `id` (which may already exist: it is ignored).
@@ -78,15 +87,7 @@ impl Field {
         spec: &BoxSpec,
         pose: Pose,
     ) -> Result<(), SimError> {
-        match self.box_refusal(id, spec, pose) {
-            None => Ok(()),
-            Some(reason) => Err(SimError::Placement {
-                what: id.to_string(),
-                x: pose.x,
-                y: pose.y,
-                reason,
-            }),
-        }
+        placement(id, pose, self.box_refusal(id, spec, pose))
     }
 
     fn robot_refusal(&self, id: FieldRobotId, spec: &RobotSpec, pose: Pose) -> Option<Refusal> {
