@@ -5,7 +5,8 @@
 //! replies) crosses here at once, with no latency: a node's subscription
 //! takes effect the moment it appears in [`Node::subscriptions`], as on the
 //! bus tasks' experiments were written for, while leases, limits and the
-//! minimum priority are the hub's own.
+//! minimum priority are the hub's own. Refreshes are served on the hub's
+//! sweep ticks ([`Ports::handle_timeout`]).
 //!
 //! [`Node::subscriptions`]: crate::Node::subscriptions
 
@@ -50,6 +51,15 @@ struct Port {
     session: Session,
     /// The node's subscriptions as last handed to the session.
     applied: BTreeSet<Subject>,
+    /// The session's next deadline, kept because the bus asks for it before
+    /// every event and the session works it out anew each time.
+    due: Option<Instant>,
+}
+
+impl Port {
+    fn touched(&mut self) {
+        self.due = self.session.poll_timeout();
+    }
 }
 
 /// What the hub made of a packet handed to it.
@@ -131,6 +141,7 @@ impl Ports {
             self.ports.push(Port {
                 session: Session::new(self.client.clone(), self.instant_of(now)),
                 applied: BTreeSet::new(),
+                due: None,
             });
         }
     }
@@ -166,6 +177,7 @@ impl Ports {
                 self.hub.handle(at, src, &datagram);
             }
         }
+        self.ports[place].touched();
         self.replies(now);
     }
 
@@ -182,32 +194,37 @@ impl Ports {
                 // A reply that does not parse would be the hub's bug; the session
                 // has noted the hub alive either way.
                 let _ = port.session.handle_datagram(at, &t.payload);
+                port.touched();
             }
         }
     }
 
-    /// When the hub or a session next needs [`handle_timeout`](Ports::handle_timeout).
+    /// When the hub next sweeps its leases: the sessions' timers are served
+    /// then too (see [`handle_timeout`](Ports::handle_timeout)).
     pub(crate) fn poll_timeout(&self) -> Time {
-        let sessions = self.ports.iter().filter_map(|p| p.session.poll_timeout());
-        let next = sessions.fold(self.hub.poll_timeout(), Instant::min);
-        self.time_of(next)
+        self.time_of(self.hub.poll_timeout())
     }
 
-    /// Runs every hub and session timer due by `now`: lease sweeps, refreshes,
-    /// resubscriptions.
+    /// Runs every session timer due by `now` (refreshes, resubscriptions),
+    /// then the hub's lease sweep.
+    ///
+    /// Sessions are served on the hub's sweep ticks (a tenth of a lease, at
+    /// most a second) rather than each at its own moment, so a node's due
+    /// refreshes travel in one datagram: a long batch run carries a fraction
+    /// of the control traffic, and a refresh is at most a tenth of a lease
+    /// late, as a live client's is when its loop is busy. New subscriptions
+    /// are not delayed ([`sync`](Ports::sync) asks at once), and a refresh,
+    /// due at most a third of a lease after the last, still comes well
+    /// before the lease ends.
     pub(crate) fn handle_timeout(&mut self, now: Time) {
         let at = self.instant_of(now);
-        self.hub.handle_timeout(at);
         for place in 0..self.ports.len() {
-            if self.ports[place]
-                .session
-                .poll_timeout()
-                .is_some_and(|t| t <= at)
-            {
+            if self.ports[place].due.is_some_and(|t| t <= at) {
                 self.ports[place].session.handle_timeout(at);
                 self.flush(place, now);
             }
         }
+        self.hub.handle_timeout(at);
     }
 
     /// Hands a datagram from `src` to the hub at `now`. On
@@ -247,6 +264,8 @@ impl Ports {
     pub(crate) fn note_data(&mut self, place: usize, now: Time, packet: &Packet<'_>) {
         let at = self.instant_of(now);
         if let Some(port) = self.ports.get_mut(place) {
+            // Data only moves the session's deadline later: the deadline kept
+            // may now be early, which costs one call that finds nothing due.
             port.session.note_data(at, packet);
         }
     }
