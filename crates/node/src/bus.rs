@@ -50,6 +50,12 @@ type InFlight = Reverse<(Time, u64, SocketAddr, Vec<u8>)>;
 /// forwarded to its subscribers from there at once, so it reaches a node if
 /// the node is subscribed when it arrives.
 ///
+/// [`Bus::new`] gives the hub its default limits (10 s leases) and the
+/// sessions [`quiet_client`](Bus::quiet_client) timings; the sessions'
+/// refreshes are served on the hub's lease-sweep ticks. Its one fault is a
+/// cut link ([`set_reachable`](Bus::set_reachable)); a console's minimum
+/// priority is [`set_min_priority`](Bus::set_min_priority).
+///
 /// Nodes are passed to each call, so a caller can kill one (leave it out) or
 /// start one between calls. A node is known to the hub by its place in the
 /// slice: leaving one out moves the later ones up, and the places no node

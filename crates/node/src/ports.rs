@@ -51,8 +51,8 @@ struct Port {
     session: Session,
     /// The node's subscriptions as last handed to the session.
     applied: BTreeSet<Subject>,
-    /// The session's next deadline, kept because the bus asks for it before
-    /// every event and the session works it out anew each time.
+    /// The session's next deadline (never later than the true one), kept so
+    /// that a sweep tick need not ask every session to work it out anew.
     due: Option<Instant>,
 }
 
