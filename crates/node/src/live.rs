@@ -1,0 +1,323 @@
+//! Nodes over the real hub: a [`Link`] joins one [`Node`] to one
+//! [`UdpClient`]; [`run`] drives one link on a thread of the caller's, and a
+//! [`Mux`] serves many links from one mio loop. The caller owns the loop (and
+//! the thread); nothing here starts one.
+
+use std::collections::BTreeSet;
+use std::net::ToSocketAddrs;
+use std::os::fd::AsRawFd;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use colony_client::{ClientError, UdpClient};
+use colony_wire::Subject;
+
+use crate::node::Node;
+use crate::time::Time;
+
+/// What can stop a live node.
+#[derive(Debug, thiserror::Error)]
+pub enum LiveError {
+    /// The hub client refused something.
+    #[error(transparent)]
+    Client(#[from] ClientError),
+    /// The socket failed.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+}
+
+/// The longest a [`run`] loop waits before it looks at its stop flag again.
+const TICK: Duration = Duration::from_millis(50);
+
+/// One node's connection to the hub: its client, the subscriptions the hub
+/// holds for it, and the epoch its [`Time`] counts from.
+///
+/// ```no_run
+/// use std::time::Instant;
+/// use colony_client::UdpClient;
+/// use colony_node::{Link, Node};
+/// fn serve(node: &mut dyn Node) -> Result<(), Box<dyn std::error::Error>> {
+///     let mut link = Link::connect("127.0.0.1:7400", Instant::now())?;
+///     loop {
+///         link.wait(node, None)?;
+///         link.pump(node)?;
+///     }
+/// }
+/// # let _ = serve;
+/// ```
+pub struct Link {
+    client: UdpClient,
+    applied: BTreeSet<Subject>,
+    epoch: Instant,
+}
+
+impl Link {
+    /// A link over `client`, its clock counting from `epoch`.
+    pub fn new(client: UdpClient, epoch: Instant) -> Link {
+        Link {
+            client,
+            applied: BTreeSet::new(),
+            epoch,
+        }
+    }
+
+    /// A link over a new client of the hub at `hub`, its clock counting from `epoch`.
+    pub fn connect(
+        hub: impl ToSocketAddrs + std::fmt::Debug,
+        epoch: Instant,
+    ) -> Result<Link, LiveError> {
+        Ok(Link::new(UdpClient::connect(hub)?, epoch))
+    }
+
+    /// The client underneath.
+    pub fn client(&self) -> &UdpClient {
+        &self.client
+    }
+
+    /// The client underneath, to publish or subscribe outside the protocol.
+    pub fn client_mut(&mut self) -> &mut UdpClient {
+        &mut self.client
+    }
+
+    /// Now, on this link's clock.
+    pub fn now(&self) -> Time {
+        self.time_of(Instant::now())
+    }
+
+    /// An instant on this link's clock.
+    pub fn time_of(&self, t: Instant) -> Time {
+        Time::from_micros(t.saturating_duration_since(self.epoch).as_micros() as u64)
+    }
+
+    /// The instant a [`Time`] on this link's clock stands for.
+    pub fn instant_of(&self, t: Time) -> Instant {
+        self.epoch + Duration::from_micros(t.as_micros())
+    }
+
+    /// Makes the hub's subscriptions for this client equal to the node's.
+    fn sync(&mut self, node: &dyn Node) -> Result<(), LiveError> {
+        let want = node.subscriptions();
+        if want == &self.applied {
+            return Ok(());
+        }
+        if want.is_empty() {
+            self.client.unsubscribe_all()?;
+            self.applied.clear();
+            return Ok(());
+        }
+        let gone: Vec<Subject> = self.applied.difference(want).cloned().collect();
+        for s in gone {
+            self.client.unsubscribe(s.as_str())?;
+            self.applied.remove(&s);
+        }
+        let new: Vec<Subject> = want.difference(&self.applied).cloned().collect();
+        for s in new {
+            self.client.subscribe(s.as_str())?;
+            self.applied.insert(s);
+        }
+        Ok(())
+    }
+
+    /// Sends what the node wants sent, its subscriptions first (so a bidder is
+    /// subscribed to a negotiation before its bid can be answered).
+    pub fn flush(&mut self, node: &mut dyn Node) -> Result<(), LiveError> {
+        self.sync(node)?;
+        while let Some(p) = node.poll_transmit() {
+            self.client.publish(&p)?;
+        }
+        Ok(())
+    }
+
+    /// Does everything due now: hands the node every waiting packet, runs its
+    /// timers and the client's, and sends what results. Never blocks.
+    pub fn pump(&mut self, node: &mut dyn Node) -> Result<(), LiveError> {
+        self.flush(node)?;
+        let now = Instant::now();
+        self.client.poll(now)?;
+        let epoch = self.epoch;
+        while let Some(packet) = self.client.recv()? {
+            let t = Time::from_micros(epoch.elapsed().as_micros() as u64);
+            node.handle_packet(t, &packet);
+        }
+        let t = self.now();
+        if node.poll_timeout().is_some_and(|d| d <= t) {
+            node.handle_timeout(t);
+        }
+        self.flush(node)
+    }
+
+    /// When the link next has work: the node's timer or the client's.
+    pub fn next_deadline(&self, node: &dyn Node) -> Option<Instant> {
+        let node_due = node.poll_timeout().map(|t| self.instant_of(t));
+        match (node_due, self.client.next_deadline()) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// Blocks until a datagram arrives, the next deadline, or `at_most` passes.
+    pub fn wait(&self, node: &dyn Node, at_most: Option<Duration>) -> Result<(), LiveError> {
+        let cap = at_most.map(|d| Instant::now() + d);
+        let until = match (self.next_deadline(node), cap) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
+        self.client.wait(until)?;
+        Ok(())
+    }
+}
+
+/// Runs `node` over `link` until `stop` is set, calling `each` after every
+/// round (to read the node's events or feed it from its owner): one node on
+/// one thread.
+pub fn run<N: Node>(
+    node: &mut N,
+    link: &mut Link,
+    stop: &AtomicBool,
+    mut each: impl FnMut(&mut N, Time),
+) -> Result<(), LiveError> {
+    while !stop.load(Ordering::Relaxed) {
+        link.pump(node)?;
+        each(node, link.now());
+        link.flush(node)?;
+        link.wait(node, Some(TICK))?;
+    }
+    Ok(())
+}
+
+/// Many nodes, each with its own hub client, served by one thread: a mio poll
+/// over every client's socket. For a demo or a benchmark with hundreds of
+/// robots on one machine.
+pub struct Mux<N> {
+    poll: mio::Poll,
+    events: mio::Events,
+    members: Vec<Option<(Link, N)>>,
+    ready: Vec<bool>,
+}
+
+impl<N: Node> Mux<N> {
+    /// No members yet.
+    pub fn new() -> Result<Mux<N>, LiveError> {
+        Ok(Mux {
+            poll: mio::Poll::new()?,
+            events: mio::Events::with_capacity(1024),
+            members: Vec::new(),
+            ready: Vec::new(),
+        })
+    }
+
+    /// Adds a node on its link; returns its index.
+    pub fn add(&mut self, link: Link, node: N) -> Result<usize, LiveError> {
+        let i = self.members.len();
+        let fd = link.client().as_raw_fd();
+        self.poll.registry().register(
+            &mut mio::unix::SourceFd(&fd),
+            mio::Token(i),
+            mio::Interest::READABLE,
+        )?;
+        self.members.push(Some((link, node)));
+        // Pumped once at once, so it subscribes.
+        self.ready.push(true);
+        Ok(i)
+    }
+
+    /// Takes a member out (its socket closes as the link drops): a robot killed.
+    pub fn remove(&mut self, i: usize) -> Option<(Link, N)> {
+        let (link, node) = self.members.get_mut(i)?.take()?;
+        let fd = link.client().as_raw_fd();
+        let _ = self
+            .poll
+            .registry()
+            .deregister(&mut mio::unix::SourceFd(&fd));
+        Some((link, node))
+    }
+
+    /// A member's node, if it is still in.
+    pub fn node(&self, i: usize) -> Option<&N> {
+        self.members.get(i)?.as_ref().map(|(_, n)| n)
+    }
+
+    /// A member's node and link, to feed it or read its events.
+    pub fn member_mut(&mut self, i: usize) -> Option<(&mut Link, &mut N)> {
+        self.members.get_mut(i)?.as_mut().map(|(l, n)| (l, n))
+    }
+
+    /// Every member still in, with its index.
+    pub fn iter_mut(&mut self) -> impl Iterator<Item = (usize, &mut Link, &mut N)> {
+        self.members
+            .iter_mut()
+            .enumerate()
+            .filter_map(|(i, m)| m.as_mut().map(|(l, n)| (i, l, n)))
+    }
+
+    /// Pumps every member with a datagram waiting or a deadline passed.
+    pub fn pump(&mut self) -> Result<(), LiveError> {
+        let now = Instant::now();
+        for (i, m) in self.members.iter_mut().enumerate() {
+            let Some((link, node)) = m else { continue };
+            let due = link.next_deadline(node).is_some_and(|d| d <= now);
+            if due || self.ready[i] {
+                self.ready[i] = false;
+                link.pump(node)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Pumps every member, whether or not it has work (after its owner fed it).
+    pub fn pump_all(&mut self) -> Result<(), LiveError> {
+        for (link, node) in self.members.iter_mut().flatten() {
+            link.pump(node)?;
+        }
+        Ok(())
+    }
+
+    /// Sends what every member wants sent, its subscriptions first; reads
+    /// nothing, so it costs no system call for a member with nothing to send.
+    pub fn flush_all(&mut self) -> Result<(), LiveError> {
+        for (link, node) in self.members.iter_mut().flatten() {
+            link.flush(node)?;
+        }
+        Ok(())
+    }
+
+    /// Waits until a member has a datagram or a deadline, or `at_most` passes.
+    pub fn wait(&mut self, at_most: Duration) -> Result<(), LiveError> {
+        let now = Instant::now();
+        let next = self
+            .members
+            .iter()
+            .flatten()
+            .filter_map(|(l, n)| l.next_deadline(n))
+            .min();
+        let timeout = next.map_or(at_most, |d| d.saturating_duration_since(now).min(at_most));
+        match self.poll.poll(&mut self.events, Some(timeout)) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e.into()),
+        }
+        for e in self.events.iter() {
+            if let Some(r) = self.ready.get_mut(e.token().0) {
+                *r = true;
+            }
+        }
+        Ok(())
+    }
+
+    /// Serves every member until `stop` is set, calling `each` after every
+    /// round (to read the members' events or feed them), then flushing every
+    /// member so what `each` caused goes out at once.
+    pub fn run(
+        &mut self,
+        stop: &AtomicBool,
+        mut each: impl FnMut(&mut Mux<N>),
+    ) -> Result<(), LiveError> {
+        while !stop.load(Ordering::Relaxed) {
+            self.pump()?;
+            each(self);
+            self.flush_all()?;
+            self.wait(TICK)?;
+        }
+        Ok(())
+    }
+}

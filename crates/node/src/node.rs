@@ -1,0 +1,174 @@
+//! What every participant is to a transport: a hub client with no socket and no clock.
+
+use std::collections::BTreeSet;
+
+use colony_wire::{Packet, Subject};
+
+use crate::time::Time;
+
+/// A participant in a colony protocol, in the shape of quinn-proto's
+/// `Connection`: it owns no socket, reads no clock and starts no thread, so the
+/// same value runs over the real hub ([`Link`](crate::Link),
+/// [`Mux`](crate::Mux)) and over the in-memory [`Bus`](crate::Bus) on
+/// simulated time.
+///
+/// The methods fall into three groups.
+///
+/// - **Getter**: [`subscriptions`](Node::subscriptions), the subjects the
+///   transport must hold for it. The transport keeps the hub's subscriptions
+///   equal to this set (subscribing, refreshing leases, resubscribing after a
+///   hub restart); the node never sees that control traffic.
+/// - **Inputs**: [`handle_packet`](Node::handle_packet) for each packet the hub
+///   forwards to it, and [`handle_timeout`](Node::handle_timeout) once the time
+///   [`poll_timeout`](Node::poll_timeout) named has come. `now` is always an
+///   argument and never goes back.
+/// - **Outputs**: [`poll_transmit`](Node::poll_transmit), the packets to
+///   publish, and [`poll_timeout`](Node::poll_timeout), the next deadline.
+///
+/// After every input (and after the owner changes the node between inputs),
+/// a transport reads, in this order: [`subscriptions`](Node::subscriptions),
+/// so a reply's answer finds the node already subscribed; then
+/// [`poll_transmit`](Node::poll_transmit) until it gives `None`; then
+/// [`poll_timeout`](Node::poll_timeout), which may have moved.
+///
+/// A node that must stop while its owner runs it (a robot killed) is simply
+/// not driven any more: the transport drops its subscriptions.
+pub trait Node {
+    /// The subjects this participant should be subscribed to now. A packet
+    /// reaches it only if every one of the packet's subjects is among them
+    /// (the hub's subject-set addressing; see [`receives`]).
+    fn subscriptions(&self) -> &BTreeSet<Subject>;
+    /// A packet the hub forwarded, arriving at `now`.
+    fn handle_packet(&mut self, now: Time, packet: &Packet<'_>);
+    /// Time has come to `now`: run every timer due by then.
+    fn handle_timeout(&mut self, now: Time);
+    /// When [`handle_timeout`](Node::handle_timeout) is next needed; `None`
+    /// while no timer runs.
+    fn poll_timeout(&self) -> Option<Time>;
+    /// The next packet to publish, whole and well formed; `None` when there
+    /// is nothing more to send now.
+    fn poll_transmit(&mut self) -> Option<Vec<u8>>;
+}
+
+/// Whether a subscriber holding `subs` receives a packet addressed to
+/// `subjects`: it must hold every one of them (subject-set addressing, as the
+/// hub routes).
+///
+/// ```
+/// use std::collections::BTreeSet;
+/// use colony_node::receives;
+/// use colony_wire::Subject;
+/// let subs: BTreeSet<Subject> = ["camera", "idle"].map(|s| Subject::new(s).unwrap()).into();
+/// assert!(receives(&subs, ["camera", "idle"].into_iter()));
+/// assert!(!receives(&subs, ["camera", "laser"].into_iter()));
+/// ```
+pub fn receives<'a>(subs: &BTreeSet<Subject>, mut subjects: impl Iterator<Item = &'a str>) -> bool {
+    subjects.all(|s| subs.contains(s))
+}
+
+impl<T: Node + ?Sized> Node for Box<T> {
+    fn subscriptions(&self) -> &BTreeSet<Subject> {
+        (**self).subscriptions()
+    }
+    fn handle_packet(&mut self, now: Time, packet: &Packet<'_>) {
+        (**self).handle_packet(now, packet)
+    }
+    fn handle_timeout(&mut self, now: Time) {
+        (**self).handle_timeout(now)
+    }
+    fn poll_timeout(&self) -> Option<Time> {
+        (**self).poll_timeout()
+    }
+    fn poll_transmit(&mut self) -> Option<Vec<u8>> {
+        (**self).poll_transmit()
+    }
+}
+
+/// A borrowed node is a node: a [`Mux`](crate::Mux) can serve nodes its
+/// caller keeps.
+impl<T: Node + ?Sized> Node for &mut T {
+    fn subscriptions(&self) -> &BTreeSet<Subject> {
+        (**self).subscriptions()
+    }
+    fn handle_packet(&mut self, now: Time, packet: &Packet<'_>) {
+        (**self).handle_packet(now, packet)
+    }
+    fn handle_timeout(&mut self, now: Time) {
+        (**self).handle_timeout(now)
+    }
+    fn poll_timeout(&self) -> Option<Time> {
+        (**self).poll_timeout()
+    }
+    fn poll_transmit(&mut self) -> Option<Vec<u8>> {
+        (**self).poll_transmit()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn set(s: &str) -> BTreeSet<Subject> {
+        s.split_whitespace()
+            .map(|s| Subject::new(s).unwrap())
+            .collect()
+    }
+
+    #[test]
+    fn a_subscriber_receives_only_when_it_holds_every_subject() {
+        let subs = set("camera laser idle");
+        assert!(receives(&subs, ["camera"].into_iter()));
+        assert!(receives(&subs, ["camera", "laser", "idle"].into_iter()));
+        assert!(!receives(&subs, ["camera", "mobile"].into_iter()));
+        assert!(!receives(&set(""), ["camera"].into_iter()));
+    }
+
+    struct Counter {
+        subs: BTreeSet<Subject>,
+        packets: u32,
+        timeouts: u32,
+    }
+
+    impl Node for Counter {
+        fn subscriptions(&self) -> &BTreeSet<Subject> {
+            &self.subs
+        }
+        fn handle_packet(&mut self, _: Time, _: &Packet<'_>) {
+            self.packets += 1;
+        }
+        fn handle_timeout(&mut self, _: Time) {
+            self.timeouts += 1;
+        }
+        fn poll_timeout(&self) -> Option<Time> {
+            Some(Time::from_micros(u64::from(self.timeouts)))
+        }
+        fn poll_transmit(&mut self) -> Option<Vec<u8>> {
+            (self.packets > 0).then(|| b"@ <a> 0\nx\n".to_vec())
+        }
+    }
+
+    #[test]
+    fn boxed_and_borrowed_nodes_pass_every_call_through() {
+        let mut c = Counter {
+            subs: set("a"),
+            packets: 0,
+            timeouts: 0,
+        };
+        let packet = Packet::parse(b"@ <a> 0\nx\n").unwrap();
+        {
+            let mut borrowed: &mut Counter = &mut c;
+            let node: &mut dyn Node = &mut borrowed;
+            node.handle_packet(Time::ZERO, &packet);
+            node.handle_timeout(Time::ZERO);
+            assert_eq!(node.poll_timeout(), Some(Time::from_micros(1)));
+            assert!(node.poll_transmit().is_some());
+            assert_eq!(node.subscriptions(), &set("a"));
+        }
+        let mut boxed: Box<dyn Node> = Box::new(c);
+        boxed.handle_packet(Time::ZERO, &packet);
+        boxed.handle_timeout(Time::ZERO);
+        assert_eq!(boxed.poll_timeout(), Some(Time::from_micros(2)));
+        assert!(boxed.poll_transmit().is_some());
+        assert_eq!(boxed.subscriptions(), &set("a"));
+    }
+}
