@@ -182,7 +182,7 @@ export async function until(page, fn, arg, timeoutMs, what) {
   } catch (e) {
     const state = await page.evaluate(() => {
       const c = window.colony;
-      return c && { robots: c.robots, pucks: c.pucks, step: c.step, held: c.held, connected: c.connected, hubStale: c.hubStale, visionStale: c.visionStale, lastReply: c.lastReply };
+      return c && { robots: c.robots, pucks: c.pucks, step: c.step, drawn: c.drawn, held: c.held, connected: c.connected, hubStale: c.hubStale, visionStale: c.visionStale, lastReply: c.lastReply };
     }).catch(() => null);
     throw new Error(`${what} within ${timeoutMs} ms (page: ${JSON.stringify(state)}): ${e.message.split('\n')[0]}`);
   }

@@ -1,5 +1,6 @@
-//! The web side: the page, its script and style (compiled into the binary),
-//! and one WebSocket per browser tab.
+//! The web side: the pages, their scripts (with `common.js`, the module both
+//! import) and style (compiled into the binary), and one WebSocket per
+//! browser tab.
 //!
 //! Server to browser: `{"t":"world",...}` snapshots at most 30 times a
 //! second (coalesced: a slow tab gets the newest, never a backlog),
@@ -33,6 +34,8 @@ const STYLE_CSS: &str = include_str!("../web/style.css");
 const GAME_HTML: &str = include_str!("../web/game.html");
 const GAME_JS: &str = include_str!("../web/game.js");
 const GAME_CSS: &str = include_str!("../web/game.css");
+/// What both pages' scripts share (an ES module both import).
+const COMMON_JS: &str = include_str!("../web/common.js");
 
 /// The browser gets world snapshots at most this often.
 const MIN_SEND_INTERVAL: Duration = Duration::from_millis(33);
@@ -238,6 +241,7 @@ async fn serve(
         .route("/game", get(game_html))
         .route("/game.js", get(|| asset("text/javascript", GAME_JS)))
         .route("/game.css", get(|| asset("text/css", GAME_CSS)))
+        .route("/common.js", get(|| asset("text/javascript", COMMON_JS)))
         .route("/ws", get(ws))
         .with_state(app);
     axum::serve(listener, router)

@@ -3,799 +3,750 @@
 // The server sends {"t":"world"} snapshots (at most 30 a second), {"t":"hub"}
 // about once a second and {"t":"reply"} answers; the page sends requests
 // (take, release, drive, goto, publish). window.colony exposes what the page
-// shows, for people at the console and for the browser tests.
-'use strict';
-(() => {
-  const $ = (id) => document.getElementById(id);
-  const KIND_COLOURS = ['#e0452b', '#2b6fe0', '#23a446', '#e0a21b', '#8e44d6', '#e0702b', '#1fb5b5', '#d63384'];
-  const DEFAULT_SIZES = { robot_length: 12.5, robot_width: 10.8, gripper_radius: 3.6, puck_diameter: 6.3 };
-  const STALE_MS = 2000;
+// shows, for people at the console and for the browser tests. The socket,
+// the view transform, escaping and the banners are common.js's, shared with
+// the game page.
+import {
+  $, Transform, drawText, esc, fitBacking, pixelRatio, serverLink, showBanners, showChip, showMessage, tenth,
+} from './common.js';
 
-  const canvas = $('arena');
-  const ctx = canvas.getContext('2d', { alpha: false });
-  const plot = $('plot');
-  const pctx = plot.getContext('2d');
+const KIND_COLOURS = ['#e0452b', '#2b6fe0', '#23a446', '#e0a21b', '#8e44d6', '#e0702b', '#1fb5b5', '#d63384'];
+const DEFAULT_SIZES = { robot_length: 12.5, robot_width: 10.8, gripper_radius: 3.6, puck_diameter: 6.3 };
+const STALE_MS = 2000;
 
-  let world = null; // the newest snapshot
-  let shown = null; // the snapshot drawn (held back while the view is paused)
-  let hub = null;
-  let paused = false;
-  let dirty = true;
-  let plotDirty = true;
-  const view = { cx: 0, cy: 0, scale: 3, fitted: false, auto: true }; // auto: refit on resize until the user pans or zooms
-  const selected = new Set();
-  let pcSeries = [];
-  let socket = null;
-  let connected = false;
-  let serverLostSince = Date.now();
-  let retryMs = 500;
+const canvas = $('arena');
+const ctx = canvas.getContext('2d', { alpha: false });
+const plot = $('plot');
+const pctx = plot.getContext('2d');
 
-  const api = {
-    robots: 0, pucks: 0, step: null, fps: 0, frames: 0, drawMs: 0,
-    connected: false, hubStale: false, visionStale: false, serverLostSince: null,
-    hubStaleSince: null, visionStaleSince: null,
-    held: [], all: false, selected: [], poses: {}, states: {}, pc: null,
-    channels: {}, minPriority: null, paused: false, worlds: 0, hubs: 0, lastReply: null,
-    worldToClient, select, send,
-  };
-  window.colony = api;
+let world = null; // the newest snapshot
+let shown = null; // the snapshot drawn (held back while the view is paused)
+let hub = null;
+let paused = false;
+let dirty = true;
+let plotDirty = true;
+const view = { cx: 0, cy: 0, scale: 3, fitted: false, auto: true }; // auto: refit on resize until the user pans or zooms
+const selected = new Set();
+let pcSeries = [];
+let link = null;
+let connected = false;
+let serverLostSince = Date.now();
 
-  // ---- the connection ---------------------------------------------------
-  function connect() {
-    const proto = location.protocol === 'https:' ? 'wss:' : 'ws:';
-    socket = new WebSocket(`${proto}//${location.host}/ws`);
-    socket.onopen = () => {
+const api = {
+  robots: 0, pucks: 0, step: null, fps: 0, frames: 0, drawMs: 0,
+  drawn: { step: null, robots: 0, pucks: 0 }, // what the canvas shows now
+  connected: false, hubStale: false, visionStale: false, serverLostSince: null,
+  hubStaleSince: null, visionStaleSince: null,
+  held: [], all: false, selected: [], poses: {}, states: {}, pc: null,
+  channels: {}, minPriority: null, paused: false, worlds: 0, hubs: 0, lastReply: null,
+  worldToClient, select, send,
+};
+window.colony = api;
+
+// ---- the connection ---------------------------------------------------
+function connect() {
+  link = serverLink('/ws', {
+    onOpen() {
       connected = true;
-      retryMs = 500;
       serverLostSince = null;
       updateBanners();
-    };
-    socket.onmessage = (ev) => {
-      let msg;
-      try { msg = JSON.parse(ev.data); } catch (e) { return; }
+    },
+    onMessage(msg) {
       if (msg.t === 'world') onWorld(msg);
       else if (msg.t === 'hub') onHub(msg);
       else if (msg.t === 'reply') onReply(msg);
-    };
-    socket.onclose = () => {
-      if (connected || serverLostSince === null) serverLostSince = Date.now();
+    },
+    onClose(wasConnected) {
+      if (wasConnected || serverLostSince === null) serverLostSince = Date.now();
       connected = false;
       updateBanners();
-      setTimeout(connect, retryMs);
-      retryMs = Math.min(retryMs * 2, 4000);
-    };
-    socket.onerror = () => {};
-  }
+    },
+  });
+}
 
-  function send(obj) {
-    if (socket && socket.readyState === WebSocket.OPEN) {
-      socket.send(JSON.stringify(obj));
-      return true;
-    }
-    message('override-msg', 'not connected to the monitor server', false);
-    return false;
-  }
+function send(obj) {
+  if (link && link.send(obj)) return true;
+  message('override-msg', 'not connected to the monitor server', false);
+  return false;
+}
 
-  // ---- incoming ----------------------------------------------------------
-  function onWorld(w) {
-    world = w;
-    api.worlds += 1;
-    api.robots = w.robots.length;
-    api.pucks = w.pucks.length;
-    api.step = w.step;
-    api.held = w.held;
-    api.all = w.all;
-    api.hubStaleSince = w.hub_stale_since;
-    api.visionStaleSince = w.vision_stale_since;
-    const poses = {};
-    for (const r of w.robots) poses[r[0]] = [r[1], r[2], r[3]];
-    api.poses = poses;
-    const states = {};
-    for (const i of w.intents) states[i[0]] = i[1];
-    api.states = states;
-    if (w.pc) {
-      api.pc = w.pc[1];
-      const last = pcSeries[pcSeries.length - 1];
-      if (!last || w.pc[0] > last[0]) { pcSeries.push(w.pc); plotDirty = true; }
-      else if (w.pc[0] < last[0]) { pcSeries = [w.pc]; plotDirty = true; }
-    }
-    if (!paused) { shown = w; dirty = true; }
-    if (!view.fitted) fit();
-    $('step').textContent = w.step === null ? '–' : String(w.step);
-    $('nrobots').textContent = String(api.robots);
-    $('npucks').textContent = String(api.pucks);
-    $('pcnow').textContent = w.pc ? `${w.pc[1].toFixed(1)} %` : '–';
-    $('held-line').textContent = w.held.length
-      ? `Holding ${w.all ? 'all: ' : ''}${listIds(w.held)}${w.min_raised ? ' (hub minimum priority raised)' : ''}`
-      : 'Holding: none (the controllers drive every robot)';
-    updateBanners();
+// ---- incoming ----------------------------------------------------------
+function onWorld(w) {
+  world = w;
+  api.worlds += 1;
+  api.robots = w.robots.length;
+  api.pucks = w.pucks.length;
+  api.step = w.step;
+  api.held = w.held;
+  api.all = w.all;
+  api.hubStaleSince = w.hub_stale_since;
+  api.visionStaleSince = w.vision_stale_since;
+  const poses = {};
+  for (const r of w.robots) poses[r[0]] = [r[1], r[2], r[3]];
+  api.poses = poses;
+  const states = {};
+  for (const i of w.intents) states[i[0]] = i[1];
+  api.states = states;
+  if (w.pc) {
+    api.pc = w.pc[1];
+    const last = pcSeries[pcSeries.length - 1];
+    if (!last || w.pc[0] > last[0]) { pcSeries.push(w.pc); plotDirty = true; }
+    else if (w.pc[0] < last[0]) { pcSeries = [w.pc]; plotDirty = true; }
   }
+  if (!paused) { shown = w; dirty = true; }
+  if (!view.fitted) fit();
+  $('step').textContent = w.step === null ? '–' : String(w.step);
+  $('nrobots').textContent = String(api.robots);
+  $('npucks').textContent = String(api.pucks);
+  $('pcnow').textContent = w.pc ? `${w.pc[1].toFixed(1)} %` : '–';
+  $('held-line').textContent = w.held.length
+    ? `Holding ${w.all ? 'all: ' : ''}${listIds(w.held)}${w.min_raised ? ' (hub minimum priority raised)' : ''}`
+    : 'Holding: none (the controllers drive every robot)';
+  updateBanners();
+}
 
-  function onHub(h) {
-    hub = h;
-    api.hubs += 1;
-    api.minPriority = h.min_priority;
-    if (h.pc && h.pc.length) {
-      // The server's history, plus any newer points from world snapshots.
-      const last = h.pc[h.pc.length - 1][0];
-      pcSeries = h.pc.concat(pcSeries.filter((p) => p[0] > last));
-      plotDirty = true;
-    }
-    renderHub();
+function onHub(h) {
+  hub = h;
+  api.hubs += 1;
+  api.minPriority = h.min_priority;
+  if (h.pc && h.pc.length) {
+    // The server's history, plus any newer points from world snapshots.
+    const last = h.pc[h.pc.length - 1][0];
+    pcSeries = h.pc.concat(pcSeries.filter((p) => p[0] > last));
+    plotDirty = true;
   }
+  renderHub();
+}
 
-  function onReply(r) {
-    api.lastReply = r;
-    if (r.to === 'publish') {
-      message('forge-msg', r.msg, r.ok);
-      if (!r.ok && r.line) markError(r.line, r.column);
-    } else if (!(r.ok && r.to === 'drive')) {
-      message('override-msg', r.msg, r.ok);
-    }
+function onReply(r) {
+  api.lastReply = r;
+  if (r.to === 'publish') {
+    message('forge-msg', r.msg, r.ok);
+    if (!r.ok && r.line) markError(r.line, r.column);
+  } else if (!(r.ok && r.to === 'drive')) {
+    message('override-msg', r.msg, r.ok);
   }
+}
 
-  function message(id, text, ok) {
-    const el = $(id);
-    el.textContent = text;
-    el.className = `msg ${ok ? 'ok' : 'err'}`;
+function message(id, text, ok) {
+  showMessage($(id), text, ok);
+}
+
+// Puts the cursor on the line and column a forged packet's error names.
+function markError(line, column) {
+  const ta = $('forge');
+  const lines = ta.value.split('\n');
+  let at = 0;
+  for (let i = 0; i < line - 1 && i < lines.length; i++) at += lines[i].length + 1;
+  at = Math.min(ta.value.length, at + Math.max(0, (column || 1) - 1));
+  ta.focus();
+  ta.setSelectionRange(at, Math.min(ta.value.length, at + 1));
+}
+
+// ---- staleness ----------------------------------------------------------
+function clock(ms) {
+  return new Date(ms).toLocaleTimeString([], { hour12: false });
+}
+
+function updateBanners() {
+  const notes = [];
+  api.connected = connected;
+  api.serverLostSince = connected ? null : serverLostSince;
+  const note = (kind, text) => notes.push({ cls: `stale-banner ${kind}`, id: `banner-${kind}`, text });
+  if (!connected) {
+    note('server', `monitor server lost since ${clock(serverLostSince || Date.now())}: reconnecting…`);
   }
-
-  // Puts the cursor on the line and column a forged packet's error names.
-  function markError(line, column) {
-    const ta = $('forge');
-    const lines = ta.value.split('\n');
-    let at = 0;
-    for (let i = 0; i < line - 1 && i < lines.length; i++) at += lines[i].length + 1;
-    at = Math.min(ta.value.length, at + Math.max(0, (column || 1) - 1));
-    ta.focus();
-    ta.setSelectionRange(at, Math.min(ta.value.length, at + 1));
+  const w = world;
+  api.hubStale = !connected || !w || w.hub_stale_since !== null;
+  api.visionStale = !connected || !w || w.vision_stale_since !== null;
+  if (connected && w) {
+    if (w.hub_stale_since !== null) note('hub', `hub stale since ${clock(w.hub_stale_since)}: no word from the hub; the monitor keeps asking`);
+    if (w.vision_stale_since !== null) note('vision', `vision stale since ${clock(w.vision_stale_since)}: no world state on <vision>`);
   }
+  if (showBanners($('banners'), notes)) dirty = true;
+  const stale = api.hubStale || api.visionStale;
+  showChip($('conn'), !connected ? 'server lost' : stale ? 'stale' : 'live', connected && !stale);
+}
+setInterval(updateBanners, 500);
 
-  // ---- staleness ----------------------------------------------------------
-  function clock(ms) {
-    return new Date(ms).toLocaleTimeString([], { hour12: false });
+// ---- the view -------------------------------------------------------------
+function sizes() {
+  return (shown && shown.sizes) || DEFAULT_SIZES;
+}
+
+function extent() {
+  const w = shown || world;
+  if (w && w.arena) return [w.arena.width, w.arena.height];
+  let m = 50;
+  if (w) for (const r of w.robots) m = Math.max(m, Math.abs(r[1]), Math.abs(r[2]));
+  if (w) for (const p of w.pucks) m = Math.max(m, Math.abs(p[2]), Math.abs(p[3]));
+  return [2 * m, 2 * m];
+}
+
+function fit() {
+  const w = shown || world;
+  if (!w || (!w.arena && !w.robots.length)) return;
+  const [ew, eh] = extent();
+  const r = canvas.getBoundingClientRect();
+  if (r.width < 10 || r.height < 10) return;
+  view.scale = Math.min(r.width / (ew * 1.06), r.height / (eh * 1.06));
+  view.cx = 0;
+  view.cy = 0;
+  view.fitted = true;
+  dirty = true;
+}
+
+function resize() {
+  if (fitBacking(canvas)) dirty = true;
+  if (fitBacking(plot)) plotDirty = true;
+}
+new ResizeObserver(() => { resize(); if (!view.fitted || view.auto) fit(); }).observe(canvas);
+new ResizeObserver(resize).observe(plot);
+
+// World (cm, y up) to canvas device pixels: the panned and zoomed view.
+function transform() {
+  return Transform.centred(canvas, view.cx, view.cy, view.scale);
+}
+
+function worldToClient(x, y) {
+  return transform().toClient(x, y);
+}
+
+function clientToWorld(cx, cy) {
+  return transform().fromClient(cx, cy);
+}
+
+function roundedRect(c, x, y, w, h, r) {
+  r = Math.max(0, Math.min(r, w / 2, h / 2));
+  c.moveTo(x + r, y);
+  c.lineTo(x + w - r, y);
+  c.arc(x + w - r, y + r, r, -Math.PI / 2, 0);
+  c.lineTo(x + w, y + h - r);
+  c.arc(x + w - r, y + h - r, r, 0, Math.PI / 2);
+  c.lineTo(x + r, y + h);
+  c.arc(x + r, y + h - r, r, Math.PI / 2, Math.PI);
+  c.lineTo(x, y + r);
+  c.arc(x + r, y + r, r, Math.PI, 1.5 * Math.PI);
+  c.closePath();
+}
+
+function draw() {
+  const t0 = performance.now();
+  const t = transform();
+  const { k, ox, oy, dpr } = t;
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  ctx.fillStyle = '#d7dbe0';
+  ctx.fillRect(0, 0, canvas.width, canvas.height);
+  const w = shown;
+  if (!w) {
+    label('waiting for the world on <vision>…', canvas.width / 2, canvas.height / 2, '#4a5563', 16 * dpr, 'center');
+    return;
   }
+  const s = sizes();
+  const px = 1 / k; // one device pixel, in cm
+  ctx.setTransform(k, 0, 0, -k, ox, oy);
+  // Walls and floor.
+  const [aw, ah] = extent();
+  const corner = w.arena ? w.arena.corner : 0;
+  ctx.beginPath();
+  roundedRect(ctx, -aw / 2, -ah / 2, aw, ah, corner);
+  ctx.fillStyle = '#f6f3ea';
+  ctx.fill();
+  ctx.lineWidth = Math.max(2 * px, 1.5);
+  ctx.strokeStyle = '#3a3f47';
+  ctx.stroke();
 
-  function updateBanners() {
-    const notes = [];
-    api.connected = connected;
-    api.serverLostSince = connected ? null : serverLostSince;
-    if (!connected) {
-      notes.push(['server', `monitor server lost since ${clock(serverLostSince || Date.now())}: reconnecting…`]);
-    }
-    const w = world;
-    api.hubStale = !connected || !w || w.hub_stale_since !== null;
-    api.visionStale = !connected || !w || w.vision_stale_since !== null;
-    if (connected && w) {
-      if (w.hub_stale_since !== null) notes.push(['hub', `hub stale since ${clock(w.hub_stale_since)}: no word from the hub; the monitor keeps asking`]);
-      if (w.vision_stale_since !== null) notes.push(['vision', `vision stale since ${clock(w.vision_stale_since)}: no world state on <vision>`]);
-    }
-    const key = notes.map((n) => n[1]).join('|');
-    const box = $('banners');
-    if (box.dataset.key !== key) {
-      box.dataset.key = key;
-      box.replaceChildren(...notes.map(([kind, text]) => {
-        const d = document.createElement('div');
-        d.className = `stale-banner ${kind}`;
-        d.id = `banner-${kind}`;
-        d.textContent = text;
-        return d;
-      }));
-      dirty = true;
-    }
-    const conn = $('conn');
-    const stale = api.hubStale || api.visionStale;
-    conn.textContent = !connected ? 'server lost' : stale ? 'stale' : 'live';
-    conn.className = `chip ${!connected || stale ? 'bad' : 'ok'}`;
+  // Pucks, one path per kind.
+  const pr = Math.max(s.puck_diameter / 2, 1.2 * px);
+  const byKind = new Map();
+  for (const p of w.pucks) {
+    let list = byKind.get(p[1]);
+    if (!list) byKind.set(p[1], (list = []));
+    list.push(p);
   }
-  setInterval(updateBanners, 500);
-
-  // ---- the view -------------------------------------------------------------
-  function sizes() {
-    return (shown && shown.sizes) || DEFAULT_SIZES;
-  }
-
-  function extent() {
-    const w = shown || world;
-    if (w && w.arena) return [w.arena.width, w.arena.height];
-    let m = 50;
-    if (w) for (const r of w.robots) m = Math.max(m, Math.abs(r[1]), Math.abs(r[2]));
-    if (w) for (const p of w.pucks) m = Math.max(m, Math.abs(p[2]), Math.abs(p[3]));
-    return [2 * m, 2 * m];
-  }
-
-  function fit() {
-    const w = shown || world;
-    if (!w || (!w.arena && !w.robots.length)) return;
-    const [ew, eh] = extent();
-    const r = canvas.getBoundingClientRect();
-    if (r.width < 10 || r.height < 10) return;
-    view.scale = Math.min(r.width / (ew * 1.06), r.height / (eh * 1.06));
-    view.cx = 0;
-    view.cy = 0;
-    view.fitted = true;
-    dirty = true;
-  }
-
-  function resize() {
-    const dpr = window.devicePixelRatio || 1;
-    const r = canvas.getBoundingClientRect();
-    const w = Math.max(1, Math.round(r.width * dpr));
-    const h = Math.max(1, Math.round(r.height * dpr));
-    if (canvas.width !== w || canvas.height !== h) {
-      canvas.width = w;
-      canvas.height = h;
-      dirty = true;
-    }
-    const pr = plot.getBoundingClientRect();
-    const pw = Math.max(1, Math.round(pr.width * dpr));
-    const ph = Math.max(1, Math.round(pr.height * dpr));
-    if (plot.width !== pw || plot.height !== ph) {
-      plot.width = pw;
-      plot.height = ph;
-      plotDirty = true;
-    }
-  }
-  new ResizeObserver(() => { resize(); if (!view.fitted || view.auto) fit(); }).observe(canvas);
-  new ResizeObserver(resize).observe(plot);
-
-  // World (cm, y up) to canvas device pixels.
-  function transform() {
-    const dpr = window.devicePixelRatio || 1;
-    const k = view.scale * dpr;
-    return { k, ox: canvas.width / 2 - view.cx * k, oy: canvas.height / 2 + view.cy * k, dpr };
-  }
-
-  function worldToClient(x, y) {
-    const t = transform();
-    const r = canvas.getBoundingClientRect();
-    return { x: r.left + (t.ox + x * t.k) / t.dpr, y: r.top + (t.oy - y * t.k) / t.dpr };
-  }
-
-  function clientToWorld(cx, cy) {
-    const t = transform();
-    const r = canvas.getBoundingClientRect();
-    const px = (cx - r.left) * t.dpr;
-    const py = (cy - r.top) * t.dpr;
-    return { x: (px - t.ox) / t.k, y: (t.oy - py) / t.k };
-  }
-
-  function roundedRect(c, x, y, w, h, r) {
-    r = Math.max(0, Math.min(r, w / 2, h / 2));
-    c.moveTo(x + r, y);
-    c.lineTo(x + w - r, y);
-    c.arc(x + w - r, y + r, r, -Math.PI / 2, 0);
-    c.lineTo(x + w, y + h - r);
-    c.arc(x + w - r, y + h - r, r, 0, Math.PI / 2);
-    c.lineTo(x + r, y + h);
-    c.arc(x + r, y + h - r, r, Math.PI / 2, Math.PI);
-    c.lineTo(x, y + r);
-    c.arc(x + r, y + r, r, Math.PI, 1.5 * Math.PI);
-    c.closePath();
-  }
-
-  function draw() {
-    const t0 = performance.now();
-    const t = transform();
-    const { k, ox, oy, dpr } = t;
-    ctx.setTransform(1, 0, 0, 1, 0, 0);
-    ctx.fillStyle = '#d7dbe0';
-    ctx.fillRect(0, 0, canvas.width, canvas.height);
-    const w = shown;
-    if (!w) {
-      label('waiting for the world on <vision>…', canvas.width / 2, canvas.height / 2, '#4a5563', 16 * dpr, 'center');
-      return;
-    }
-    const s = sizes();
-    const px = 1 / k; // one device pixel, in cm
-    ctx.setTransform(k, 0, 0, -k, ox, oy);
-    // Walls and floor.
-    const [aw, ah] = extent();
-    const corner = w.arena ? w.arena.corner : 0;
+  for (const [kind, list] of byKind) {
     ctx.beginPath();
-    roundedRect(ctx, -aw / 2, -ah / 2, aw, ah, corner);
-    ctx.fillStyle = '#f6f3ea';
-    ctx.fill();
-    ctx.lineWidth = Math.max(2 * px, 1.5);
-    ctx.strokeStyle = '#3a3f47';
-    ctx.stroke();
-
-    // Pucks, one path per kind.
-    const pr = Math.max(s.puck_diameter / 2, 1.2 * px);
-    const byKind = new Map();
-    for (const p of w.pucks) {
-      let list = byKind.get(p[1]);
-      if (!list) byKind.set(p[1], (list = []));
-      list.push(p);
-    }
-    for (const [kind, list] of byKind) {
-      ctx.beginPath();
-      for (const p of list) {
-        ctx.moveTo(p[2] + pr, p[3]);
-        ctx.arc(p[2], p[3], pr, 0, 2 * Math.PI);
-      }
-      ctx.fillStyle = KIND_COLOURS[kind % KIND_COLOURS.length];
-      ctx.fill();
-    }
-
-    // Cache points: squares in their kind's colour.
-    const showIntents = $('show-intents').checked;
-    if (showIntents && w.caches.length) {
-      ctx.lineWidth = 2 * px;
-      ctx.setLineDash([4 * px, 3 * px]);
-      const half = s.puck_diameter * 1.2;
-      for (const c of w.caches) {
-        ctx.strokeStyle = KIND_COLOURS[c[1] % KIND_COLOURS.length];
-        ctx.strokeRect(c[2] - half, c[3] - half, 2 * half, 2 * half);
-      }
-      ctx.setLineDash([]);
-    }
-
-    const poses = new Map();
-    for (const r of w.robots) poses.set(r[0], r);
-    const held = new Set(w.held);
-
-    // Each controller's target: a dashed line from the robot.
-    if (showIntents) {
-      ctx.beginPath();
-      for (const i of w.intents) {
-        const r = poses.get(i[0]);
-        if (!r || i[2] === null || held.has(i[0])) continue;
-        ctx.moveTo(r[1], r[2]);
-        ctx.lineTo(i[2], i[3]);
-        ctx.moveTo(i[2] - 2, i[3] - 2); ctx.lineTo(i[2] + 2, i[3] + 2);
-        ctx.moveTo(i[2] - 2, i[3] + 2); ctx.lineTo(i[2] + 2, i[3] - 2);
-      }
-      ctx.strokeStyle = 'rgba(40, 60, 90, 0.55)';
-      ctx.lineWidth = 1.5 * px;
-      ctx.setLineDash([5 * px, 4 * px]);
-      ctx.stroke();
-      ctx.setLineDash([]);
-    }
-    // The operator's targets.
-    if (w.targets.length) {
-      ctx.beginPath();
-      for (const [id, tx, ty] of w.targets) {
-        const r = poses.get(id);
-        if (r) { ctx.moveTo(r[1], r[2]); ctx.lineTo(tx, ty); }
-        ctx.moveTo(tx + 4, ty);
-        ctx.arc(tx, ty, 4, 0, 2 * Math.PI);
-      }
-      ctx.strokeStyle = '#c2185b';
-      ctx.lineWidth = 2 * px;
-      ctx.stroke();
-    }
-
-    // Robots: oriented bodies, C-shaped grippers at the front, heading marks.
-    const L = s.robot_length;
-    const W = s.robot_width;
-    const gr = s.gripper_radius || s.puck_diameter * 0.57;
-    const mouth = (130 / 2) * Math.PI / 180; // half the gripper's mouth
-    const bodies = { normal: new Path2D(), held: new Path2D() };
-    const grippers = new Path2D();
-    const heads = new Path2D();
-    for (const r of w.robots) {
-      const [id, x, y, th] = r;
-      const c = Math.cos(th);
-      const sn = Math.sin(th);
-      const pt = (fx, fy) => [x + fx * c - fy * sn, y + fx * sn + fy * c];
-      const path = held.has(id) ? bodies.held : bodies.normal;
-      const a = pt(-L / 2, -W / 2);
-      const b = pt(L / 2, -W / 2);
-      const d = pt(L / 2, W / 2);
-      const e = pt(-L / 2, W / 2);
-      path.moveTo(a[0], a[1]); path.lineTo(b[0], b[1]); path.lineTo(d[0], d[1]); path.lineTo(e[0], e[1]); path.closePath();
-      // The C-shaped gripper: straight jaws from the body's front to the
-      // pocket's centre, then lips following the pocket round to the mouth.
-      const g = pt(L / 2 + gr, 0);
-      for (const side of [1, -1]) {
-        const j0 = pt(L / 2, side * gr);
-        const j1 = pt(L / 2 + gr, side * gr);
-        grippers.moveTo(j0[0], j0[1]);
-        grippers.lineTo(j1[0], j1[1]);
-        grippers.arc(g[0], g[1], gr, th + side * Math.PI / 2, th + side * mouth, side > 0);
-      }
-      const h1 = pt(L / 2 - 1, 0);
-      const h2 = pt(-L / 4, W / 3);
-      const h3 = pt(-L / 4, -W / 3);
-      heads.moveTo(h1[0], h1[1]); heads.lineTo(h2[0], h2[1]); heads.lineTo(h3[0], h3[1]); heads.closePath();
-    }
-    ctx.fillStyle = '#3c4651';
-    ctx.fill(bodies.normal);
-    ctx.fillStyle = '#c2185b';
-    ctx.fill(bodies.held);
-    ctx.fillStyle = 'rgba(255,255,255,0.85)';
-    ctx.fill(heads);
-    ctx.strokeStyle = '#1d232b';
-    ctx.lineWidth = Math.max(0.8, 1.5 * px); // the jaws are about 8 mm thick
-    ctx.lineCap = 'round';
-    ctx.stroke(grippers);
-
-    // Carried pucks, ringed so they stand out in the gripper.
-    const pucks = new Map();
-    for (const p of w.pucks) pucks.set(p[0], p);
-    for (const r of w.robots) {
-      if (r[4] < 0) continue;
-      const p = pucks.get(r[4]);
-      if (!p) continue;
-      ctx.beginPath();
+    for (const p of list) {
+      ctx.moveTo(p[2] + pr, p[3]);
       ctx.arc(p[2], p[3], pr, 0, 2 * Math.PI);
-      ctx.fillStyle = KIND_COLOURS[p[1] % KIND_COLOURS.length];
-      ctx.fill();
-      ctx.lineWidth = Math.max(1, 1.5 * px);
-      ctx.strokeStyle = '#fff';
-      ctx.stroke();
     }
-
-    // Selection rings.
-    if (selected.size) {
-      ctx.beginPath();
-      for (const id of selected) {
-        const r = poses.get(id);
-        if (!r) continue;
-        ctx.moveTo(r[1] + L * 0.85, r[2]);
-        ctx.arc(r[1], r[2], L * 0.85, 0, 2 * Math.PI);
-      }
-      ctx.strokeStyle = '#f2b705';
-      ctx.lineWidth = Math.max(2, 3 * px);
-      ctx.stroke();
-    }
-
-    // Labels, in screen space: id and FSM state.
-    ctx.setTransform(1, 0, 0, 1, 0, 0);
-    const showLabels = $('show-labels').checked && (w.robots.length <= 64 || view.scale * dpr > 6);
-    if (showLabels) {
-      const states = new Map();
-      for (const i of w.intents) states.set(i[0], i[1]);
-      ctx.font = `${11 * dpr}px system-ui, sans-serif`;
-      ctx.textAlign = 'center';
-      for (const r of w.robots) {
-        const sx = ox + r[1] * k;
-        const sy = oy - r[2] * k - (L * 0.9) * k - 3 * dpr;
-        const st = held.has(r[0]) ? 'OPERATOR' : (showIntents && states.get(r[0])) || '';
-        const text = st ? `${r[0]} ${st}` : String(r[0]);
-        ctx.fillStyle = 'rgba(255,255,255,0.8)';
-        const tw = ctx.measureText(text).width;
-        ctx.fillRect(sx - tw / 2 - 2 * dpr, sy - 10 * dpr, tw + 4 * dpr, 13 * dpr);
-        ctx.fillStyle = held.has(r[0]) ? '#c2185b' : '#1d232b';
-        ctx.fillText(text, sx, sy);
-      }
-    }
-    scaleBar(t);
-    if (api.hubStale || api.visionStale) {
-      ctx.fillStyle = 'rgba(110, 110, 110, 0.35)';
-      ctx.fillRect(0, 0, canvas.width, canvas.height);
-      const since = !connected ? serverLostSince : (world && (world.hub_stale_since || world.vision_stale_since));
-      label(`STALE since ${clock(since || Date.now())}`, canvas.width / 2, 40 * dpr, '#7a1f17', 22 * dpr, 'center');
-    }
-    if (paused) label('view paused', 10 * dpr, 22 * dpr, '#a8322b', 14 * dpr, 'left');
-    api.drawMs = performance.now() - t0;
+    ctx.fillStyle = KIND_COLOURS[kind % KIND_COLOURS.length];
+    ctx.fill();
   }
 
-  function label(text, x, y, colour, px, align) {
-    ctx.setTransform(1, 0, 0, 1, 0, 0);
-    ctx.font = `600 ${px}px system-ui, sans-serif`;
-    ctx.textAlign = align;
-    ctx.fillStyle = colour;
-    ctx.fillText(text, x, y);
+  // Cache points: squares in their kind's colour.
+  const showIntents = $('show-intents').checked;
+  if (showIntents && w.caches.length) {
+    ctx.lineWidth = 2 * px;
+    ctx.setLineDash([4 * px, 3 * px]);
+    const half = s.puck_diameter * 1.2;
+    for (const c of w.caches) {
+      ctx.strokeStyle = KIND_COLOURS[c[1] % KIND_COLOURS.length];
+      ctx.strokeRect(c[2] - half, c[3] - half, 2 * half, 2 * half);
+    }
+    ctx.setLineDash([]);
   }
 
-  function scaleBar(t) {
-    const { k, dpr } = t;
-    const targetPx = 120 * dpr;
-    const steps = [1, 2, 5, 10, 20, 25, 50, 100, 200, 500, 1000, 2000, 5000];
-    let cm = steps[0];
-    for (const s of steps) if (s * k <= targetPx) cm = s;
-    const x = 12 * dpr;
-    const y = canvas.height - 14 * dpr;
-    ctx.strokeStyle = '#1d232b';
-    ctx.lineWidth = 2 * dpr;
+  const poses = new Map();
+  for (const r of w.robots) poses.set(r[0], r);
+  const held = new Set(w.held);
+
+  // Each controller's target: a dashed line from the robot.
+  if (showIntents) {
     ctx.beginPath();
-    ctx.moveTo(x, y - 5 * dpr); ctx.lineTo(x, y); ctx.lineTo(x + cm * k, y); ctx.lineTo(x + cm * k, y - 5 * dpr);
+    for (const i of w.intents) {
+      const r = poses.get(i[0]);
+      if (!r || i[2] === null || held.has(i[0])) continue;
+      ctx.moveTo(r[1], r[2]);
+      ctx.lineTo(i[2], i[3]);
+      ctx.moveTo(i[2] - 2, i[3] - 2); ctx.lineTo(i[2] + 2, i[3] + 2);
+      ctx.moveTo(i[2] - 2, i[3] + 2); ctx.lineTo(i[2] + 2, i[3] - 2);
+    }
+    ctx.strokeStyle = 'rgba(40, 60, 90, 0.55)';
+    ctx.lineWidth = 1.5 * px;
+    ctx.setLineDash([5 * px, 4 * px]);
     ctx.stroke();
+    ctx.setLineDash([]);
+  }
+  // The operator's targets.
+  if (w.targets.length) {
+    ctx.beginPath();
+    for (const [id, tx, ty] of w.targets) {
+      const r = poses.get(id);
+      if (r) { ctx.moveTo(r[1], r[2]); ctx.lineTo(tx, ty); }
+      ctx.moveTo(tx + 4, ty);
+      ctx.arc(tx, ty, 4, 0, 2 * Math.PI);
+    }
+    ctx.strokeStyle = '#c2185b';
+    ctx.lineWidth = 2 * px;
+    ctx.stroke();
+  }
+
+  // Robots: oriented bodies, C-shaped grippers at the front, heading marks.
+  const L = s.robot_length;
+  const W = s.robot_width;
+  const gr = s.gripper_radius || s.puck_diameter * 0.57;
+  const mouth = (130 / 2) * Math.PI / 180; // half the gripper's mouth
+  const bodies = { normal: new Path2D(), held: new Path2D() };
+  const grippers = new Path2D();
+  const heads = new Path2D();
+  for (const r of w.robots) {
+    const [id, x, y, th] = r;
+    const c = Math.cos(th);
+    const sn = Math.sin(th);
+    const pt = (fx, fy) => [x + fx * c - fy * sn, y + fx * sn + fy * c];
+    const path = held.has(id) ? bodies.held : bodies.normal;
+    const a = pt(-L / 2, -W / 2);
+    const b = pt(L / 2, -W / 2);
+    const d = pt(L / 2, W / 2);
+    const e = pt(-L / 2, W / 2);
+    path.moveTo(a[0], a[1]); path.lineTo(b[0], b[1]); path.lineTo(d[0], d[1]); path.lineTo(e[0], e[1]); path.closePath();
+    // The C-shaped gripper: straight jaws from the body's front to the
+    // pocket's centre, then lips following the pocket round to the mouth.
+    const g = pt(L / 2 + gr, 0);
+    for (const side of [1, -1]) {
+      const j0 = pt(L / 2, side * gr);
+      const j1 = pt(L / 2 + gr, side * gr);
+      grippers.moveTo(j0[0], j0[1]);
+      grippers.lineTo(j1[0], j1[1]);
+      grippers.arc(g[0], g[1], gr, th + side * Math.PI / 2, th + side * mouth, side > 0);
+    }
+    const h1 = pt(L / 2 - 1, 0);
+    const h2 = pt(-L / 4, W / 3);
+    const h3 = pt(-L / 4, -W / 3);
+    heads.moveTo(h1[0], h1[1]); heads.lineTo(h2[0], h2[1]); heads.lineTo(h3[0], h3[1]); heads.closePath();
+  }
+  ctx.fillStyle = '#3c4651';
+  ctx.fill(bodies.normal);
+  ctx.fillStyle = '#c2185b';
+  ctx.fill(bodies.held);
+  ctx.fillStyle = 'rgba(255,255,255,0.85)';
+  ctx.fill(heads);
+  ctx.strokeStyle = '#1d232b';
+  ctx.lineWidth = Math.max(0.8, 1.5 * px); // the jaws are about 8 mm thick
+  ctx.lineCap = 'round';
+  ctx.stroke(grippers);
+
+  // Carried pucks, ringed so they stand out in the gripper.
+  const pucks = new Map();
+  for (const p of w.pucks) pucks.set(p[0], p);
+  for (const r of w.robots) {
+    if (r[4] < 0) continue;
+    const p = pucks.get(r[4]);
+    if (!p) continue;
+    ctx.beginPath();
+    ctx.arc(p[2], p[3], pr, 0, 2 * Math.PI);
+    ctx.fillStyle = KIND_COLOURS[p[1] % KIND_COLOURS.length];
+    ctx.fill();
+    ctx.lineWidth = Math.max(1, 1.5 * px);
+    ctx.strokeStyle = '#fff';
+    ctx.stroke();
+  }
+
+  // Selection rings.
+  if (selected.size) {
+    ctx.beginPath();
+    for (const id of selected) {
+      const r = poses.get(id);
+      if (!r) continue;
+      ctx.moveTo(r[1] + L * 0.85, r[2]);
+      ctx.arc(r[1], r[2], L * 0.85, 0, 2 * Math.PI);
+    }
+    ctx.strokeStyle = '#f2b705';
+    ctx.lineWidth = Math.max(2, 3 * px);
+    ctx.stroke();
+  }
+
+  // Labels, in screen space: id and FSM state.
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  const showLabels = $('show-labels').checked && (w.robots.length <= 64 || view.scale * dpr > 6);
+  if (showLabels) {
+    const states = new Map();
+    for (const i of w.intents) states.set(i[0], i[1]);
     ctx.font = `${11 * dpr}px system-ui, sans-serif`;
-    ctx.textAlign = 'left';
-    ctx.fillStyle = '#1d232b';
-    ctx.fillText(cm >= 100 ? `${cm / 100} m` : `${cm} cm`, x + cm * k + 6 * dpr, y);
-  }
-
-  function drawPlot() {
-    const dpr = window.devicePixelRatio || 1;
-    const W = plot.width;
-    const H = plot.height;
-    pctx.setTransform(1, 0, 0, 1, 0, 0);
-    pctx.fillStyle = '#fff';
-    pctx.fillRect(0, 0, W, H);
-    const left = 34 * dpr;
-    const right = W - 8 * dpr;
-    const top = 8 * dpr;
-    const bottom = H - 20 * dpr;
-    pctx.font = `${10 * dpr}px system-ui, sans-serif`;
-    pctx.strokeStyle = '#e1e4e8';
-    pctx.fillStyle = '#6b7684';
-    pctx.lineWidth = 1;
-    pctx.textAlign = 'right';
-    for (const v of [0, 25, 50, 75, 100]) {
-      const y = bottom - (v / 100) * (bottom - top);
-      pctx.beginPath(); pctx.moveTo(left, y); pctx.lineTo(right, y); pctx.stroke();
-      pctx.fillText(`${v}`, left - 4 * dpr, y + 3 * dpr);
-    }
-    const pts = pcSeries;
-    if (!pts.length) {
-      pctx.textAlign = 'center';
-      pctx.fillText('no sorting progress on <metrics> yet', (left + right) / 2, (top + bottom) / 2);
-      return;
-    }
-    const x0 = pts[0][0];
-    const x1 = Math.max(pts[pts.length - 1][0], x0 + 1);
-    const X = (s) => left + ((s - x0) / (x1 - x0)) * (right - left);
-    const Y = (v) => bottom - (v / 100) * (bottom - top);
-    pctx.beginPath();
-    pts.forEach((p, i) => (i ? pctx.lineTo(X(p[0]), Y(p[1])) : pctx.moveTo(X(p[0]), Y(p[1]))));
-    pctx.strokeStyle = '#2b6fe0';
-    pctx.lineWidth = 2 * dpr;
-    pctx.stroke();
-    pctx.textAlign = 'left';
-    pctx.fillStyle = '#6b7684';
-    pctx.fillText(`step ${x0}`, left, H - 5 * dpr);
-    pctx.textAlign = 'right';
-    pctx.fillText(`step ${pts[pts.length - 1][0]}  PC ${pts[pts.length - 1][1].toFixed(1)} %`, right, H - 5 * dpr);
-  }
-
-  // ---- the frame loop and its rate -----------------------------------------
-  let fpsFrames = 0;
-  let fpsSince = performance.now();
-  function frame(now) {
-    api.frames += 1;
-    fpsFrames += 1;
-    if (now - fpsSince >= 1000) {
-      api.fps = (fpsFrames * 1000) / (now - fpsSince);
-      $('fps').textContent = api.fps.toFixed(0);
-      fpsFrames = 0;
-      fpsSince = now;
-    }
-    if (dirty) { dirty = false; draw(); }
-    if (plotDirty) { plotDirty = false; drawPlot(); }
-    requestAnimationFrame(frame);
-  }
-  requestAnimationFrame(frame);
-
-  // ---- the hub view ---------------------------------------------------------
-  const esc = (s) => String(s).replace(/[&<>"]/g, (c) => ({ '&': '&amp;', '<': '&lt;', '>': '&gt;', '"': '&quot;' }[c]));
-
-  function renderHub() {
-    const h = hub;
-    const parts = [];
-    if (h.uptime !== null) {
-      parts.push(`up ${h.uptime.toFixed(1)} s`, `lease ${h.lease} s`,
-        `minimum priority ${h.min_priority === null ? 'none' : h.min_priority}`,
-        `${h.client_count} client${h.client_count === 1 ? '' : 's'}`,
-        `status ${h.status_age} s ago`);
-      if (h.truncated) parts.push('(report cut to one datagram)');
-    } else {
-      parts.push('no status report yet');
-    }
-    if (h.bad_lines) parts.push(`${h.bad_lines} unreadable lines`);
-    $('hub-summary').textContent = parts.join(' · ');
-    const channels = {};
-    const rank = (name) => ({ vision: 0, radio: 1, debug: 2, metrics: 3 }[name] ?? 4);
-    const sorted = h.channels.slice().sort((a, b) => rank(a.name) - rank(b.name)
-      || a.name.localeCompare(b.name, undefined, { numeric: true }));
-    const rows = sorted.map((c) => {
-      channels[c.name] = { rate: c.rate, packets: c.packets, last: c.last, age: c.last_age };
-      const stale = c.last_age !== null && c.last_age * 1000 > STALE_MS;
-      const cut = c.last !== null && c.last_len > c.last.length ? `\n… (${c.last_len} bytes)` : '';
-      const last = c.last === null
-        ? '<span class="age">not received</span>'
-        : `<pre>${esc(c.last + cut)}</pre><span class="age">${c.last_age} s ago</span>`;
-      return `<tr class="${stale ? 'stale' : ''}"><td class="name">${esc(c.name)}</td>`
-        + `<td class="num">${c.rate === null ? '–' : c.rate.toFixed(1)}</td>`
-        + `<td class="num">${c.in_status ? c.packets : '–'}</td><td>${last}</td></tr>`;
-    });
-    api.channels = channels;
-    $('channels').tBodies[0].innerHTML = rows.join('') || '<tr><td colspan="4" class="hint">no channels yet</td></tr>';
-    const clients = h.clients.map((c) => {
-      const subs = c.subs.slice(0, 6).map((s) => esc(s[0])).join(', ') + (c.subs.length > 6 ? `, +${c.subs.length - 6} more` : '');
-      return `<div title="${esc(c.subs.map((s) => s[0]).join(', '))}">${esc(c.addr)} · idle ${c.idle.toFixed(1)} s · ${subs || '(no subscriptions)'}</div>`;
-    });
-    if (h.clients_left_off) clients.push(`<div class="hint">and ${h.clients_left_off} more</div>`);
-    $('clients').innerHTML = clients.join('') || '<div class="hint">none</div>';
-    $('drops').innerHTML = h.drops.length
-      ? h.drops.map((d) => `<div>${esc(d[0])}: ${d[1]}</div>`).join('')
-      : '<div class="hint">none</div>';
-  }
-
-  // ---- selection and the override -------------------------------------------
-  function listIds(ids) {
-    const shownIds = ids.slice(0, 16).join(', ');
-    return `${ids.length === 1 ? 'robot' : 'robots'} ${shownIds}${ids.length > 16 ? ` and ${ids.length - 16} more` : ''}`;
-  }
-
-  function select(ids) {
-    selected.clear();
-    for (const id of ids) if (Number.isInteger(id) && id >= 0) selected.add(id);
-    syncSelection();
-  }
-
-  function syncSelection() {
-    api.selected = [...selected].sort((a, b) => a - b);
-    $('sel-ids').value = api.selected.join(', ');
-    dirty = true;
-  }
-
-  function parseIds(text) {
-    const ids = [];
-    for (const part of text.split(/[\s,;]+/)) {
-      if (part === '') continue;
-      const n = Number(part);
-      if (!Number.isInteger(n) || n < 0 || n > 4294967295) return null;
-      ids.push(n);
-    }
-    return ids;
-  }
-
-  $('sel-ids').addEventListener('change', () => {
-    const ids = parseIds($('sel-ids').value);
-    if (ids === null) { message('override-msg', 'robot ids are whole numbers, e.g. 0, 3', false); return; }
-    select(ids);
-  });
-  $('sel-ids').addEventListener('keydown', (e) => { if (e.key === 'Enter') $('sel-ids').dispatchEvent(new Event('change')); });
-  $('sel-clear').onclick = () => select([]);
-
-  function chosenIds() {
-    const ids = parseIds($('sel-ids').value);
-    if (ids !== null && ids.join() !== api.selected.join()) select(ids);
-    return api.selected;
-  }
-
-  $('take').onclick = () => {
-    const ids = chosenIds();
-    if (!ids.length) { message('override-msg', 'select robots first: click them, or type their ids', false); return; }
-    send({ t: 'take', ids });
-  };
-  $('take-all').onclick = () => send({ t: 'take_all' });
-  $('release').onclick = () => {
-    const ids = chosenIds();
-    if (!ids.length) { message('override-msg', 'select the robots to release, or use Release all', false); return; }
-    send({ t: 'release', ids });
-  };
-  $('release-all').onclick = () => send({ t: 'release_all' });
-
-  // The held robots a key or a click drives: the selected ones if any are held, else all held.
-  function drivenIds() {
-    const held = new Set(api.held);
-    const sel = api.selected.filter((id) => held.has(id));
-    return sel.length ? sel : null;
-  }
-
-  // ---- pointer: pan, zoom, select, send ---------------------------------------
-  let press = null;
-  canvas.addEventListener('pointerdown', (e) => {
-    press = { x: e.clientX, y: e.clientY, cx: view.cx, cy: view.cy, moved: false };
-    canvas.setPointerCapture(e.pointerId);
-    canvas.focus();
-  });
-  canvas.addEventListener('pointermove', (e) => {
-    if (!press) return;
-    const dx = e.clientX - press.x;
-    const dy = e.clientY - press.y;
-    if (Math.abs(dx) + Math.abs(dy) > 4) press.moved = true;
-    if (press.moved) {
-      view.auto = false;
-      view.cx = press.cx - dx / view.scale;
-      view.cy = press.cy + dy / view.scale;
-      dirty = true;
-    }
-  });
-  canvas.addEventListener('pointerup', (e) => {
-    const p = press;
-    press = null;
-    if (!p || p.moved) return;
-    click(e.clientX, e.clientY, e.shiftKey || e.ctrlKey || e.metaKey);
-  });
-  canvas.addEventListener('wheel', (e) => {
-    e.preventDefault();
-    view.auto = false;
-    const before = clientToWorld(e.clientX, e.clientY);
-    view.scale = Math.min(200, Math.max(0.02, view.scale * Math.exp(-e.deltaY * 0.0015)));
-    const after = clientToWorld(e.clientX, e.clientY);
-    view.cx += before.x - after.x;
-    view.cy += before.y - after.y;
-    dirty = true;
-  }, { passive: false });
-
-  function click(cx, cy, additive) {
-    const w = world;
-    if (!w) return;
-    const at = clientToWorld(cx, cy);
-    const reach = Math.max(sizes().robot_length * 0.8, 8 / view.scale);
-    let hit = null;
-    let best = Infinity;
+    ctx.textAlign = 'center';
     for (const r of w.robots) {
-      const d = Math.hypot(r[1] - at.x, r[2] - at.y);
-      if (d < reach && d < best) { best = d; hit = r[0]; }
-    }
-    if (hit !== null) {
-      if (additive) {
-        if (selected.has(hit)) selected.delete(hit); else selected.add(hit);
-      } else if (selected.size === 1 && selected.has(hit)) {
-        selected.clear();
-      } else {
-        selected.clear();
-        selected.add(hit);
-      }
-      syncSelection();
-      return;
-    }
-    if (api.held.length) {
-      send({ t: 'goto', ids: drivenIds(), x: Math.round(at.x * 10) / 10, y: Math.round(at.y * 10) / 10 });
-    } else if (selected.size) {
-      select([]);
-    } else {
-      message('override-msg', 'take control of a robot first, then click where it should go', false);
+      const sx = ox + r[1] * k;
+      const sy = oy - r[2] * k - (L * 0.9) * k - 3 * dpr;
+      const st = held.has(r[0]) ? 'OPERATOR' : (showIntents && states.get(r[0])) || '';
+      const text = st ? `${r[0]} ${st}` : String(r[0]);
+      ctx.fillStyle = 'rgba(255,255,255,0.8)';
+      const tw = ctx.measureText(text).width;
+      ctx.fillRect(sx - tw / 2 - 2 * dpr, sy - 10 * dpr, tw + 4 * dpr, 13 * dpr);
+      ctx.fillStyle = held.has(r[0]) ? '#c2185b' : '#1d232b';
+      ctx.fillText(text, sx, sy);
     }
   }
+  scaleBar(t);
+  if (api.hubStale || api.visionStale) {
+    ctx.fillStyle = 'rgba(110, 110, 110, 0.35)';
+    ctx.fillRect(0, 0, canvas.width, canvas.height);
+    const since = !connected ? serverLostSince : (world && (world.hub_stale_since || world.vision_stale_since));
+    label(`STALE since ${clock(since || Date.now())}`, canvas.width / 2, 40 * dpr, '#7a1f17', 22 * dpr, 'center');
+  }
+  if (paused) label('view paused', 10 * dpr, 22 * dpr, '#a8322b', 14 * dpr, 'left');
+  api.drawn = { step: w.step, robots: w.robots.length, pucks: w.pucks.length };
+  api.drawMs = performance.now() - t0;
+}
 
-  // ---- keyboard driving ----------------------------------------------------
-  const KEYS = {
-    ArrowUp: 'up', KeyW: 'up', ArrowDown: 'down', KeyS: 'down',
-    ArrowLeft: 'left', KeyA: 'left', ArrowRight: 'right', KeyD: 'right',
-  };
-  const down = new Set();
-  let driveTimer = null;
-  function typing(e) {
-    const t = e.target;
-    return t && (t.tagName === 'INPUT' || t.tagName === 'TEXTAREA');
-  }
-  function driveNow() {
-    const forward = (down.has('up') ? 0.8 : 0) - (down.has('down') ? 0.6 : 0);
-    const turn = (down.has('left') ? 0.7 : 0) - (down.has('right') ? 0.7 : 0);
-    if (!api.held.length) {
-      message('override-msg', 'take control of a robot first, then drive it with the arrow keys', false);
-      return;
-    }
-    send({ t: 'drive', ids: drivenIds(), forward, turn });
-  }
-  window.addEventListener('keydown', (e) => {
-    const k = KEYS[e.code];
-    if (!k || typing(e)) return;
-    e.preventDefault();
-    if (down.has(k)) return;
-    down.add(k);
-    driveNow();
-    if (!driveTimer) driveTimer = setInterval(driveNow, 150);
-  });
-  window.addEventListener('keyup', (e) => {
-    const k = KEYS[e.code];
-    if (!k || !down.has(k)) return;
-    down.delete(k);
-    driveNow();
-    if (!down.size && driveTimer) { clearInterval(driveTimer); driveTimer = null; }
-  });
-  window.addEventListener('blur', () => {
-    if (down.size) { down.clear(); driveNow(); }
-    if (driveTimer) { clearInterval(driveTimer); driveTimer = null; }
-  });
+function label(text, x, y, colour, px, align) {
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  drawText(ctx, text, x, y, { fill: colour, px, align });
+}
 
-  // ---- toolbar and the forge box --------------------------------------------
-  $('pause').onclick = () => {
-    paused = !paused;
-    api.paused = paused;
-    $('pause').textContent = paused ? 'Resume view' : 'Pause view';
-    $('pause').classList.toggle('on', paused);
-    $('paused-note').hidden = !paused;
-    if (!paused) shown = world;
+function scaleBar(t) {
+  const { k, dpr } = t;
+  const targetPx = 120 * dpr;
+  const steps = [1, 2, 5, 10, 20, 25, 50, 100, 200, 500, 1000, 2000, 5000];
+  let cm = steps[0];
+  for (const s of steps) if (s * k <= targetPx) cm = s;
+  const x = 12 * dpr;
+  const y = canvas.height - 14 * dpr;
+  ctx.strokeStyle = '#1d232b';
+  ctx.lineWidth = 2 * dpr;
+  ctx.beginPath();
+  ctx.moveTo(x, y - 5 * dpr); ctx.lineTo(x, y); ctx.lineTo(x + cm * k, y); ctx.lineTo(x + cm * k, y - 5 * dpr);
+  ctx.stroke();
+  ctx.font = `${11 * dpr}px system-ui, sans-serif`;
+  ctx.textAlign = 'left';
+  ctx.fillStyle = '#1d232b';
+  ctx.fillText(cm >= 100 ? `${cm / 100} m` : `${cm} cm`, x + cm * k + 6 * dpr, y);
+}
+
+function drawPlot() {
+  const dpr = pixelRatio();
+  const W = plot.width;
+  const H = plot.height;
+  pctx.setTransform(1, 0, 0, 1, 0, 0);
+  pctx.fillStyle = '#fff';
+  pctx.fillRect(0, 0, W, H);
+  const left = 34 * dpr;
+  const right = W - 8 * dpr;
+  const top = 8 * dpr;
+  const bottom = H - 20 * dpr;
+  pctx.font = `${10 * dpr}px system-ui, sans-serif`;
+  pctx.strokeStyle = '#e1e4e8';
+  pctx.fillStyle = '#6b7684';
+  pctx.lineWidth = 1;
+  pctx.textAlign = 'right';
+  for (const v of [0, 25, 50, 75, 100]) {
+    const y = bottom - (v / 100) * (bottom - top);
+    pctx.beginPath(); pctx.moveTo(left, y); pctx.lineTo(right, y); pctx.stroke();
+    pctx.fillText(`${v}`, left - 4 * dpr, y + 3 * dpr);
+  }
+  const pts = pcSeries;
+  if (!pts.length) {
+    pctx.textAlign = 'center';
+    pctx.fillText('no sorting progress on <metrics> yet', (left + right) / 2, (top + bottom) / 2);
+    return;
+  }
+  const x0 = pts[0][0];
+  const x1 = Math.max(pts[pts.length - 1][0], x0 + 1);
+  const X = (s) => left + ((s - x0) / (x1 - x0)) * (right - left);
+  const Y = (v) => bottom - (v / 100) * (bottom - top);
+  pctx.beginPath();
+  pts.forEach((p, i) => (i ? pctx.lineTo(X(p[0]), Y(p[1])) : pctx.moveTo(X(p[0]), Y(p[1]))));
+  pctx.strokeStyle = '#2b6fe0';
+  pctx.lineWidth = 2 * dpr;
+  pctx.stroke();
+  pctx.textAlign = 'left';
+  pctx.fillStyle = '#6b7684';
+  pctx.fillText(`step ${x0}`, left, H - 5 * dpr);
+  pctx.textAlign = 'right';
+  pctx.fillText(`step ${pts[pts.length - 1][0]}  PC ${pts[pts.length - 1][1].toFixed(1)} %`, right, H - 5 * dpr);
+}
+
+// ---- the frame loop and its rate -----------------------------------------
+let fpsFrames = 0;
+let fpsSince = performance.now();
+function frame(now) {
+  api.frames += 1;
+  fpsFrames += 1;
+  if (now - fpsSince >= 1000) {
+    api.fps = (fpsFrames * 1000) / (now - fpsSince);
+    $('fps').textContent = api.fps.toFixed(0);
+    fpsFrames = 0;
+    fpsSince = now;
+  }
+  if (dirty) { dirty = false; draw(); }
+  if (plotDirty) { plotDirty = false; drawPlot(); }
+  requestAnimationFrame(frame);
+}
+requestAnimationFrame(frame);
+
+// ---- the hub view ---------------------------------------------------------
+function renderHub() {
+  const h = hub;
+  const parts = [];
+  if (h.uptime !== null) {
+    parts.push(`up ${h.uptime.toFixed(1)} s`, `lease ${h.lease} s`,
+      `minimum priority ${h.min_priority === null ? 'none' : h.min_priority}`,
+      `${h.client_count} client${h.client_count === 1 ? '' : 's'}`,
+      `status ${h.status_age} s ago`);
+    if (h.truncated) parts.push('(report cut to one datagram)');
+  } else {
+    parts.push('no status report yet');
+  }
+  if (h.bad_lines) parts.push(`${h.bad_lines} unreadable lines`);
+  $('hub-summary').textContent = parts.join(' · ');
+  const channels = {};
+  const rank = (name) => ({ vision: 0, radio: 1, debug: 2, metrics: 3 }[name] ?? 4);
+  const sorted = h.channels.slice().sort((a, b) => rank(a.name) - rank(b.name)
+    || a.name.localeCompare(b.name, undefined, { numeric: true }));
+  const rows = sorted.map((c) => {
+    channels[c.name] = { rate: c.rate, packets: c.packets, last: c.last, age: c.last_age };
+    const stale = c.last_age !== null && c.last_age * 1000 > STALE_MS;
+    const cut = c.last !== null && c.last_len > c.last.length ? `\n… (${c.last_len} bytes)` : '';
+    const last = c.last === null
+      ? '<span class="age">not received</span>'
+      : `<pre>${esc(c.last + cut)}</pre><span class="age">${c.last_age} s ago</span>`;
+    return `<tr class="${stale ? 'stale' : ''}"><td class="name">${esc(c.name)}</td>`
+      + `<td class="num">${c.rate === null ? '–' : c.rate.toFixed(1)}</td>`
+      + `<td class="num">${c.in_status ? c.packets : '–'}</td><td>${last}</td></tr>`;
+  });
+  api.channels = channels;
+  $('channels').tBodies[0].innerHTML = rows.join('') || '<tr><td colspan="4" class="hint">no channels yet</td></tr>';
+  const clients = h.clients.map((c) => {
+    const subs = c.subs.slice(0, 6).map((s) => esc(s[0])).join(', ') + (c.subs.length > 6 ? `, +${c.subs.length - 6} more` : '');
+    return `<div title="${esc(c.subs.map((s) => s[0]).join(', '))}">${esc(c.addr)} · idle ${c.idle.toFixed(1)} s · ${subs || '(no subscriptions)'}</div>`;
+  });
+  if (h.clients_left_off) clients.push(`<div class="hint">and ${h.clients_left_off} more</div>`);
+  $('clients').innerHTML = clients.join('') || '<div class="hint">none</div>';
+  $('drops').innerHTML = h.drops.length
+    ? h.drops.map((d) => `<div>${esc(d[0])}: ${d[1]}</div>`).join('')
+    : '<div class="hint">none</div>';
+}
+
+// ---- selection and the override -------------------------------------------
+function listIds(ids) {
+  const shownIds = ids.slice(0, 16).join(', ');
+  return `${ids.length === 1 ? 'robot' : 'robots'} ${shownIds}${ids.length > 16 ? ` and ${ids.length - 16} more` : ''}`;
+}
+
+function select(ids) {
+  selected.clear();
+  for (const id of ids) if (Number.isInteger(id) && id >= 0) selected.add(id);
+  syncSelection();
+}
+
+function syncSelection() {
+  api.selected = [...selected].sort((a, b) => a - b);
+  $('sel-ids').value = api.selected.join(', ');
+  dirty = true;
+}
+
+function parseIds(text) {
+  const ids = [];
+  for (const part of text.split(/[\s,;]+/)) {
+    if (part === '') continue;
+    const n = Number(part);
+    if (!Number.isInteger(n) || n < 0 || n > 4294967295) return null;
+    ids.push(n);
+  }
+  return ids;
+}
+
+$('sel-ids').addEventListener('change', () => {
+  const ids = parseIds($('sel-ids').value);
+  if (ids === null) { message('override-msg', 'robot ids are whole numbers, e.g. 0, 3', false); return; }
+  select(ids);
+});
+$('sel-ids').addEventListener('keydown', (e) => { if (e.key === 'Enter') $('sel-ids').dispatchEvent(new Event('change')); });
+$('sel-clear').onclick = () => select([]);
+
+function chosenIds() {
+  const ids = parseIds($('sel-ids').value);
+  if (ids !== null && ids.join() !== api.selected.join()) select(ids);
+  return api.selected;
+}
+
+$('take').onclick = () => {
+  const ids = chosenIds();
+  if (!ids.length) { message('override-msg', 'select robots first: click them, or type their ids', false); return; }
+  send({ t: 'take', ids });
+};
+$('take-all').onclick = () => send({ t: 'take_all' });
+$('release').onclick = () => {
+  const ids = chosenIds();
+  if (!ids.length) { message('override-msg', 'select the robots to release, or use Release all', false); return; }
+  send({ t: 'release', ids });
+};
+$('release-all').onclick = () => send({ t: 'release_all' });
+
+// The held robots a key or a click drives: the selected ones if any are held, else all held.
+function drivenIds() {
+  const held = new Set(api.held);
+  const sel = api.selected.filter((id) => held.has(id));
+  return sel.length ? sel : null;
+}
+
+// ---- pointer: pan, zoom, select, send ---------------------------------------
+let press = null;
+canvas.addEventListener('pointerdown', (e) => {
+  press = { x: e.clientX, y: e.clientY, cx: view.cx, cy: view.cy, moved: false };
+  canvas.setPointerCapture(e.pointerId);
+  canvas.focus();
+});
+canvas.addEventListener('pointermove', (e) => {
+  if (!press) return;
+  const dx = e.clientX - press.x;
+  const dy = e.clientY - press.y;
+  if (Math.abs(dx) + Math.abs(dy) > 4) press.moved = true;
+  if (press.moved) {
+    view.auto = false;
+    view.cx = press.cx - dx / view.scale;
+    view.cy = press.cy + dy / view.scale;
     dirty = true;
-  };
-  $('fit').onclick = () => { view.auto = true; fit(); };
-  $('show-intents').onchange = () => { dirty = true; };
-  $('show-labels').onchange = () => { dirty = true; };
-  $('publish').onclick = () => {
-    const text = $('forge').value;
-    if (!text.trim()) { message('forge-msg', 'type a packet first: a header `@ <channel> 0`, then lines', false); return; }
-    send({ t: 'publish', text });
-  };
+  }
+});
+canvas.addEventListener('pointerup', (e) => {
+  const p = press;
+  press = null;
+  if (!p || p.moved) return;
+  click(e.clientX, e.clientY, e.shiftKey || e.ctrlKey || e.metaKey);
+});
+canvas.addEventListener('wheel', (e) => {
+  e.preventDefault();
+  view.auto = false;
+  const before = clientToWorld(e.clientX, e.clientY);
+  view.scale = Math.min(200, Math.max(0.02, view.scale * Math.exp(-e.deltaY * 0.0015)));
+  const after = clientToWorld(e.clientX, e.clientY);
+  view.cx += before.x - after.x;
+  view.cy += before.y - after.y;
+  dirty = true;
+}, { passive: false });
 
-  resize();
-  connect();
-})();
+function click(cx, cy, additive) {
+  const w = world;
+  if (!w) return;
+  const at = clientToWorld(cx, cy);
+  const reach = Math.max(sizes().robot_length * 0.8, 8 / view.scale);
+  let hit = null;
+  let best = Infinity;
+  for (const r of w.robots) {
+    const d = Math.hypot(r[1] - at.x, r[2] - at.y);
+    if (d < reach && d < best) { best = d; hit = r[0]; }
+  }
+  if (hit !== null) {
+    if (additive) {
+      if (selected.has(hit)) selected.delete(hit); else selected.add(hit);
+    } else if (selected.size === 1 && selected.has(hit)) {
+      selected.clear();
+    } else {
+      selected.clear();
+      selected.add(hit);
+    }
+    syncSelection();
+    return;
+  }
+  if (api.held.length) {
+    send({ t: 'goto', ids: drivenIds(), x: tenth(at.x), y: tenth(at.y) });
+  } else if (selected.size) {
+    select([]);
+  } else {
+    message('override-msg', 'take control of a robot first, then click where it should go', false);
+  }
+}
+
+// ---- keyboard driving ----------------------------------------------------
+const KEYS = {
+  ArrowUp: 'up', KeyW: 'up', ArrowDown: 'down', KeyS: 'down',
+  ArrowLeft: 'left', KeyA: 'left', ArrowRight: 'right', KeyD: 'right',
+};
+const down = new Set();
+let driveTimer = null;
+function typing(e) {
+  const t = e.target;
+  return t && (t.tagName === 'INPUT' || t.tagName === 'TEXTAREA');
+}
+function driveNow() {
+  const forward = (down.has('up') ? 0.8 : 0) - (down.has('down') ? 0.6 : 0);
+  const turn = (down.has('left') ? 0.7 : 0) - (down.has('right') ? 0.7 : 0);
+  if (!api.held.length) {
+    message('override-msg', 'take control of a robot first, then drive it with the arrow keys', false);
+    return;
+  }
+  send({ t: 'drive', ids: drivenIds(), forward, turn });
+}
+window.addEventListener('keydown', (e) => {
+  const k = KEYS[e.code];
+  if (!k || typing(e)) return;
+  e.preventDefault();
+  if (down.has(k)) return;
+  down.add(k);
+  driveNow();
+  if (!driveTimer) driveTimer = setInterval(driveNow, 150);
+});
+window.addEventListener('keyup', (e) => {
+  const k = KEYS[e.code];
+  if (!k || !down.has(k)) return;
+  down.delete(k);
+  driveNow();
+  if (!down.size && driveTimer) { clearInterval(driveTimer); driveTimer = null; }
+});
+window.addEventListener('blur', () => {
+  if (down.size) { down.clear(); driveNow(); }
+  if (driveTimer) { clearInterval(driveTimer); driveTimer = null; }
+});
+
+// ---- toolbar and the forge box --------------------------------------------
+$('pause').onclick = () => {
+  paused = !paused;
+  api.paused = paused;
+  $('pause').textContent = paused ? 'Resume view' : 'Pause view';
+  $('pause').classList.toggle('on', paused);
+  $('paused-note').hidden = !paused;
+  if (!paused) shown = world;
+  dirty = true;
+};
+$('fit').onclick = () => { view.auto = true; fit(); };
+$('show-intents').onchange = () => { dirty = true; };
+$('show-labels').onchange = () => { dirty = true; };
+$('publish').onclick = () => {
+  const text = $('forge').value;
+  if (!text.trim()) { message('forge-msg', 'type a packet first: a header `@ <channel> 0`, then lines', false); return; }
+  send({ t: 'publish', text });
+};
+
+resize();
+connect();
