@@ -3,14 +3,15 @@
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::time::Duration;
 
-use colony_sim::Vec2;
+use colony_proto::Vec2;
 use colony_wire::{Packet, Subject};
 
 use crate::metric::{Metrics, RobotView};
 use crate::node::Node;
-use crate::protocol::{Announcement, Bid, DecodeError, Message, Negotiation, MAX_MAGNITUDE};
-use crate::resource::{ResourceSet, Token, IDLE};
+use crate::protocol::{Announcement, Bid, Message, Negotiation, MAX_MAGNITUDE};
+use crate::protocol::{ResourceSet, Token, IDLE};
 use crate::time::Time;
+use colony_proto::DecodeError;
 
 /// A robot's timings and thresholds.
 #[derive(Debug, Clone, PartialEq)]
@@ -622,8 +623,8 @@ impl Node for Agent {
 mod tests {
     use super::*;
     use crate::node::receives;
+    use crate::protocol::negotiation_subject;
     use crate::protocol::TaskSpec;
-    use crate::resource::negotiation_subject;
 
     fn token(s: &str) -> Token {
         Token::new(s).unwrap()

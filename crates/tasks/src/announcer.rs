@@ -8,8 +8,8 @@ use std::time::Duration;
 use colony_wire::{Packet, Subject};
 
 use crate::node::Node;
+use crate::protocol::{negotiation_subject, Token};
 use crate::protocol::{Announcement, Bid, Message, Negotiation, SpecError, TaskSpec, MAX_DEADLINE};
-use crate::resource::{negotiation_subject, Token};
 use crate::time::Time;
 
 /// An announcer's timings.
@@ -613,7 +613,7 @@ impl Node for Announcer {
 mod tests {
     use super::*;
     use crate::node::receives;
-    use crate::resource::ResourceSet;
+    use crate::protocol::ResourceSet;
 
     fn token(s: &str) -> Token {
         Token::new(s).unwrap()

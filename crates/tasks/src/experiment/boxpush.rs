@@ -16,10 +16,10 @@
 use std::f64::consts::PI;
 use std::time::Duration;
 
+use colony_proto::{Pose, Vec2, WheelCommand};
 use colony_sim::field::{
     BoxSpec, Field, FieldBoxId, FieldConfig, FieldRobotId, RobotSpec, TileMap,
 };
-use colony_sim::{Pose, Vec2, WheelCommand};
 use serde::Serialize;
 
 use crate::agent::{Agent, AgentConfig, AgentEvent};
@@ -27,7 +27,7 @@ use crate::announcer::{Announcer, AnnouncerEvent, AuctionConfig};
 use crate::bus::Bus;
 use crate::node::Node;
 use crate::protocol::{Announcement, TaskSpec};
-use crate::resource::{ResourceSet, Token};
+use crate::protocol::{ResourceSet, Token};
 use crate::time::Time;
 use crate::user::{Backoff, UserAgent, UserEvent};
 

@@ -13,7 +13,7 @@
 use std::collections::BTreeMap;
 use std::time::Duration;
 
-use colony_sim::Vec2;
+use colony_proto::Vec2;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
@@ -23,7 +23,7 @@ use crate::announcer::{AnnouncerEvent, AuctionConfig};
 use crate::bus::Bus;
 use crate::node::Node;
 use crate::protocol::TaskSpec;
-use crate::resource::{ResourceSet, Token};
+use crate::protocol::{ResourceSet, Token};
 use crate::time::Time;
 use crate::user::{Backoff, UserAgent, UserEvent};
 

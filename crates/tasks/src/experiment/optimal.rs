@@ -11,7 +11,7 @@
 
 use std::time::Duration;
 
-use colony_sim::Vec2;
+use colony_proto::Vec2;
 use pathfinding::kuhn_munkres::kuhn_munkres;
 use pathfinding::matrix::Matrix;
 use rand::{Rng, SeedableRng};
@@ -25,7 +25,7 @@ use crate::bus::Bus;
 use crate::metric::{Metrics, RobotView};
 use crate::node::Node;
 use crate::protocol::TaskSpec;
-use crate::resource::{ResourceSet, Token};
+use crate::protocol::{ResourceSet, Token};
 use crate::time::Time;
 
 /// One comparison's setting.
