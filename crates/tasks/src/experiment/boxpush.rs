@@ -16,7 +16,7 @@
 use std::f64::consts::PI;
 use std::time::Duration;
 
-use colony_proto::{Pose, Vec2, WheelCommand};
+use colony_proto::{wrap_angle, Pose, Vec2, WheelCommand};
 use colony_sim::field::{
     BoxSpec, Field, FieldBoxId, FieldConfig, FieldRobotId, RobotSpec, TileMap,
 };
@@ -165,16 +165,6 @@ fn dot(a: Vec2, b: Vec2) -> f64 {
     a.x * b.x + a.y * b.y
 }
 
-fn wrap(a: f64) -> f64 {
-    let mut a = a % (2.0 * PI);
-    if a > PI {
-        a -= 2.0 * PI;
-    } else if a < -PI {
-        a += 2.0 * PI;
-    }
-    a
-}
-
 /// Where on the box's back face to push the end `side` (-1 left, +1 right).
 fn push_point(f: &Frame, side: f64) -> Vec2 {
     f.centre + f.u * (side * BOX.half_length * 0.7) - f.n * BOX.half_width
@@ -269,7 +259,7 @@ impl Push {
             };
             let d = target - pos;
             if target == stand && d.length() < 3.0 {
-                let e = wrap(n.angle() - me.theta);
+                let e = wrap_angle(n.angle() - me.theta);
                 if e.abs() < 0.08 {
                     self.pushing_since = Some(now);
                 } else {
@@ -291,10 +281,10 @@ impl Push {
 fn drive_to(me: Pose, target: Vec2) -> WheelCommand {
     let d = target - me.position();
     let dist = d.length();
-    let e = wrap(d.angle() - me.theta);
+    let e = wrap_angle(d.angle() - me.theta);
     let speed = (dist / 15.0).clamp(0.15, 1.0);
     if dist < 30.0 && e.abs() > PI / 2.0 {
-        let back = wrap(e - PI);
+        let back = wrap_angle(e - PI);
         return WheelCommand {
             forward: -speed * back.cos().max(0.0),
             turn: (2.0 * back).clamp(-1.0, 1.0),
