@@ -20,14 +20,17 @@ use colony_proto::{wrap_angle, Pose, Vec2, WheelCommand};
 use colony_sim::field::{
     BoxSpec, Field, FieldBoxId, FieldConfig, FieldRobotId, RobotSpec, TileMap,
 };
+use colony_sim::SimError;
 use serde::Serialize;
 
+use super::Progress;
 use crate::agent::{Agent, AgentConfig, AgentEvent};
 use crate::announcer::{Announcer, AnnouncerEvent, AuctionConfig};
 use crate::bus::Bus;
 use crate::node::Node;
-use crate::protocol::{Announcement, TaskSpec};
-use crate::protocol::{ResourceSet, Token};
+use crate::protocol::{
+    Announcement, ResourceError, ResourceSet, SpecError, TaskSpec, Token, TokenError,
+};
 use crate::time::Time;
 use crate::user::{Backoff, UserAgent, UserEvent};
 
@@ -330,125 +333,245 @@ fn quick_auction() -> AuctionConfig {
     }
 }
 
-fn token(s: &str) -> Result<Token, String> {
-    Token::new(s).map_err(|e| e.to_string())
-}
-
-fn pusher_agent(name: &str, now: Time) -> Result<Agent, String> {
+fn pusher_agent(name: &str, now: Time) -> Result<Agent, TokenError> {
     Ok(Agent::new(
-        token(name)?,
+        Token::new(name)?,
         pusher_resources(),
         quick_agent(),
         now,
     ))
 }
 
-/// Runs the experiment.
-pub fn run(cfg: &BoxPushConfig) -> Result<BoxPushOutcome, String> {
-    let finite = |v: f64| v.is_finite();
-    if !(finite(cfg.goal.x) && finite(cfg.goal.y) && cfg.max_s.is_finite() && cfg.max_s > 0.0) {
-        return Err("the goal and the time limit must be finite numbers".into());
-    }
-    for (what, t) in [("--off-at", cfg.off_at), ("--on-at", cfg.on_at)] {
-        if let Some(t) = t {
-            if !(t.is_finite() && t >= 0.0) {
-                return Err(format!("{what} must be a time in seconds, not {t}"));
+/// Why a run could not be made or could not go on.
+#[derive(Debug, thiserror::Error)]
+pub enum BoxPushError {
+    /// The goal or the time limit is not a finite number.
+    #[error("the goal and the time limit must be finite numbers")]
+    NotFinite,
+    /// A switching time that is not a time.
+    #[error("{what} must be a time in seconds, not {value}")]
+    BadTime {
+        /// The option (`--off-at`, `--on-at`).
+        what: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// Switched on before it was switched off.
+    #[error("--on-at ({on}) must come after --off-at ({off})")]
+    OnBeforeOff {
+        /// When it is switched on, s.
+        on: f64,
+        /// When it is switched off, s.
+        off: f64,
+    },
+    /// Switched on without being switched off.
+    #[error("--on-at needs --off-at")]
+    OnWithoutOff,
+    /// A goal outside the field.
+    #[error("the goal ({}, {}) is off the {} x {} cm field", .goal.x, .goal.y, .size.x, .size.y)]
+    GoalOffField {
+        /// The goal, cm.
+        goal: Vec2,
+        /// The field's size, cm.
+        size: Vec2,
+    },
+    /// The physics field refused the map, the box or a robot.
+    #[error(transparent)]
+    Field(#[from] SimError),
+    /// An agent's name is not a token.
+    #[error(transparent)]
+    Token(#[from] TokenError),
+    /// A resource name is not a resource.
+    #[error(transparent)]
+    Resources(#[from] ResourceError),
+    /// A task the user or the watcher introduces is invalid.
+    #[error(transparent)]
+    Spec(#[from] SpecError),
+    /// The user agent gave up on `move-box` (nobody could take it for too long).
+    #[error("the user agent gave up on moving the box: {0}")]
+    GaveUp(String),
+}
+
+/// A run in progress: built from its settings, advanced one control step of
+/// the field at a time by [`step`](BoxPush::step), so a caller can watch the
+/// box ([`box_pose`](BoxPush::box_pose), [`events`](BoxPush::events)) or stop
+/// part-way; [`finish`](BoxPush::finish) gives the outcome.
+pub struct BoxPush {
+    cfg: BoxPushConfig,
+    field: Field,
+    bx: FieldBoxId,
+    /// The field's control step, s.
+    dt: f64,
+    pushers: Vec<Pusher>,
+    watcher_agent: Agent,
+    /// The watcher at work on `move-box`, once it has won it.
+    watcher: Option<Watcher>,
+    user: UserAgent,
+    /// The watcher's announcer while it is not at work.
+    spare_announcer: Announcer,
+    bus: Bus,
+    report: BoxPushReport,
+    track: Vec<(f64, Pose)>,
+    events: Vec<(f64, String)>,
+    /// Who pushed each end (left, right) last, to count role swaps.
+    last_on_end: [Option<usize>; 2],
+    switched_off: bool,
+    switched_on: bool,
+    /// Control steps in the time limit.
+    steps: u64,
+    /// Control steps taken.
+    step: u64,
+    done: bool,
+}
+
+impl BoxPush {
+    /// Checks the settings and sets the field up: the box, the two pushers
+    /// behind it, the watcher, and the user with `move-box` introduced.
+    pub fn new(cfg: &BoxPushConfig) -> Result<BoxPush, BoxPushError> {
+        let finite = |v: f64| v.is_finite();
+        if !(finite(cfg.goal.x) && finite(cfg.goal.y) && cfg.max_s.is_finite() && cfg.max_s > 0.0) {
+            return Err(BoxPushError::NotFinite);
+        }
+        for (what, t) in [("--off-at", cfg.off_at), ("--on-at", cfg.on_at)] {
+            if let Some(t) = t {
+                if !(t.is_finite() && t >= 0.0) {
+                    return Err(BoxPushError::BadTime { what, value: t });
+                }
             }
         }
-    }
-    if let (Some(off), Some(on)) = (cfg.off_at, cfg.on_at) {
-        if on <= off {
-            return Err(format!("--on-at ({on}) must come after --off-at ({off})"));
+        if let (Some(off), Some(on)) = (cfg.off_at, cfg.on_at) {
+            if on <= off {
+                return Err(BoxPushError::OnBeforeOff { on, off });
+            }
         }
-    }
-    if cfg.on_at.is_some() && cfg.off_at.is_none() {
-        return Err("--on-at needs --off-at".into());
-    }
-    let map = TileMap::open(70, 60, 10.0).map_err(|e| e.to_string())?;
-    let size = map.size_cm();
-    if !(cfg.goal.x > 0.0 && cfg.goal.x < size.x && cfg.goal.y > 0.0 && cfg.goal.y < size.y) {
-        return Err(format!(
-            "the goal ({}, {}) is off the {} x {} cm field",
-            cfg.goal.x, cfg.goal.y, size.x, size.y
-        ));
-    }
-    let field_cfg = FieldConfig::default();
-    let dt = field_cfg.control_step;
-    let mut field = Field::new(map, field_cfg).map_err(|e| e.to_string())?;
-    let bx: FieldBoxId = field
-        .add_box(BOX, cfg.box_start)
-        .map_err(|e| e.to_string())?;
-    let f0 = frame(cfg.box_start, cfg.goal);
-    let mut pushers = Vec::new();
-    for (k, side) in [-1.0, 1.0].into_iter().enumerate() {
-        let at = push_point(&f0, side) - f0.n * (PUSHER.radius + 30.0);
-        let pose = Pose {
-            x: at.x,
-            y: at.y,
-            theta: f0.n.angle(),
+        if cfg.on_at.is_some() && cfg.off_at.is_none() {
+            return Err(BoxPushError::OnWithoutOff);
+        }
+        let map = TileMap::open(70, 60, 10.0)?;
+        let size = map.size_cm();
+        if !(cfg.goal.x > 0.0 && cfg.goal.x < size.x && cfg.goal.y > 0.0 && cfg.goal.y < size.y) {
+            return Err(BoxPushError::GoalOffField {
+                goal: cfg.goal,
+                size,
+            });
+        }
+        let field_cfg = FieldConfig::default();
+        let dt = field_cfg.control_step;
+        let mut field = Field::new(map, field_cfg)?;
+        let bx: FieldBoxId = field.add_box(BOX, cfg.box_start)?;
+        let f0 = frame(cfg.box_start, cfg.goal);
+        let mut pushers = Vec::new();
+        for (k, side) in [-1.0, 1.0].into_iter().enumerate() {
+            let at = push_point(&f0, side) - f0.n * (PUSHER.radius + 30.0);
+            let pose = Pose {
+                x: at.x,
+                y: at.y,
+                theta: f0.n.angle(),
+            };
+            let robot = field.add_robot(PUSHER, pose)?;
+            let name = format!("pusher{}", k + 1);
+            pushers.push(Pusher {
+                robot,
+                agent: Some(pusher_agent(&name, Time::ZERO)?),
+                push: None,
+                name,
+            });
+        }
+        let watcher_agent = Agent::new(
+            Token::new("watcher")?,
+            "overhead-camera".parse()?,
+            quick_agent(),
+            Time::ZERO,
+        );
+        let mut user = UserAgent::new(Token::new("user")?, quick_auction(), Backoff::default(), 1);
+        let goal_task = TaskSpec::new(MOVE_BOX, "overhead-camera".parse()?)
+            .param("x", cfg.goal.x)
+            .param("y", cfg.goal.y)
+            .length(cfg.max_s);
+        user.introduce(Time::ZERO, goal_task)?;
+        let spare_announcer = Announcer::new(Token::new("watcher")?, quick_auction());
+        let report = BoxPushReport {
+            pushes_by: vec![0; pushers.len()],
+            ..BoxPushReport::default()
         };
-        let robot = field.add_robot(PUSHER, pose).map_err(|e| e.to_string())?;
-        let name = format!("pusher{}", k + 1);
-        pushers.push(Pusher {
-            robot,
-            agent: Some(pusher_agent(&name, Time::ZERO)?),
-            push: None,
-            name,
-        });
+        Ok(BoxPush {
+            cfg: cfg.clone(),
+            field,
+            bx,
+            dt,
+            pushers,
+            watcher_agent,
+            watcher: None,
+            user,
+            spare_announcer,
+            bus: Bus::new(Duration::from_millis(2)),
+            report,
+            track: Vec::new(),
+            events: Vec::new(),
+            last_on_end: [None, None],
+            switched_off: false,
+            switched_on: false,
+            steps: (cfg.max_s / dt).ceil() as u64,
+            step: 0,
+            done: false,
+        })
     }
-    let mut watcher_agent = Agent::new(
-        token("watcher")?,
-        "overhead-camera".parse().map_err(|e| format!("{e}"))?,
-        quick_agent(),
-        Time::ZERO,
-    );
-    let mut watcher: Option<Watcher> = None;
-    let mut user = UserAgent::new(token("user")?, quick_auction(), Backoff::default(), 1);
-    let goal_task = TaskSpec::new(
-        MOVE_BOX,
-        "overhead-camera".parse().map_err(|e| format!("{e}"))?,
-    )
-    .param("x", cfg.goal.x)
-    .param("y", cfg.goal.y)
-    .length(cfg.max_s);
-    user.introduce(Time::ZERO, goal_task)
-        .map_err(|e| e.to_string())?;
-    let mut spare_announcer = Announcer::new(token("watcher")?, quick_auction());
 
-    let mut bus = Bus::new(Duration::from_millis(2));
-    let mut report = BoxPushReport {
-        pushes_by: vec![0; pushers.len()],
-        ..BoxPushReport::default()
-    };
-    let mut track = Vec::new();
-    let mut events = Vec::new();
-    let mut last_on_end: [Option<usize>; 2] = [None, None];
-    let mut switched_off = false;
-    let mut switched_on = false;
-    let steps = (cfg.max_s / dt).ceil() as u64;
-    for step in 1..=steps {
-        let now_s = step as f64 * dt;
+    /// Simulated time so far, s.
+    pub fn now_s(&self) -> f64 {
+        self.step as f64 * self.dt
+    }
+
+    /// Where the box is now.
+    pub fn box_pose(&self) -> Pose {
+        self.field.box_pose(self.bx).unwrap_or(self.cfg.box_start)
+    }
+
+    /// The counts so far.
+    pub fn report(&self) -> &BoxPushReport {
+        &self.report
+    }
+
+    /// Notable events so far, with their time.
+    pub fn events(&self) -> &[(f64, String)] {
+        &self.events
+    }
+
+    /// Advances the run by one control step of the field: switching the
+    /// pusher off or on, the protocol, the watcher's look and announcements,
+    /// the pushers' wheels and the physics. [`Progress::Done`] once the box is
+    /// at the goal or the time limit is reached; further steps do nothing.
+    pub fn step(&mut self) -> Result<Progress, BoxPushError> {
+        if self.done || self.step >= self.steps {
+            self.done = true;
+            return Ok(Progress::Done);
+        }
+        self.step += 1;
+        let step = self.step;
+        let now_s = step as f64 * self.dt;
         let now = Time::from_secs_f64(now_s);
         // Switching a pusher off and on.
-        if cfg.off_at.is_some_and(|t| now_s >= t) && !switched_off {
-            switched_off = true;
-            let p = &mut pushers[0];
-            field
-                .set_active(p.robot, false)
-                .map_err(|e| e.to_string())?;
+        if self.cfg.off_at.is_some_and(|t| now_s >= t) && !self.switched_off {
+            self.switched_off = true;
+            let p = &mut self.pushers[0];
+            self.field.set_active(p.robot, false)?;
             p.agent = None;
             p.push = None;
-            events.push((now_s, format!("{} switched off", p.name)));
+            self.events
+                .push((now_s, format!("{} switched off", p.name)));
         }
-        if cfg.on_at.is_some_and(|t| now_s >= t) && switched_off && !switched_on {
-            let box_pose = field.box_pose(bx).unwrap_or(cfg.box_start);
-            let other = field.robot_pose(pushers[1].robot).unwrap_or_default();
-            if let Some(pose) = comeback_pose(&field, box_pose, cfg.goal, other) {
-                if field.respawn(pushers[0].robot, pose).is_ok() {
-                    switched_on = true;
-                    let name = pushers[0].name.clone();
-                    pushers[0].agent = Some(pusher_agent(&name, now)?);
-                    events.push((
+        if self.cfg.on_at.is_some_and(|t| now_s >= t) && self.switched_off && !self.switched_on {
+            let box_pose = self.field.box_pose(self.bx).unwrap_or(self.cfg.box_start);
+            let other = self
+                .field
+                .robot_pose(self.pushers[1].robot)
+                .unwrap_or_default();
+            if let Some(pose) = comeback_pose(&self.field, box_pose, self.cfg.goal, other) {
+                if self.field.respawn(self.pushers[0].robot, pose).is_ok() {
+                    self.switched_on = true;
+                    let name = self.pushers[0].name.clone();
+                    self.pushers[0].agent = Some(pusher_agent(&name, now)?);
+                    self.events.push((
                         now_s,
                         format!("{name} switched on again at ({:.0}, {:.0})", pose.x, pose.y),
                     ));
@@ -456,80 +579,80 @@ pub fn run(cfg: &BoxPushConfig) -> Result<BoxPushOutcome, String> {
             }
         }
         // Everyone's view of the world, for their metrics.
-        for p in &mut pushers {
-            if let (Some(a), Some(pose)) = (p.agent.as_mut(), field.robot_pose(p.robot)) {
+        for p in &mut self.pushers {
+            if let (Some(a), Some(pose)) = (p.agent.as_mut(), self.field.robot_pose(p.robot)) {
                 a.set_position(pose.position());
             }
         }
         // The protocol.
         {
-            let announcer: &mut Announcer = match watcher.as_mut() {
+            let announcer: &mut Announcer = match self.watcher.as_mut() {
                 Some(w) => &mut w.announcer,
-                None => &mut spare_announcer,
+                None => &mut self.spare_announcer,
             };
-            let mut nodes: Vec<&mut dyn Node> = pushers
+            let mut nodes: Vec<&mut dyn Node> = self
+                .pushers
                 .iter_mut()
                 .filter_map(|p| p.agent.as_mut().map(|a| a as &mut dyn Node))
                 .collect();
-            nodes.push(&mut watcher_agent);
+            nodes.push(&mut self.watcher_agent);
             nodes.push(announcer);
-            nodes.push(&mut user);
-            bus.run_until(&mut nodes, now);
+            nodes.push(&mut self.user);
+            self.bus.run_until(&mut nodes, now);
         }
-        while let Some(e) = user.poll_event() {
+        while let Some(e) = self.user.poll_event() {
             if let UserEvent::GaveUp { reason, .. } = e {
-                return Err(format!(
-                    "the user agent gave up on moving the box: {reason}"
-                ));
+                self.done = true;
+                return Err(BoxPushError::GaveUp(reason));
             }
         }
         // The watcher: is it at work, and what does it see?
-        while let Some(e) = watcher_agent.poll_event() {
+        while let Some(e) = self.watcher_agent.poll_event() {
             match e {
                 AgentEvent::Start(_) => {
-                    watcher = Some(Watcher {
+                    self.watcher = Some(Watcher {
                         announcer: std::mem::replace(
-                            &mut spare_announcer,
-                            Announcer::new(token("watcher")?, quick_auction()),
+                            &mut self.spare_announcer,
+                            Announcer::new(Token::new("watcher")?, quick_auction()),
                         ),
                         open: Vec::new(),
                         next_look: now_s,
                     });
-                    events.push((now_s, "watcher took move-box".into()));
+                    self.events.push((now_s, "watcher took move-box".into()));
                 }
-                AgentEvent::Stop { .. } => watcher = None,
+                AgentEvent::Stop { .. } => self.watcher = None,
                 _ => {}
             }
         }
-        let box_pose = field.box_pose(bx).unwrap_or(cfg.box_start);
-        if step % (1.0 / dt).round() as u64 == 0 {
-            track.push((now_s, box_pose));
+        let box_pose = self.field.box_pose(self.bx).unwrap_or(self.cfg.box_start);
+        if step % (1.0 / self.dt).round() as u64 == 0 {
+            self.track.push((now_s, box_pose));
         }
-        let distance = box_pose.position().distance(cfg.goal);
-        if let Some(w) = watcher.as_mut() {
+        let distance = box_pose.position().distance(self.cfg.goal);
+        if let Some(w) = self.watcher.as_mut() {
             while let Some(e) = w.announcer.poll_event() {
                 match e {
                     AnnouncerEvent::Completed { task, name, winner } => {
                         w.open.retain(|(t, _)| *t != task);
-                        let k = pushers.iter().position(|p| p.name == winner.as_str());
+                        let k = self.pushers.iter().position(|p| p.name == winner.as_str());
                         let end = usize::from(name == PUSH_RIGHT);
                         if let Some(k) = k {
-                            report.pushes_by[k] += 1;
-                            if last_on_end[end].is_some_and(|prev| prev != k) {
-                                report.role_swaps += 1;
+                            self.report.pushes_by[k] += 1;
+                            if self.last_on_end[end].is_some_and(|prev| prev != k) {
+                                self.report.role_swaps += 1;
                             }
-                            last_on_end[end] = Some(k);
+                            self.last_on_end[end] = Some(k);
                         }
                         if end == 1 {
-                            report.pushes_right += 1;
+                            self.report.pushes_right += 1;
                         } else {
-                            report.pushes_left += 1;
+                            self.report.pushes_left += 1;
                         }
                     }
                     AnnouncerEvent::Unachievable { task, name, reason } => {
                         w.open.retain(|(t, _)| *t != task);
-                        report.unachievable += 1;
-                        events.push((now_s, format!("{name}: {reason}")));
+                        self.report.unachievable += 1;
+                        self.events.push((now_s, format!("{name}: {reason}")));
                     }
                     AnnouncerEvent::WinnerLost {
                         name,
@@ -537,8 +660,8 @@ pub fn run(cfg: &BoxPushConfig) -> Result<BoxPushOutcome, String> {
                         reason,
                         ..
                     } => {
-                        report.reallocated += 1;
-                        events.push((
+                        self.report.reallocated += 1;
+                        self.events.push((
                             now_s,
                             format!("{name}: lost {winner} ({reason}); auctioning again"),
                         ));
@@ -547,30 +670,32 @@ pub fn run(cfg: &BoxPushConfig) -> Result<BoxPushOutcome, String> {
                     _ => {}
                 }
             }
-            if distance <= cfg.tolerance_cm {
+            if distance <= self.cfg.tolerance_cm {
                 for (t, _) in std::mem::take(&mut w.open) {
                     w.announcer.cancel(t, "the box is at the goal");
                 }
-                watcher_agent.finish(now);
-                report.reached = true;
-                report.time_s = now_s;
-                events.push((now_s, format!("the box is at the goal ({distance:.1} cm)")));
-                break;
+                self.watcher_agent.finish(now);
+                self.report.reached = true;
+                self.report.time_s = now_s;
+                self.events
+                    .push((now_s, format!("the box is at the goal ({distance:.1} cm)")));
+                self.done = true;
+                return Ok(Progress::Done);
             }
             if w.open.is_empty() && now_s >= w.next_look {
-                let f = frame(box_pose, cfg.goal);
-                let sides: &[f64] = if f.error > cfg.align_tolerance {
+                let f = frame(box_pose, self.cfg.goal);
+                let sides: &[f64] = if f.error > self.cfg.align_tolerance {
                     &[1.0]
-                } else if f.error < -cfg.align_tolerance {
+                } else if f.error < -self.cfg.align_tolerance {
                     &[-1.0]
                 } else {
                     &[-1.0, 1.0]
                 };
                 for &side in sides {
-                    let spec = push_task(&f, side, cfg.push_s);
+                    let spec = push_task(&f, side, self.cfg.push_s);
                     let name = spec.name.clone();
-                    let id = w.announcer.announce(now, spec).map_err(|e| e.to_string())?;
-                    report.announced += 1;
+                    let id = w.announcer.announce(now, spec)?;
+                    self.report.announced += 1;
                     w.open.push((id, name));
                 }
                 // A moment between rounds, for the box to settle.
@@ -578,8 +703,8 @@ pub fn run(cfg: &BoxPushConfig) -> Result<BoxPushOutcome, String> {
             }
         }
         // The pushers.
-        let mut commands = vec![WheelCommand::STOP; field.robot_count()];
-        for p in &mut pushers {
+        let mut commands = vec![WheelCommand::STOP; self.field.robot_count()];
+        for p in &mut self.pushers {
             let Some(agent) = p.agent.as_mut() else {
                 continue;
             };
@@ -593,7 +718,7 @@ pub fn run(cfg: &BoxPushConfig) -> Result<BoxPushOutcome, String> {
                     _ => {}
                 }
             }
-            let Some(me) = field.robot_pose(p.robot) else {
+            let Some(me) = self.field.robot_pose(p.robot) else {
                 continue;
             };
             if let Some((_, _, push)) = p.push.as_mut() {
@@ -606,17 +731,36 @@ pub fn run(cfg: &BoxPushConfig) -> Result<BoxPushOutcome, String> {
                 }
             }
         }
-        field.step(&commands);
-        report.time_s = now_s;
+        self.field.step(&commands);
+        self.report.time_s = now_s;
+        Ok(if self.step >= self.steps {
+            self.done = true;
+            Progress::Done
+        } else {
+            Progress::Running
+        })
     }
-    let box_pose = field.box_pose(bx).unwrap_or(cfg.box_start);
-    report.final_distance_cm = box_pose.position().distance(cfg.goal);
-    report.messages = bus.stats().sent;
-    Ok(BoxPushOutcome {
-        report,
-        track,
-        events,
-    })
+
+    /// The outcome: the report with the box's final distance and the
+    /// packets sent, the track and the events.
+    pub fn finish(self) -> BoxPushOutcome {
+        let mut report = self.report;
+        let box_pose = self.field.box_pose(self.bx).unwrap_or(self.cfg.box_start);
+        report.final_distance_cm = box_pose.position().distance(self.cfg.goal);
+        report.messages = self.bus.stats().sent;
+        BoxPushOutcome {
+            report,
+            track: self.track,
+            events: self.events,
+        }
+    }
+}
+
+/// Runs the experiment to its end.
+pub fn run(cfg: &BoxPushConfig) -> Result<BoxPushOutcome, BoxPushError> {
+    let mut run = BoxPush::new(cfg)?;
+    while run.step()? == Progress::Running {}
+    Ok(run.finish())
 }
 
 /// Where a pusher switched on again is put back: behind the box, on the side

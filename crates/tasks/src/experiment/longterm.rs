@@ -18,12 +18,12 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
+use super::Progress;
 use crate::agent::{Agent, AgentConfig, AgentEvent};
 use crate::announcer::{AnnouncerEvent, AuctionConfig};
 use crate::bus::Bus;
 use crate::node::Node;
-use crate::protocol::TaskSpec;
-use crate::protocol::{ResourceSet, Token};
+use crate::protocol::{ResourceError, ResourceSet, SpecError, TaskSpec, Token, TokenError};
 use crate::time::Time;
 use crate::user::{Backoff, UserAgent, UserEvent};
 
@@ -183,17 +183,17 @@ impl Default for LongtermConfig {
 
 impl LongtermConfig {
     /// Checks the numbers a command line can set.
-    pub fn validate(&self) -> Result<(), String> {
-        let positive = |what: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let positive = |what: &'static str, value: f64| {
+            if value.is_finite() && value > 0.0 {
                 Ok(())
             } else {
-                Err(format!("{what} must be a positive number, not {v}"))
+                Err(SettingsError::NotPositive { what, value })
             }
         };
         positive("hours", self.hours)?;
         if self.hours > 24.0 * 30.0 {
-            return Err(format!("hours {} is more than 30 days", self.hours));
+            return Err(SettingsError::TooLong(self.hours));
         }
         positive("mean gap", self.mean_gap_s)?;
         positive("speed", self.speed_cm_s)?;
@@ -203,16 +203,58 @@ impl LongtermConfig {
             && self.length_s.1 >= self.length_s.0
             && self.length_s.1.is_finite())
         {
-            return Err(format!("task lengths {:?} are not a range", self.length_s));
+            return Err(SettingsError::Lengths(self.length_s));
         }
         if !(0.0..=1.0).contains(&self.impossible_share) {
-            return Err("impossible share must be between 0 and 1".into());
+            return Err(SettingsError::ImpossibleShare(self.impossible_share));
         }
         if self.chargers.is_empty() {
-            return Err("there must be a charger".into());
+            return Err(SettingsError::NoCharger);
         }
         Ok(())
     }
+}
+
+/// Settings a run cannot be made with.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SettingsError {
+    /// A number that must be positive (hours, mean gap, speed, room, mtbf) is not.
+    #[error("{what} must be a positive number, not {value}")]
+    NotPositive {
+        /// Which setting.
+        what: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// More hours of introductions than a run is for.
+    #[error("hours {0} is more than 30 days")]
+    TooLong(f64),
+    /// Task lengths that are not a range of non-negative seconds.
+    #[error("task lengths {0:?} are not a range")]
+    Lengths((f64, f64)),
+    /// A share outside 0 to 1.
+    #[error("impossible share must be between 0 and 1, not {0}")]
+    ImpossibleShare(f64),
+    /// No charger to go to.
+    #[error("there must be a charger")]
+    NoCharger,
+}
+
+/// Why a run could not be made or went wrong.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LongtermError {
+    /// The settings are refused.
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
+    /// An agent's name in the roster is not a token.
+    #[error(transparent)]
+    Token(#[from] TokenError),
+    /// An agent's resources in the roster are not a resource set.
+    #[error(transparent)]
+    Resources(#[from] ResourceError),
+    /// A task the user introduces is invalid.
+    #[error(transparent)]
+    Spec(#[from] SpecError),
 }
 
 /// What happened, one row per event, for the CSV.
@@ -368,151 +410,233 @@ pub fn task_spec(kind: &TaskKind, at: Vec2, length_s: f64) -> TaskSpec {
     }
 }
 
-/// Runs the experiment.
-pub fn run(cfg: &LongtermConfig) -> Result<LongtermOutcome, String> {
-    cfg.validate()?;
-    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
-    let mut bus = Bus::new(cfg.latency);
-    let user_token = Token::new("user").map_err(|e| e.to_string())?;
-    let mut user = UserAgent::new(
-        user_token,
-        cfg.auction.clone(),
-        cfg.backoff.clone(),
-        cfg.seed,
-    );
-    let agents_cfg = agent_config(cfg);
-    let mut members: Vec<Member> = Vec::new();
-    for spec in roster() {
-        let resources: ResourceSet = spec.resources.parse().map_err(|e| format!("{e}"))?;
-        let position = Vec2::new(
-            rng.random_range(0.0..cfg.room_cm),
-            rng.random_range(0.0..cfg.room_cm),
+/// A run in progress: built from its settings, advanced a simulated second
+/// at a time by [`step`](Longterm::step), so a caller can watch it (its
+/// [`report`](Longterm::report) and [`log`](Longterm::log) so far) or stop it
+/// part-way; [`finish`](Longterm::finish) gives the outcome.
+///
+/// ```
+/// use colony_tasks::experiment::{longterm::{Longterm, LongtermConfig}, Progress};
+/// let mut run = Longterm::new(&LongtermConfig { hours: 0.05, ..Default::default() }).unwrap();
+/// while run.step().unwrap() == Progress::Running && run.now().as_secs_f64() < 60.0 {}
+/// assert!(run.report().introduced <= 1);
+/// ```
+pub struct Longterm {
+    cfg: LongtermConfig,
+    rng: ChaCha8Rng,
+    bus: Bus,
+    user: UserAgent,
+    agents_cfg: AgentConfig,
+    members: Vec<Member>,
+    /// Every agent's resources, to judge whether a task is achievable.
+    everyone: Vec<ResourceSet>,
+    log: Vec<LogRow>,
+    report: LongtermReport,
+    requests: BTreeMap<u64, RequestInfo>,
+    waits: Vec<f64>,
+    end_of_intro: Time,
+    hard_end: Time,
+    next_intro: Time,
+    now: Time,
+}
+
+/// The simulated time one [`Longterm::step`] advances.
+const STEP: Duration = Duration::from_secs(1);
+
+impl Longterm {
+    /// Sets a run up: the roster placed, charged and seeded, nothing introduced yet.
+    pub fn new(cfg: &LongtermConfig) -> Result<Longterm, LongtermError> {
+        cfg.validate()?;
+        let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+        let bus = Bus::new(cfg.latency);
+        let user = UserAgent::new(
+            Token::new("user")?,
+            cfg.auction.clone(),
+            cfg.backoff.clone(),
+            cfg.seed,
         );
-        let next_failure = Time::from_secs_f64(exponential(&mut rng, cfg.mtbf_s));
-        let battery = if spec.robot {
-            rng.random_range(0.6..1.0)
-        } else {
-            1.0
-        };
-        members.push(Member {
-            agent: Some(new_agent(
-                &spec,
-                &resources,
-                &agents_cfg,
-                Time::ZERO,
-                position,
-                battery,
-            )?),
-            spec,
-            resources,
-            phase: Phase::Idle,
-            position,
-            battery,
-            next_failure,
-        });
-    }
-    let everyone: Vec<ResourceSet> = members.iter().map(|m| m.resources.clone()).collect();
-
-    let mut log = Vec::new();
-    let mut report = LongtermReport {
-        seed: cfg.seed,
-        hours: cfg.hours,
-        agents: members.len(),
-        ..LongtermReport::default()
-    };
-    let mut requests: BTreeMap<u64, RequestInfo> = BTreeMap::new();
-    let mut waits = Vec::new();
-    let end_of_intro = Time::from_secs_f64(cfg.hours * 3600.0);
-    let hard_end = end_of_intro + Duration::from_secs_f64(cfg.wind_down_s);
-    let mut next_intro = Time::from_secs_f64(exponential(&mut rng, cfg.mean_gap_s));
-    let step = Duration::from_secs(1);
-    let mut now = Time::ZERO;
-    let row = |time: Time, kind, request, task: &str, agent: &str, detail: String| LogRow {
-        time_s: time.as_secs_f64(),
-        kind,
-        request,
-        task: task.to_owned(),
-        agent: agent.to_owned(),
-        detail,
-    };
-
-    while now < hard_end && (now < end_of_intro || user.open_requests() > 0) {
-        now = now + step;
-        // Introduce tasks, each at its own moment.
-        while next_intro <= now && next_intro <= end_of_intro {
-            advance(&mut bus, &mut members, &mut user, next_intro);
-            let kind = if rng.random_bool(cfg.impossible_share) {
-                IMPOSSIBLE_TASK
-            } else {
-                PAPER_TASKS[rng.random_range(0..PAPER_TASKS.len())]
-            };
-            let at = Vec2::new(
+        let agents_cfg = agent_config(cfg);
+        let mut members: Vec<Member> = Vec::new();
+        for spec in roster() {
+            let resources: ResourceSet = spec.resources.parse()?;
+            let position = Vec2::new(
                 rng.random_range(0.0..cfg.room_cm),
                 rng.random_range(0.0..cfg.room_cm),
             );
-            let length = rng.random_range(cfg.length_s.0..=cfg.length_s.1).round();
+            let next_failure = Time::from_secs_f64(exponential(&mut rng, cfg.mtbf_s));
+            let battery = if spec.robot {
+                rng.random_range(0.6..1.0)
+            } else {
+                1.0
+            };
+            members.push(Member {
+                agent: Some(new_agent(
+                    &spec,
+                    &resources,
+                    &agents_cfg,
+                    Time::ZERO,
+                    position,
+                    battery,
+                )?),
+                spec,
+                resources,
+                phase: Phase::Idle,
+                position,
+                battery,
+                next_failure,
+            });
+        }
+        let everyone: Vec<ResourceSet> = members.iter().map(|m| m.resources.clone()).collect();
+        let report = LongtermReport {
+            seed: cfg.seed,
+            hours: cfg.hours,
+            agents: members.len(),
+            ..LongtermReport::default()
+        };
+        let end_of_intro = Time::from_secs_f64(cfg.hours * 3600.0);
+        let hard_end = end_of_intro + Duration::from_secs_f64(cfg.wind_down_s);
+        let next_intro = Time::from_secs_f64(exponential(&mut rng, cfg.mean_gap_s));
+        Ok(Longterm {
+            cfg: cfg.clone(),
+            rng,
+            bus,
+            user,
+            agents_cfg,
+            members,
+            everyone,
+            log: Vec::new(),
+            report,
+            requests: BTreeMap::new(),
+            waits: Vec::new(),
+            end_of_intro,
+            hard_end,
+            next_intro,
+            now: Time::ZERO,
+        })
+    }
+
+    /// Simulated time so far.
+    pub fn now(&self) -> Time {
+        self.now
+    }
+
+    /// The counts so far (the totals that need the whole run, such as
+    /// messages per allocation, are filled in by [`finish`](Longterm::finish)).
+    pub fn report(&self) -> &LongtermReport {
+        &self.report
+    }
+
+    /// Every event so far, in time order.
+    pub fn log(&self) -> &[LogRow] {
+        &self.log
+    }
+
+    /// Whether the run has more to do: tasks are still introduced, or some
+    /// are open and the wind-down has time left.
+    fn running(&self) -> bool {
+        self.now < self.hard_end && (self.now < self.end_of_intro || self.user.open_requests() > 0)
+    }
+
+    /// Advances the run by one simulated second: introductions, failures and
+    /// repairs, the protocol, the robots' driving, working and charging, and
+    /// what the user heard. Does nothing once the run is over.
+    pub fn step(&mut self) -> Result<Progress, LongtermError> {
+        if !self.running() {
+            return Ok(Progress::Done);
+        }
+        self.now = self.now + STEP;
+        // Introduce tasks, each at its own moment.
+        while self.next_intro <= self.now && self.next_intro <= self.end_of_intro {
+            advance(
+                &mut self.bus,
+                &mut self.members,
+                &mut self.user,
+                self.next_intro,
+            );
+            let kind = if self.rng.random_bool(self.cfg.impossible_share) {
+                IMPOSSIBLE_TASK
+            } else {
+                PAPER_TASKS[self.rng.random_range(0..PAPER_TASKS.len())]
+            };
+            let at = Vec2::new(
+                self.rng.random_range(0.0..self.cfg.room_cm),
+                self.rng.random_range(0.0..self.cfg.room_cm),
+            );
+            let length = self
+                .rng
+                .random_range(self.cfg.length_s.0..=self.cfg.length_s.1)
+                .round();
             let spec = task_spec(&kind, at, length);
-            let achievable = everyone.iter().any(|r| spec.resources.is_subset(r));
-            let request = user.introduce(bus.now(), spec).map_err(|e| e.to_string())?;
-            requests.insert(
+            let achievable = self.everyone.iter().any(|r| spec.resources.is_subset(r));
+            let request = self.user.introduce(self.bus.now(), spec)?;
+            self.requests.insert(
                 request,
                 RequestInfo {
                     kind,
-                    introduced: next_intro,
+                    introduced: self.next_intro,
                     achievable,
                 },
             );
-            report.introduced += 1;
-            report.achievable += u64::from(achievable);
-            report
+            self.report.introduced += 1;
+            self.report.achievable += u64::from(achievable);
+            self.report
                 .by_task
                 .entry(kind.name.to_owned())
                 .or_default()
                 .introduced += 1;
-            log.push(row(
-                next_intro,
+            self.log.push(row(
+                self.next_intro,
                 "introduced",
                 Some(request),
                 kind.name,
                 "",
                 format!("length {length} s"),
             ));
-            next_intro =
-                next_intro + Duration::from_secs_f64(exponential(&mut rng, cfg.mean_gap_s));
+            self.next_intro = self.next_intro
+                + Duration::from_secs_f64(exponential(&mut self.rng, self.cfg.mean_gap_s));
         }
         // Failures and repairs.
-        for m in &mut members {
+        for m in &mut self.members {
             if let Phase::Failed { until } = m.phase {
-                if until <= now {
+                if until <= self.now {
                     m.agent = Some(new_agent(
                         &m.spec,
                         &m.resources,
-                        &agents_cfg,
-                        now,
+                        &self.agents_cfg,
+                        self.now,
                         m.position,
                         m.battery,
                     )?);
                     m.phase = Phase::Idle;
-                    m.next_failure =
-                        now + Duration::from_secs_f64(exponential(&mut rng, cfg.mtbf_s));
-                    log.push(row(now, "repaired", None, "", m.spec.name, String::new()));
+                    m.next_failure = self.now
+                        + Duration::from_secs_f64(exponential(&mut self.rng, self.cfg.mtbf_s));
+                    self.log.push(row(
+                        self.now,
+                        "repaired",
+                        None,
+                        "",
+                        m.spec.name,
+                        String::new(),
+                    ));
                 }
-            } else if m.next_failure <= now && now < end_of_intro {
+            } else if m.next_failure <= self.now && self.now < self.end_of_intro {
                 let task = m
                     .agent
                     .as_ref()
                     .and_then(|a| a.current_task())
                     .map(|t| t.spec.name.clone())
                     .unwrap_or_default();
-                report.failures += 1;
-                report.failures_at_work += u64::from(!task.is_empty());
+                self.report.failures += 1;
+                self.report.failures_at_work += u64::from(!task.is_empty());
                 m.agent = None;
-                let repair = rng.random_range(cfg.repair_s.0..=cfg.repair_s.1);
+                let repair = self
+                    .rng
+                    .random_range(self.cfg.repair_s.0..=self.cfg.repair_s.1);
                 m.phase = Phase::Failed {
-                    until: now + Duration::from_secs_f64(repair),
+                    until: self.now + Duration::from_secs_f64(repair),
                 };
-                log.push(row(
-                    now,
+                self.log.push(row(
+                    self.now,
                     "failed",
                     None,
                     &task,
@@ -521,9 +645,9 @@ pub fn run(cfg: &LongtermConfig) -> Result<LongtermOutcome, String> {
                 ));
             }
         }
-        advance(&mut bus, &mut members, &mut user, now);
+        advance(&mut self.bus, &mut self.members, &mut self.user, self.now);
         // What the robots were told to do, and the physics of it.
-        for m in &mut members {
+        for m in &mut self.members {
             let Some(agent) = m.agent.as_mut() else {
                 continue;
             };
@@ -541,7 +665,8 @@ pub fn run(cfg: &LongtermConfig) -> Result<LongtermOutcome, String> {
                     }
                     AgentEvent::Stop { .. } => m.phase = Phase::Idle,
                     AgentEvent::Charge => {
-                        let charger = cfg
+                        let charger = self
+                            .cfg
                             .chargers
                             .iter()
                             .copied()
@@ -550,9 +675,9 @@ pub fn run(cfg: &LongtermConfig) -> Result<LongtermOutcome, String> {
                             })
                             .unwrap_or(m.position);
                         m.phase = Phase::ToCharger { charger };
-                        report.recharges += 1;
-                        log.push(row(
-                            now,
+                        self.report.recharges += 1;
+                        self.log.push(row(
+                            self.now,
                             "charge",
                             None,
                             "",
@@ -561,16 +686,23 @@ pub fn run(cfg: &LongtermConfig) -> Result<LongtermOutcome, String> {
                         ));
                     }
                     AgentEvent::Rejoined => {
-                        log.push(row(now, "charged", None, "", m.spec.name, String::new()));
+                        self.log.push(row(
+                            self.now,
+                            "charged",
+                            None,
+                            "",
+                            m.spec.name,
+                            String::new(),
+                        ));
                     }
                     AgentEvent::Skipped { .. } | AgentEvent::Rejected(_) => {}
                 }
             }
-            let dt = step.as_secs_f64();
+            let dt = STEP.as_secs_f64();
             let drive = |pos: &mut Vec2, goal: Vec2| -> bool {
                 let d = goal - *pos;
                 let len = d.length();
-                let stride = cfg.speed_cm_s * dt;
+                let stride = self.cfg.speed_cm_s * dt;
                 if len <= stride {
                     *pos = goal;
                     true
@@ -579,34 +711,34 @@ pub fn run(cfg: &LongtermConfig) -> Result<LongtermOutcome, String> {
                     false
                 }
             };
-            let mut drain = cfg.idle_drain;
+            let mut drain = self.cfg.idle_drain;
             match m.phase.clone() {
                 Phase::Idle | Phase::Failed { .. } => {}
                 Phase::Travel { goal, length_s } => {
-                    drain = cfg.work_drain;
+                    drain = self.cfg.work_drain;
                     if drive(&mut m.position, goal) {
                         m.phase = Phase::Work {
-                            until: now + Duration::from_secs_f64(length_s),
+                            until: self.now + Duration::from_secs_f64(length_s),
                         };
                     }
                 }
                 Phase::Work { until } => {
-                    drain = cfg.work_drain;
-                    if now >= until {
-                        agent.finish(now);
+                    drain = self.cfg.work_drain;
+                    if self.now >= until {
+                        agent.finish(self.now);
                         m.phase = Phase::Idle;
                     }
                 }
                 Phase::ToCharger { charger } => {
-                    drain = cfg.work_drain;
+                    drain = self.cfg.work_drain;
                     if drive(&mut m.position, charger) {
                         m.phase = Phase::Charging;
                     }
                 }
                 Phase::Charging => {
-                    drain = -cfg.charge_rate;
+                    drain = -self.cfg.charge_rate;
                     if m.battery >= 1.0 {
-                        agent.charged(now);
+                        agent.charged(self.now);
                         m.phase = Phase::Idle;
                     }
                 }
@@ -618,15 +750,15 @@ pub fn run(cfg: &LongtermConfig) -> Result<LongtermOutcome, String> {
             agent.set_battery(m.battery);
             if m.spec.robot && m.battery <= 0.0 {
                 // Flat in the field: as good as failed until someone carries it to a charger.
-                report.failures += 1;
-                report.failures_at_work += u64::from(agent.current_task().is_some());
+                self.report.failures += 1;
+                self.report.failures_at_work += u64::from(agent.current_task().is_some());
                 m.agent = None;
                 m.battery = 1.0;
                 m.phase = Phase::Failed {
-                    until: now + Duration::from_secs_f64(cfg.repair_s.1),
+                    until: self.now + Duration::from_secs_f64(self.cfg.repair_s.1),
                 };
-                log.push(row(
-                    now,
+                self.log.push(row(
+                    self.now,
                     "failed",
                     None,
                     "",
@@ -636,15 +768,15 @@ pub fn run(cfg: &LongtermConfig) -> Result<LongtermOutcome, String> {
             }
         }
         // What the user heard.
-        while let Some(e) = user.poll_event() {
+        while let Some(e) = self.user.poll_event() {
             match e {
                 UserEvent::Auction { request, event } => {
-                    let name = requests.get(&request).map_or("", |r| r.kind.name);
+                    let name = self.requests.get(&request).map_or("", |r| r.kind.name);
                     match event {
                         AnnouncerEvent::Announced { attempt, .. } => {
-                            report.announced += 1;
-                            log.push(row(
-                                now,
+                            self.report.announced += 1;
+                            self.log.push(row(
+                                self.now,
                                 "announced",
                                 Some(request),
                                 name,
@@ -658,9 +790,9 @@ pub fn run(cfg: &LongtermConfig) -> Result<LongtermOutcome, String> {
                             bids,
                             ..
                         } => {
-                            report.awarded += 1;
-                            log.push(row(
-                                now,
+                            self.report.awarded += 1;
+                            self.log.push(row(
+                                self.now,
                                 "awarded",
                                 Some(request),
                                 name,
@@ -669,9 +801,9 @@ pub fn run(cfg: &LongtermConfig) -> Result<LongtermOutcome, String> {
                             ));
                         }
                         AnnouncerEvent::Started { winner, .. } => {
-                            report.allocated += 1;
-                            log.push(row(
-                                now,
+                            self.report.allocated += 1;
+                            self.log.push(row(
+                                self.now,
                                 "started",
                                 Some(request),
                                 name,
@@ -683,12 +815,12 @@ pub fn run(cfg: &LongtermConfig) -> Result<LongtermOutcome, String> {
                             if reason.contains("presumed failed")
                                 || reason.contains("no acknowledgement")
                             {
-                                report.reallocated_after_failure += 1;
+                                self.report.reallocated_after_failure += 1;
                             } else {
-                                report.reallocated_other += 1;
+                                self.report.reallocated_other += 1;
                             }
-                            log.push(row(
-                                now,
+                            self.log.push(row(
+                                self.now,
                                 "winner-lost",
                                 Some(request),
                                 name,
@@ -697,8 +829,15 @@ pub fn run(cfg: &LongtermConfig) -> Result<LongtermOutcome, String> {
                             ));
                         }
                         AnnouncerEvent::Unachievable { reason, .. } => {
-                            report.unachievable_reports += 1;
-                            log.push(row(now, "unachievable", Some(request), name, "", reason));
+                            self.report.unachievable_reports += 1;
+                            self.log.push(row(
+                                self.now,
+                                "unachievable",
+                                Some(request),
+                                name,
+                                "",
+                                reason,
+                            ));
                         }
                         AnnouncerEvent::Bid { .. }
                         | AnnouncerEvent::Completed { .. }
@@ -706,23 +845,23 @@ pub fn run(cfg: &LongtermConfig) -> Result<LongtermOutcome, String> {
                     }
                 }
                 UserEvent::Allocated { request, .. } => {
-                    if let Some(r) = requests.get(&request) {
-                        waits.push(now.since(r.introduced).as_secs_f64());
+                    if let Some(r) = self.requests.get(&request) {
+                        self.waits.push(self.now.since(r.introduced).as_secs_f64());
                     }
                 }
                 UserEvent::Completed { request, winner } => {
-                    let Some(r) = requests.get(&request) else {
+                    let Some(r) = self.requests.get(&request) else {
                         continue;
                     };
-                    report.completed += 1;
-                    report.completed_achievable += u64::from(r.achievable);
-                    report
+                    self.report.completed += 1;
+                    self.report.completed_achievable += u64::from(r.achievable);
+                    self.report
                         .by_task
                         .entry(r.kind.name.to_owned())
                         .or_default()
                         .completed += 1;
-                    log.push(row(
-                        now,
+                    self.log.push(row(
+                        self.now,
                         "completed",
                         Some(request),
                         r.kind.name,
@@ -731,45 +870,91 @@ pub fn run(cfg: &LongtermConfig) -> Result<LongtermOutcome, String> {
                     ));
                 }
                 UserEvent::GaveUp { request, reason } => {
-                    let Some(r) = requests.get(&request) else {
+                    let Some(r) = self.requests.get(&request) else {
                         continue;
                     };
-                    report.gave_up += 1;
-                    report.gave_up_achievable += u64::from(r.achievable);
-                    report
+                    self.report.gave_up += 1;
+                    self.report.gave_up_achievable += u64::from(r.achievable);
+                    self.report
                         .by_task
                         .entry(r.kind.name.to_owned())
                         .or_default()
                         .gave_up += 1;
-                    log.push(row(now, "gave-up", Some(request), r.kind.name, "", reason));
+                    self.log.push(row(
+                        self.now,
+                        "gave-up",
+                        Some(request),
+                        r.kind.name,
+                        "",
+                        reason,
+                    ));
                 }
                 UserEvent::Unachievable { .. } => {}
             }
         }
-    }
-    report.simulated_s = now.as_secs_f64();
-    let stats = bus.stats();
-    report.messages = stats.sent;
-    report.messages_by_kind = stats.by_label.clone();
-    let per_award = |n: u64| {
-        if report.awarded > 0 {
-            n as f64 / report.awarded as f64
+        Ok(if self.running() {
+            Progress::Running
         } else {
+            Progress::Done
+        })
+    }
+
+    /// The outcome: the report with its whole-run totals, and the log.
+    pub fn finish(self) -> LongtermOutcome {
+        let mut report = self.report;
+        report.simulated_s = self.now.as_secs_f64();
+        let stats = self.bus.stats();
+        report.messages = stats.sent;
+        report.messages_by_kind = stats.by_label.clone();
+        let per_award = |n: u64| {
+            if report.awarded > 0 {
+                n as f64 / report.awarded as f64
+            } else {
+                0.0
+            }
+        };
+        let negotiation: u64 = ["task", "bid", "award", "ack", "decline"]
+            .iter()
+            .filter_map(|l| stats.by_label.get(*l))
+            .sum();
+        report.messages_per_allocation = per_award(stats.sent);
+        report.negotiation_per_allocation = per_award(negotiation);
+        report.mean_wait_s = if self.waits.is_empty() {
             0.0
+        } else {
+            self.waits.iter().sum::<f64>() / self.waits.len() as f64
+        };
+        LongtermOutcome {
+            report,
+            log: self.log,
         }
-    };
-    let negotiation: u64 = ["task", "bid", "award", "ack", "decline"]
-        .iter()
-        .filter_map(|l| stats.by_label.get(*l))
-        .sum();
-    report.messages_per_allocation = per_award(stats.sent);
-    report.negotiation_per_allocation = per_award(negotiation);
-    report.mean_wait_s = if waits.is_empty() {
-        0.0
-    } else {
-        waits.iter().sum::<f64>() / waits.len() as f64
-    };
-    Ok(LongtermOutcome { report, log })
+    }
+}
+
+/// Runs the experiment to its end.
+pub fn run(cfg: &LongtermConfig) -> Result<LongtermOutcome, LongtermError> {
+    let mut run = Longterm::new(cfg)?;
+    while run.step()? == Progress::Running {}
+    Ok(run.finish())
+}
+
+/// One row of the log.
+fn row(
+    time: Time,
+    kind: &'static str,
+    request: Option<u64>,
+    task: &str,
+    agent: &str,
+    detail: String,
+) -> LogRow {
+    LogRow {
+        time_s: time.as_secs_f64(),
+        kind,
+        request,
+        task: task.to_owned(),
+        agent: agent.to_owned(),
+        detail,
+    }
 }
 
 /// Runs the protocol up to `t`, among the agents still working and the user.
@@ -789,8 +974,8 @@ fn new_agent(
     now: Time,
     at: Vec2,
     battery: f64,
-) -> Result<Agent, String> {
-    let token = Token::new(spec.name).map_err(|e| e.to_string())?;
+) -> Result<Agent, TokenError> {
+    let token = Token::new(spec.name)?;
     let mut a = Agent::new(token, resources.clone(), cfg.clone(), now);
     a.set_position(at);
     a.set_battery(battery);

@@ -12,3 +12,13 @@
 pub mod boxpush;
 pub mod longterm;
 pub mod optimal;
+
+/// Where a run stands after a `step`: the experiments are values advanced a
+/// step at a time, so a caller can watch a run or stop it part-way.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Progress {
+    /// More to do: step again.
+    Running,
+    /// The run is over: `finish` gives its outcome; further steps do nothing.
+    Done,
+}
