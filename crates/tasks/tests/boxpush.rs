@@ -112,7 +112,7 @@ fn settings_a_run_cannot_be_made_with_are_refused_with_the_reason() {
             "must be finite",
         ),
     ] {
-        let e = run(&cfg).err().expect("refused").to_string();
+        let e = run(&cfg).expect_err("refused").to_string();
         assert!(e.contains(want), "{e}");
     }
 }
