@@ -13,291 +13,28 @@
 //! ends as the watcher asks. Switched on again (on the other side), it is
 //! brought straight back into the team.
 
-use std::f64::consts::PI;
+mod control;
+mod report;
+mod settings;
+
 use std::time::Duration;
 
-use colony_proto::{wrap_angle, Pose, Vec2, WheelCommand};
-use colony_sim::field::{
-    BoxSpec, Field, FieldBoxId, FieldConfig, FieldRobotId, RobotSpec, TileMap,
-};
+use colony_proto::{Pose, Vec2, WheelCommand};
+use colony_sim::field::{Field, FieldBoxId, FieldConfig, FieldRobotId, TileMap};
 use colony_sim::SimError;
-use serde::Serialize;
+
+pub use report::{BoxPushOutcome, BoxPushReport};
+pub use settings::{BoxPushConfig, MOVE_BOX, PUSH_LEFT, PUSH_RIGHT};
 
 use super::Progress;
 use crate::agent::{Agent, AgentConfig, AgentEvent};
 use crate::announcer::{Announcer, AnnouncerEvent, AuctionConfig};
 use crate::bus::Bus;
 use crate::node::Node;
-use crate::protocol::{
-    Announcement, ResourceError, ResourceSet, SpecError, TaskSpec, Token, TokenError,
-};
+use crate::protocol::{ResourceError, SpecError, TaskSpec, Token, TokenError};
 use crate::time::Time;
 use crate::user::{Backoff, UserAgent, UserEvent};
-
-/// The high-level task the user introduces.
-pub const MOVE_BOX: &str = "move-box";
-/// Push the end on the left, looking from behind the box towards the goal.
-pub const PUSH_LEFT: &str = "push-left-end";
-/// Push the end on the right.
-pub const PUSH_RIGHT: &str = "push-right-end";
-
-/// A run's settings.
-#[derive(Debug, Clone, PartialEq)]
-pub struct BoxPushConfig {
-    /// Where the box starts: centre and heading of its length, cm and rad.
-    pub box_start: Pose,
-    /// Where it must go, cm.
-    pub goal: Vec2,
-    /// Close enough, cm from the box's centre.
-    pub tolerance_cm: f64,
-    /// Switch one pusher off at this time, s.
-    pub off_at: Option<f64>,
-    /// Switch it on again at this time, s.
-    pub on_at: Option<f64>,
-    /// Give up after this long, s.
-    pub max_s: f64,
-    /// How long each push lasts once a pusher is in place, s.
-    pub push_s: f64,
-    /// Box turned further than this from facing the goal gets a one-ended push, rad.
-    pub align_tolerance: f64,
-}
-
-impl Default for BoxPushConfig {
-    fn default() -> Self {
-        BoxPushConfig {
-            box_start: Pose {
-                x: 300.0,
-                y: 120.0,
-                theta: 0.0,
-            },
-            goal: Vec2::new(360.0, 400.0),
-            tolerance_cm: 25.0,
-            off_at: None,
-            on_at: None,
-            max_s: 900.0,
-            push_s: 2.0,
-            align_tolerance: 0.15,
-        }
-    }
-}
-
-/// How a run went.
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
-pub struct BoxPushReport {
-    /// The box reached the goal.
-    pub reached: bool,
-    /// When (or when the run stopped), s.
-    pub time_s: f64,
-    /// The box's centre's distance from the goal at the end, cm.
-    pub final_distance_cm: f64,
-    /// Pushing tasks announced.
-    pub announced: u64,
-    /// Pushes finished, by task: left, right.
-    pub pushes_left: u64,
-    /// See `pushes_left`.
-    pub pushes_right: u64,
-    /// Pushes finished by each pusher.
-    pub pushes_by: Vec<u64>,
-    /// Push tasks no pusher could take.
-    pub unachievable: u64,
-    /// Push tasks auctioned again after their pusher failed.
-    pub reallocated: u64,
-    /// Times the pusher doing a push changed from the one before it on that end.
-    pub role_swaps: u64,
-    /// Packets published.
-    pub messages: u64,
-}
-
-/// A run: its report, and the box's pose each second.
-#[derive(Debug, Clone)]
-pub struct BoxPushOutcome {
-    /// The summary.
-    pub report: BoxPushReport,
-    /// Time (s) and box pose, once a second.
-    pub track: Vec<(f64, Pose)>,
-    /// Notable events as text, with their time.
-    pub events: Vec<(f64, String)>,
-}
-
-const BOX: BoxSpec = BoxSpec {
-    half_length: 30.0,
-    half_width: 4.0,
-    mass: 400.0,
-    damping: 6.0,
-};
-
-const PUSHER: RobotSpec = RobotSpec {
-    radius: 8.0,
-    max_speed: 20.0,
-    max_turn: 2.0,
-    amphibious: false,
-};
-
-/// Which way the watcher wants the box to go, and which ends are which.
-#[derive(Debug, Clone, Copy)]
-struct Frame {
-    centre: Vec2,
-    /// Along the length, towards the right end.
-    u: Vec2,
-    /// The push direction: perpendicular to the length, towards the goal's side.
-    n: Vec2,
-    /// Signed angle from `n` to the goal; positive means turn left.
-    error: f64,
-}
-
-fn frame(pose: Pose, goal: Vec2) -> Frame {
-    let centre = pose.position();
-    let mut u = Vec2::new(pose.theta.cos(), pose.theta.sin());
-    let mut n = Vec2::new(-u.y, u.x);
-    let g = goal - centre;
-    if n.x * g.x + n.y * g.y < 0.0 {
-        n = n * -1.0;
-        u = u * -1.0;
-    }
-    let error = (n.x * g.y - n.y * g.x).atan2(n.x * g.x + n.y * g.y);
-    // With n = perp(u), the end at -u is on the left looking along n.
-    Frame {
-        centre,
-        u,
-        n,
-        error,
-    }
-}
-
-fn dot(a: Vec2, b: Vec2) -> f64 {
-    a.x * b.x + a.y * b.y
-}
-
-/// Where on the box's back face to push the end `side` (-1 left, +1 right).
-fn push_point(f: &Frame, side: f64) -> Vec2 {
-    f.centre + f.u * (side * BOX.half_length * 0.7) - f.n * BOX.half_width
-}
-
-/// The watcher's pushing task for one end.
-fn push_task(f: &Frame, side: f64, push_s: f64) -> TaskSpec {
-    let p = push_point(f, side);
-    let name = if side < 0.0 { PUSH_LEFT } else { PUSH_RIGHT };
-    TaskSpec::new(name, pusher_resources())
-        .length(push_s)
-        .param("x", p.x)
-        .param("y", p.y)
-        .param("nx", f.n.x)
-        .param("ny", f.n.y)
-        .metric("distance", 1.0)
-}
-
-fn pusher_resources() -> ResourceSet {
-    let mut r = ResourceSet::new();
-    // Both names are valid resources; a failure here would be a typo in this file.
-    let _ = r.insert("mobile");
-    let _ = r.insert("bumpers");
-    r
-}
-
-/// A pusher executing one task: get behind the end, face the push direction, push.
-#[derive(Debug, Clone)]
-struct Push {
-    /// -1 left end, +1 right end, in the box's own frame (fixed at the start).
-    end: f64,
-    /// The push direction at the start, to pick the same face as the box turns.
-    n0: Vec2,
-    pushing_since: Option<f64>,
-    started: f64,
-    push_s: f64,
-}
-
-impl Push {
-    fn new(ann: &Announcement, box_pose: Pose, now: f64) -> Push {
-        let p = Vec2::new(
-            ann.spec.number("x").unwrap_or(box_pose.x),
-            ann.spec.number("y").unwrap_or(box_pose.y),
-        );
-        let n0 = Vec2::new(
-            ann.spec.number("nx").unwrap_or(0.0),
-            ann.spec.number("ny").unwrap_or(1.0),
-        );
-        // Which end of the box, in its own frame, the point is at.
-        let along = Vec2::new(box_pose.theta.cos(), box_pose.theta.sin());
-        let end = if dot(p - box_pose.position(), along) >= 0.0 {
-            1.0
-        } else {
-            -1.0
-        };
-        Push {
-            end,
-            n0,
-            pushing_since: None,
-            started: now,
-            push_s: ann.spec.length_s,
-        }
-    }
-
-    /// The wheels for this step, or `None` when the push is over.
-    fn step(&mut self, me: Pose, box_pose: Pose, now: f64) -> Option<WheelCommand> {
-        if let Some(since) = self.pushing_since {
-            if now - since >= self.push_s {
-                return None;
-            }
-        }
-        if now - self.started > 60.0 {
-            return None; // stuck: give the watcher a fresh look
-        }
-        let along = Vec2::new(box_pose.theta.cos(), box_pose.theta.sin());
-        let mut n = Vec2::new(-along.y, along.x);
-        if dot(n, self.n0) < 0.0 {
-            n = n * -1.0;
-        }
-        let end = box_pose.position() + along * (self.end * BOX.half_length * 0.7);
-        let face = end - n * BOX.half_width;
-        let pos = me.position();
-        let stand = face - n * (PUSHER.radius + 10.0);
-        if self.pushing_since.is_none() {
-            // In front of the back face: go round the end first.
-            let behind = dot(pos - box_pose.position(), n);
-            let target = if behind > -(BOX.half_width + PUSHER.radius) {
-                end + along * (self.end * (BOX.half_length * 0.3 + PUSHER.radius + 15.0))
-                    - n * (BOX.half_width + PUSHER.radius + 15.0)
-            } else {
-                stand
-            };
-            let d = target - pos;
-            if target == stand && d.length() < 3.0 {
-                let e = wrap_angle(n.angle() - me.theta);
-                if e.abs() < 0.08 {
-                    self.pushing_since = Some(now);
-                } else {
-                    return Some(WheelCommand {
-                        forward: 0.0,
-                        turn: (2.0 * e).clamp(-1.0, 1.0),
-                    });
-                }
-            } else {
-                return Some(drive_to(me, target));
-            }
-        }
-        // Push: head for a point beyond the face, so the robot stays on its end.
-        Some(drive_to(me, face + n * 40.0))
-    }
-}
-
-/// A go-to-point controller that backs up to close targets behind it.
-fn drive_to(me: Pose, target: Vec2) -> WheelCommand {
-    let d = target - me.position();
-    let dist = d.length();
-    let e = wrap_angle(d.angle() - me.theta);
-    let speed = (dist / 15.0).clamp(0.15, 1.0);
-    if dist < 30.0 && e.abs() > PI / 2.0 {
-        let back = wrap_angle(e - PI);
-        return WheelCommand {
-            forward: -speed * back.cos().max(0.0),
-            turn: (2.0 * back).clamp(-1.0, 1.0),
-        };
-    }
-    WheelCommand {
-        forward: if e.abs() < 0.6 { speed * e.cos() } else { 0.0 },
-        turn: (2.0 * e).clamp(-1.0, 1.0),
-    }
-}
+use control::{comeback_pose, frame, push_point, push_task, pusher_resources, Push, BOX, PUSHER};
 
 /// The watcher's side of `move-box`: look, decide, announce, wait for the round.
 struct Watcher {
@@ -550,7 +287,30 @@ impl BoxPush {
         let step = self.step;
         let now_s = step as f64 * self.dt;
         let now = Time::from_secs_f64(now_s);
-        // Switching a pusher off and on.
+        self.switch_pusher(now, now_s)?;
+        self.run_protocol(now)?;
+        self.follow_watcher(now_s)?;
+        let box_pose = self.field.box_pose(self.bx).unwrap_or(self.cfg.box_start);
+        if step % (1.0 / self.dt).round() as u64 == 0 {
+            self.track.push((now_s, box_pose));
+        }
+        if self.watch(now, now_s, box_pose)? {
+            self.done = true;
+            return Ok(Progress::Done);
+        }
+        let commands = self.drive_pushers(now, now_s, box_pose);
+        self.field.step(&commands);
+        self.report.time_s = now_s;
+        Ok(if self.step >= self.steps {
+            self.done = true;
+            Progress::Done
+        } else {
+            Progress::Running
+        })
+    }
+
+    /// Switches the first pusher off, and on again behind the box, when the settings say.
+    fn switch_pusher(&mut self, now: Time, now_s: f64) -> Result<(), BoxPushError> {
         if self.cfg.off_at.is_some_and(|t| now_s >= t) && !self.switched_off {
             self.switched_off = true;
             let p = &mut self.pushers[0];
@@ -578,6 +338,11 @@ impl BoxPush {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// Everyone's view of the world for their metrics, then the protocol up to `now`; fails if the user agent gave up.
+    fn run_protocol(&mut self, now: Time) -> Result<(), BoxPushError> {
         // Everyone's view of the world, for their metrics.
         for p in &mut self.pushers {
             if let (Some(a), Some(pose)) = (p.agent.as_mut(), self.field.robot_pose(p.robot)) {
@@ -606,7 +371,11 @@ impl BoxPush {
                 return Err(BoxPushError::GaveUp(reason));
             }
         }
-        // The watcher: is it at work, and what does it see?
+        Ok(())
+    }
+
+    /// The watcher: is it at work on `move-box`?
+    fn follow_watcher(&mut self, now_s: f64) -> Result<(), BoxPushError> {
         while let Some(e) = self.watcher_agent.poll_event() {
             match e {
                 AgentEvent::Start(_) => {
@@ -624,10 +393,11 @@ impl BoxPush {
                 _ => {}
             }
         }
-        let box_pose = self.field.box_pose(self.bx).unwrap_or(self.cfg.box_start);
-        if step % (1.0 / self.dt).round() as u64 == 0 {
-            self.track.push((now_s, box_pose));
-        }
+        Ok(())
+    }
+
+    /// The watcher at work: counts what its auctions did, and looks at the box: at the goal (true), or time to announce the next pushes.
+    fn watch(&mut self, now: Time, now_s: f64, box_pose: Pose) -> Result<bool, BoxPushError> {
         let distance = box_pose.position().distance(self.cfg.goal);
         if let Some(w) = self.watcher.as_mut() {
             while let Some(e) = w.announcer.poll_event() {
@@ -679,8 +449,7 @@ impl BoxPush {
                 self.report.time_s = now_s;
                 self.events
                     .push((now_s, format!("the box is at the goal ({distance:.1} cm)")));
-                self.done = true;
-                return Ok(Progress::Done);
+                return Ok(true);
             }
             if w.open.is_empty() && now_s >= w.next_look {
                 let f = frame(box_pose, self.cfg.goal);
@@ -702,7 +471,11 @@ impl BoxPush {
                 w.next_look = now_s + 0.5;
             }
         }
-        // The pushers.
+        Ok(false)
+    }
+
+    /// The pushers: start and stop their pushes as their agents say, and each one's wheels for this step.
+    fn drive_pushers(&mut self, now: Time, now_s: f64, box_pose: Pose) -> Vec<WheelCommand> {
         let mut commands = vec![WheelCommand::STOP; self.field.robot_count()];
         for p in &mut self.pushers {
             let Some(agent) = p.agent.as_mut() else {
@@ -731,14 +504,7 @@ impl BoxPush {
                 }
             }
         }
-        self.field.step(&commands);
-        self.report.time_s = now_s;
-        Ok(if self.step >= self.steps {
-            self.done = true;
-            Progress::Done
-        } else {
-            Progress::Running
-        })
+        commands
     }
 
     /// The outcome: the report with the box's final distance and the
@@ -761,49 +527,4 @@ pub fn run(cfg: &BoxPushConfig) -> Result<BoxPushOutcome, BoxPushError> {
     let mut run = BoxPush::new(cfg)?;
     while run.step()? == Progress::Running {}
     Ok(run.finish())
-}
-
-/// Where a pusher switched on again is put back: behind the box, on the side
-/// away from the other pusher, at the first free place.
-fn comeback_pose(field: &Field, box_pose: Pose, goal: Vec2, other: Pose) -> Option<Pose> {
-    let f = frame(box_pose, goal);
-    let side = if dot(other.position() - f.centre, f.u) >= 0.0 {
-        -1.0
-    } else {
-        1.0
-    };
-    let theta = f.n.angle();
-    (0..8).find_map(|k| {
-        let back = PUSHER.radius + 30.0 + 15.0 * k as f64;
-        let at = push_point(&f, side) - f.n * back;
-        let pose = Pose {
-            x: at.x,
-            y: at.y,
-            theta,
-        };
-        let size = field.map().size_cm();
-        let inside = at.x > PUSHER.radius
-            && at.y > PUSHER.radius
-            && at.x < size.x - PUSHER.radius
-            && at.y < size.y - PUSHER.radius;
-        inside.then_some(pose)
-    })
-}
-
-impl BoxPushReport {
-    /// The summary as pretty JSON.
-    pub fn to_json(&self) -> String {
-        serde_json::to_string_pretty(self).unwrap_or_default()
-    }
-}
-
-impl BoxPushOutcome {
-    /// The box's track as CSV.
-    pub fn track_csv(&self) -> String {
-        let mut out = String::from("time_s,x,y,theta\n");
-        for (t, p) in &self.track {
-            out.push_str(&format!("{t:.1},{:.2},{:.2},{:.4}\n", p.x, p.y, p.theta));
-        }
-        out
-    }
 }
