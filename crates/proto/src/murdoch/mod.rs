@@ -12,7 +12,7 @@
 //! | [`announce`] | [`Announcement`]: a task on offer |
 //! | [`negotiate`] | [`Negotiation`], [`Bid`]: bids, awards, renewals, the end of a task |
 //! | [`fields`] | the limits every reader holds values to ([`MAX_MAGNITUDE`], ...) |
-//! | [`error`] | [`EncodeError`]; reading fails with the crate's [`DecodeError`](crate::DecodeError) |
+//! | [`error`] | [`EncodeError`]; reading fails with the crate's [`DecodeError`] |
 //!
 //! # The messages
 //!
@@ -60,7 +60,7 @@
 //! ```
 //!
 //! [`Message::decode`] refuses anything else with the line and field at
-//! fault ([`DecodeError`](crate::DecodeError)) and never panics (a property
+//! fault ([`DecodeError`]) and never panics (a property
 //! test and a fuzz target hold it to that); a refused packet changes no
 //! auction.
 

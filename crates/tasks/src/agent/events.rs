@@ -16,7 +16,7 @@ pub enum StopReason {
 /// What the robot's owner must act on.
 #[derive(Debug, Clone, PartialEq)]
 pub enum AgentEvent {
-    /// Start executing this task; call [`Agent::finish`] when it is done.
+    /// Start executing this task; call [`Agent::finish`](super::Agent::finish) when it is done.
     Start(Announcement),
     /// Stop executing the task (the robot is idle again).
     Stop {
@@ -28,7 +28,7 @@ pub enum AgentEvent {
         reason: StopReason,
     },
     /// The battery is low: the robot has unsubscribed from everything; drive to a
-    /// charger and call [`Agent::charged`] when full.
+    /// charger and call [`Agent::charged`](super::Agent::charged) when full.
     Charge,
     /// Back from charging, listening again.
     Rejoined,

@@ -72,7 +72,7 @@ pub enum AnnouncerEvent {
         /// For example "no robot with {camera laser mobile} is available".
         reason: String,
     },
-    /// Withdrawn by [`Announcer::cancel`].
+    /// Withdrawn by [`Announcer::cancel`](super::Announcer::cancel).
     Cancelled {
         /// The task's number.
         task: u64,
