@@ -252,4 +252,25 @@ mod tests {
         let s = negotiation_subject(&longest, u64::MAX, u32::MAX);
         assert_eq!(s.as_str().len(), colony_wire::MAX_SUBJECT_LEN);
     }
+
+    proptest::proptest! {
+        #[test]
+        fn any_text_reads_as_a_set_or_an_error_and_a_set_reads_back_from_its_print(
+            text in "[ -~\t\n]{0,80}",
+        ) {
+            if let Ok(set) = text.parse::<ResourceSet>() {
+                proptest::prop_assert_eq!(set.to_string().parse::<ResourceSet>(), Ok(set.clone()));
+                proptest::prop_assert!(set.iter().all(|r| ResourceSet::check(r.as_str()).is_ok()));
+            }
+        }
+
+        #[test]
+        fn a_negotiation_subject_is_always_one(
+            who in "[A-Za-z0-9_-]{1,24}", task in proptest::num::u64::ANY, attempt in proptest::num::u32::ANY,
+        ) {
+            let s = negotiation_subject(&Token::new(&who).unwrap(), task, attempt);
+            proptest::prop_assert!(s.as_str().starts_with(NEGOTIATION_PREFIX));
+            proptest::prop_assert!(ResourceSet::check(s.as_str()).is_err());
+        }
+    }
 }

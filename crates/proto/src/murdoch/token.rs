@@ -86,4 +86,23 @@ mod tests {
         assert_eq!(t.to_string(), "r2");
         assert!("r 2".parse::<Token>().is_err());
     }
+
+    proptest::proptest! {
+        #[test]
+        fn any_text_is_a_token_exactly_when_it_fits_the_alphabet(text in "\\PC{0,30}") {
+            let fits = !text.is_empty()
+                && text.len() <= MAX_TOKEN_LEN
+                && text.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-');
+            match Token::new(&text) {
+                Ok(t) => {
+                    proptest::prop_assert!(fits);
+                    proptest::prop_assert_eq!(t.to_string(), text);
+                }
+                Err(TokenError(kept)) => {
+                    proptest::prop_assert!(!fits);
+                    proptest::prop_assert!(text.starts_with(&kept));
+                }
+            }
+        }
+    }
 }
