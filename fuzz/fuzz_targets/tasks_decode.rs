@@ -2,12 +2,12 @@
 //! back and read again to the same message.
 //!
 //! `cargo +nightly fuzz run tasks_decode` (from the repository root); the seeds
-//! in `fuzz/corpus/tasks_decode/` also run in plain `cargo test -p colony-tasks`
-//! (`crates/tasks/tests/fuzz_corpus.rs`).
+//! in `fuzz/corpus/tasks_decode/` also run in plain `cargo test -p colony-proto`
+//! (`crates/proto/tests/murdoch_fuzz_corpus.rs`).
 
 #![no_main]
 
-use colony_tasks::Message;
+use colony_proto::murdoch::Message;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -22,4 +22,30 @@ pub enum DecodeError {
         /// What was wrong, with the offending value.
         what: String,
     },
+    /// A header with no body line.
+    #[error("no message: the packet has no body line")]
+    Empty,
+    /// A first line whose label names no message this decoder reads.
+    #[error("line {line}: unknown message `{label}` (expected {expected})")]
+    UnknownMessage {
+        /// 1-based line number.
+        line: u32,
+        /// The label found.
+        label: String,
+        /// The labels the decoder reads, as a person would list them.
+        expected: &'static str,
+    },
+    /// A field that reads but whose value is out of its range or not a known word.
+    #[error("line {line}, field `{field}`: {what}")]
+    BadField {
+        /// 1-based line number.
+        line: u32,
+        /// The field at fault.
+        field: String,
+        /// What is wrong with it, with the offending value.
+        what: String,
+    },
+    /// A header whose subjects do not fit the message.
+    #[error("line 1 (header): {0}")]
+    Header(String),
 }

@@ -13,6 +13,7 @@
 //! | [`hold`] | the operator-override hold rule: which command is in force for each robot |
 //! | [`fields`] | field readers with their range rules ([`fields::MAX_COORD`]) |
 //! | [`error`] | [`DecodeError`], what every decoder returns |
+//! | [`murdoch`] | MURDOCH's task-allocation messages, with its resource sets and tokens |
 //!
 //! Units everywhere: centimetres, seconds, radians (counter-clockwise from +x).
 
@@ -23,6 +24,7 @@ pub mod error;
 pub mod fields;
 pub mod geometry;
 pub mod hold;
+pub mod murdoch;
 pub mod radio;
 
 pub use error::DecodeError;

@@ -60,7 +60,7 @@ fn loopback(robots: usize, rounds: usize, window: Duration) -> Row {
                 AgentConfig::default(),
                 link.now(),
             );
-            a.set_position(colony_sim::Vec2::new(i as f64, 0.0));
+            a.set_position(colony_proto::Vec2::new(i as f64, 0.0));
             mux.add(link, a).unwrap();
         }
         let settle = Instant::now() + Duration::from_millis(300);

@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
-use colony_sim::Vec2;
+use colony_proto::Vec2;
 use colony_wire::{Packet, Subject};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -17,7 +17,7 @@ use crate::announcer::{AnnouncerEvent, AuctionConfig};
 use crate::experiment::longterm::{roster, task_spec, IMPOSSIBLE_TASK, PAPER_TASKS};
 use crate::live::{Link, LiveError, Mux};
 use crate::node::Node;
-use crate::resource::Token;
+use crate::protocol::Token;
 use crate::time::Time;
 use crate::user::{Backoff, UserAgent, UserEvent};
 

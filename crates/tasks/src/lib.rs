@@ -28,7 +28,8 @@
 //!
 //! # Where things are
 //!
-//! - [`protocol`]: the messages, written and read ([`Message`], [`TaskSpec`]).
+//! - [`protocol`]: the messages, written and read ([`Message`], [`TaskSpec`]),
+//!   at home in [`colony_proto::murdoch`].
 //! - [`Agent`], [`Announcer`], [`UserAgent`]: the three roles, each a [`Node`].
 //! - [`metric`]: the shared vocabulary robots score themselves with.
 //! - [`Bus`]: the in-memory hub on simulated time; [`live`]: the real hub
@@ -38,53 +39,12 @@
 //!
 //! # The messages
 //!
-//! One message per packet, priority 0. Scores are costs: the lowest wins, and
-//! equal scores go to the lowest bidder token, so every listener picks the same
-//! winner. `deadline_ms` is relative (bids are taken for that long after the
-//! announcement is heard), so robots need no common clock.
-//!
-//! ```text
-//! @ <camera> <laser> <mobile> <idle> 0          announcer → capable idle robots
-//! task name sentry-duty id 17 negotiation murdoch.user.17.1 deadline_ms 200 length_s 120 announcer user
-//! param name x value 350.0
-//! param name color value "red"
-//! metric name distance weight 1.0
-//! metric name battery weight 200.0
-//!
-//! @ <murdoch.user.17.1> 0                        each capable robot → everyone negotiating
-//! bid task 17 bidder r2 score 182.5
-//!
-//! @ <murdoch.user.17.1> 0                        announcer, at the deadline
-//! award task 17 winner r2 score 182.5 bids 3
-//!
-//! @ <murdoch.user.17.1> 0                        the winner takes it and starts
-//! ack task 17 bidder r2
-//!
-//! @ <murdoch.user.17.1> 0                        a bidder withdraws, or turns an award down
-//! decline task 17 bidder r5
-//!
-//! @ <murdoch.user.17.1> 0                        both ways while the task runs
-//! renew task 17 by r2 progress 0.4
-//! @ <murdoch.user.17.1> 0
-//! renew task 17 by user
-//!
-//! @ <murdoch.user.17.1> 0                        the winner, at the end
-//! done task 17 bidder r2
-//!
-//! @ <murdoch.user.17.1> 0                        the winner gives up
-//! abandon task 17 bidder r2 reason "announcer user silent for 3.0 s"
-//!
-//! @ <murdoch.user.17.1> 0                        the announcer withdraws it (then auctions it again on .2)
-//! cancel task 17 reason "presumed failed: no renewal for 3.0 s"
-//!
-//! @ <murdoch.user.17.2> 0                        nobody bid
-//! unachievable task 17 name sentry-duty reason "no robot with {camera laser mobile} is available"
-//! ```
-//!
-//! [`Message::decode`] refuses anything else with the line and field at
-//! fault ([`DecodeError`]) and never panics; a refused packet changes no
-//! auction.
+//! MURDOCH's messages, its resource sets and tokens live in
+//! [`colony_proto::murdoch`] (re-exported here as [`protocol`]), with the
+//! packets they travel as: one home, used by this crate, the monitor and the
+//! fuzz targets alike.
 
+#![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 mod agent;
@@ -95,23 +55,20 @@ pub mod experiment;
 pub mod live;
 pub mod metric;
 mod node;
-pub mod protocol;
-mod resource;
 mod time;
 mod user;
 
 pub use agent::{Agent, AgentConfig, AgentEvent, AgentMode, AgentStats, StopReason};
 pub use announcer::{Announcer, AnnouncerEvent, AnnouncerStats, AuctionConfig, TaskPhase};
 pub use bus::{Bus, BusStats};
+pub use colony_proto::murdoch as protocol;
+pub use colony_proto::DecodeError;
 pub use metric::{MetricError, Metrics, RobotView};
 pub use node::{receives, Node};
 pub use protocol::{
-    Announcement, Bid, DecodeError, EncodeError, Message, MetricTerm, Negotiation, Param,
-    ParamValue, SpecError, TaskSpec,
-};
-pub use resource::{
-    negotiation_subject, ResourceError, ResourceSet, Token, TokenError, IDLE, MAX_TASK_RESOURCES,
-    MAX_TOKEN_LEN, NEGOTIATION_PREFIX,
+    negotiation_subject, Announcement, Bid, EncodeError, Message, MetricTerm, Negotiation, Param,
+    ParamValue, ResourceError, ResourceSet, SpecError, TaskSpec, Token, TokenError, IDLE,
+    MAX_TASK_RESOURCES, MAX_TOKEN_LEN, NEGOTIATION_PREFIX,
 };
 pub use time::Time;
 pub use user::{Backoff, UserAgent, UserEvent};

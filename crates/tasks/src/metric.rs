@@ -8,10 +8,10 @@
 use std::collections::BTreeMap;
 use std::fmt;
 
-use colony_sim::Vec2;
+use colony_proto::Vec2;
 
+use crate::protocol::ResourceSet;
 use crate::protocol::TaskSpec;
-use crate::resource::ResourceSet;
 
 /// What a metric may look at: the robot's own view of itself.
 #[derive(Debug, Clone, Copy)]
@@ -42,7 +42,7 @@ pub enum MetricError {
 ///
 /// ```
 /// use colony_tasks::{Metrics, RobotView, TaskSpec, ResourceSet};
-/// use colony_sim::Vec2;
+/// use colony_proto::Vec2;
 /// let metrics = Metrics::standard();
 /// let task = TaskSpec::new("goto", "mobile".parse().unwrap())
 ///     .param("x", 30.0).param("y", 40.0)

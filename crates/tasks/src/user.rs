@@ -11,8 +11,8 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::announcer::{Announcer, AnnouncerEvent, AuctionConfig};
 use crate::node::Node;
+use crate::protocol::Token;
 use crate::protocol::{SpecError, TaskSpec};
-use crate::resource::Token;
 use crate::time::Time;
 
 /// How a user agent retries.
@@ -302,8 +302,8 @@ impl Node for UserAgent {
 mod tests {
     use super::*;
     use crate::announcer::TaskPhase;
+    use crate::protocol::negotiation_subject;
     use crate::protocol::{Bid, Message, Negotiation};
-    use crate::resource::negotiation_subject;
 
     fn token(s: &str) -> Token {
         Token::new(s).unwrap()

@@ -3,7 +3,7 @@
 
 use std::time::Duration;
 
-use colony_sim::Vec2;
+use colony_proto::Vec2;
 use colony_tasks::{
     Agent, AgentConfig, AgentEvent, AgentMode, Announcer, AnnouncerEvent, AuctionConfig, Backoff,
     Bus, Node, StopReason, TaskSpec, Time, Token, UserAgent, UserEvent,

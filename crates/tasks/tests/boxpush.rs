@@ -1,6 +1,7 @@
 //! Box pushing (section 6.1) in the physics field.
 
-use colony_tasks::experiment::boxpush::{run, BoxPushConfig};
+use colony_tasks::experiment::boxpush::{run, BoxPush, BoxPushConfig};
+use colony_tasks::experiment::Progress;
 
 fn show(name: &str, out: &colony_tasks::experiment::boxpush::BoxPushOutcome) {
     println!("== {name}: {:?}", out.report);
@@ -56,4 +57,62 @@ fn a_pusher_switched_on_again_rejoins_the_team() {
         .events
         .iter()
         .any(|(_, e)| e.contains("switched on again")));
+}
+
+#[test]
+fn a_run_stepped_by_hand_is_the_same_run_and_the_box_can_be_watched_moving() {
+    let cfg = BoxPushConfig::default();
+    let whole = run(&cfg).unwrap();
+    let mut stepped = BoxPush::new(&cfg).unwrap();
+    let start = stepped.box_pose().position().distance(cfg.goal);
+    let mut closest = start;
+    while stepped.step().unwrap() == Progress::Running {
+        closest = closest.min(stepped.box_pose().position().distance(cfg.goal));
+    }
+    assert!(closest <= cfg.tolerance_cm && start > cfg.tolerance_cm);
+    let end = stepped.now_s();
+    assert_eq!(stepped.step().unwrap(), Progress::Done);
+    assert_eq!(stepped.now_s(), end, "a finished run stays finished");
+    let out = stepped.finish();
+    assert_eq!(out.report, whole.report);
+    assert_eq!(out.track, whole.track);
+    assert_eq!(out.events, whole.events);
+}
+
+#[test]
+fn settings_a_run_cannot_be_made_with_are_refused_with_the_reason() {
+    for (cfg, want) in [
+        (
+            BoxPushConfig {
+                on_at: Some(10.0),
+                ..BoxPushConfig::default()
+            },
+            "--on-at needs --off-at",
+        ),
+        (
+            BoxPushConfig {
+                off_at: Some(20.0),
+                on_at: Some(10.0),
+                ..BoxPushConfig::default()
+            },
+            "--on-at (10) must come after --off-at (20)",
+        ),
+        (
+            BoxPushConfig {
+                goal: colony_proto::Vec2::new(900.0, 100.0),
+                ..BoxPushConfig::default()
+            },
+            "the goal (900, 100) is off the 700 x 600 cm field",
+        ),
+        (
+            BoxPushConfig {
+                max_s: f64::NAN,
+                ..BoxPushConfig::default()
+            },
+            "must be finite",
+        ),
+    ] {
+        let e = run(&cfg).expect_err("refused").to_string();
+        assert!(e.contains(want), "{e}");
+    }
 }

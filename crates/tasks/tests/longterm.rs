@@ -1,6 +1,7 @@
 //! The long-term experiment (section 6.2) on simulated time.
 
-use colony_tasks::experiment::longterm::{run, LongtermConfig};
+use colony_tasks::experiment::longterm::{run, Longterm, LongtermConfig};
+use colony_tasks::experiment::Progress;
 
 #[test]
 fn a_long_run_completes_every_achievable_task_and_reports_the_rest() {
@@ -71,7 +72,51 @@ fn bad_settings_are_refused_with_a_reason() {
             "charger",
         ),
     ] {
-        let e = run(&cfg).unwrap_err();
+        let e = run(&cfg).unwrap_err().to_string();
         assert!(e.contains(want), "{e}");
     }
+}
+
+#[test]
+fn a_run_stepped_by_hand_is_the_same_run_and_can_be_watched_on_the_way() {
+    let cfg = LongtermConfig {
+        hours: 0.5,
+        seed: 3,
+        ..LongtermConfig::default()
+    };
+    let whole = run(&cfg).unwrap();
+    let mut stepped = Longterm::new(&cfg).unwrap();
+    let (mut rows, mut steps) = (0, 0);
+    while stepped.step().unwrap() == Progress::Running {
+        steps += 1;
+        assert_eq!(stepped.now().as_secs_f64(), steps as f64);
+        assert!(stepped.log().len() >= rows, "the log only grows");
+        rows = stepped.log().len();
+    }
+    assert!(stepped.report().introduced > 0);
+    let end = stepped.now();
+    assert_eq!(stepped.step().unwrap(), Progress::Done);
+    assert_eq!(stepped.now(), end, "a finished run stays finished");
+    let out = stepped.finish();
+    assert_eq!(out.report, whole.report);
+    assert_eq!(out.log, whole.log);
+}
+
+#[test]
+fn a_run_stopped_part_way_reports_what_happened_until_then() {
+    let cfg = LongtermConfig {
+        hours: 0.5,
+        seed: 3,
+        ..LongtermConfig::default()
+    };
+    let whole = run(&cfg).unwrap();
+    let mut part = Longterm::new(&cfg).unwrap();
+    for _ in 0..600 {
+        assert_eq!(part.step().unwrap(), Progress::Running);
+    }
+    let out = part.finish();
+    assert_eq!(out.report.simulated_s, 600.0);
+    assert!(out.log.iter().all(|r| r.time_s <= 600.0));
+    assert_eq!(out.log[..], whole.log[..out.log.len()]);
+    assert!(out.report.introduced < whole.report.introduced);
 }

@@ -33,6 +33,7 @@ fn bad_sizes_are_refused() {
         tasks: 3,
         resources_term: false,
     })
-    .unwrap_err();
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("robots"), "{e}");
 }

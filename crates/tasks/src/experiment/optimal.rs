@@ -11,7 +11,7 @@
 
 use std::time::Duration;
 
-use colony_sim::Vec2;
+use colony_proto::Vec2;
 use pathfinding::kuhn_munkres::kuhn_munkres;
 use pathfinding::matrix::Matrix;
 use rand::{Rng, SeedableRng};
@@ -24,8 +24,7 @@ use crate::announcer::{Announcer, AnnouncerEvent, AuctionConfig};
 use crate::bus::Bus;
 use crate::metric::{Metrics, RobotView};
 use crate::node::Node;
-use crate::protocol::TaskSpec;
-use crate::resource::{ResourceSet, Token};
+use crate::protocol::{ResourceSet, SpecError, TaskSpec, Token, TokenError};
 use crate::time::Time;
 
 /// One comparison's setting.
@@ -81,10 +80,32 @@ struct Robot {
 /// Integer weights for Kuhn-Munkres: scores in hundredths.
 const SCALE: f64 = 100.0;
 
+/// Why a comparison could not be made.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CompareError {
+    /// Too few or too many robots or tasks.
+    #[error("robots and tasks must be between 1 and 500, not {robots} robots and {tasks} tasks")]
+    Size {
+        /// Robots asked for.
+        robots: usize,
+        /// Tasks asked for.
+        tasks: usize,
+    },
+    /// A robot's name is not a token.
+    #[error(transparent)]
+    Token(#[from] TokenError),
+    /// A task of the stream is invalid.
+    #[error(transparent)]
+    Spec(#[from] SpecError),
+}
+
 /// Allocates one stream both ways.
-pub fn compare(cfg: &CompareConfig) -> Result<Comparison, String> {
+pub fn compare(cfg: &CompareConfig) -> Result<Comparison, CompareError> {
     if cfg.robots == 0 || cfg.tasks == 0 || cfg.robots > 500 || cfg.tasks > 500 {
-        return Err("robots and tasks must be between 1 and 500".into());
+        return Err(CompareError::Size {
+            robots: cfg.robots,
+            tasks: cfg.tasks,
+        });
     }
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let kinds: Vec<_> = roster().into_iter().filter(|a| a.robot).collect();
@@ -119,7 +140,7 @@ pub fn compare(cfg: &CompareConfig) -> Result<Comparison, String> {
     let mut bus = Bus::new(Duration::from_millis(2));
     let mut agents = Vec::new();
     for r in &robots {
-        let token = Token::new(&r.name).map_err(|e| e.to_string())?;
+        let token = Token::new(&r.name)?;
         let mut a = Agent::new(
             token,
             r.resources.clone(),
@@ -130,17 +151,12 @@ pub fn compare(cfg: &CompareConfig) -> Result<Comparison, String> {
         a.set_battery(r.battery);
         agents.push(a);
     }
-    let mut announcer = Announcer::new(
-        Token::new("user").map_err(|e| e.to_string())?,
-        AuctionConfig::default(),
-    );
+    let mut announcer = Announcer::new(Token::new("user")?, AuctionConfig::default());
     let mut greedy_allocated = 0;
     let mut greedy_cost = 0.0;
     let mut now = Time::ZERO;
     for spec in &tasks {
-        announcer
-            .announce(now, spec.clone())
-            .map_err(|e| e.to_string())?;
+        announcer.announce(now, spec.clone())?;
         now = now + Duration::from_secs(1);
         let mut nodes: Vec<&mut dyn Node> = agents.iter_mut().map(|a| a as &mut dyn Node).collect();
         nodes.push(&mut announcer);

@@ -3,11 +3,11 @@
 
 use std::time::Duration;
 
-use colony_tasks::protocol::MAX_MAGNITUDE;
-use colony_tasks::{
-    negotiation_subject, Announcement, Bid, DecodeError, Message, Negotiation, ParamValue,
-    ResourceSet, TaskSpec, Token,
+use colony_proto::murdoch::{
+    negotiation_subject, Announcement, Bid, Message, Negotiation, Param, ParamValue, ResourceSet,
+    TaskSpec, Token, MAX_MAGNITUDE,
 };
+use colony_proto::DecodeError;
 use colony_wire::Packet;
 use proptest::prelude::*;
 
@@ -244,7 +244,7 @@ fn arb_spec() -> impl Strategy<Value = TaskSpec> {
             let resources = ResourceSet::from_names(res).ok()?;
             let mut spec = TaskSpec::new(&name, resources).length(length);
             for (n, v) in params {
-                spec.params.push(colony_tasks::Param { name: n, value: v });
+                spec.params.push(Param { name: n, value: v });
             }
             for (n, w) in metrics {
                 spec = spec.metric(&n, w);

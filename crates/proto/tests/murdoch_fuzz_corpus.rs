@@ -8,7 +8,8 @@
 
 use std::path::PathBuf;
 
-use colony_tasks::{DecodeError, Message};
+use colony_proto::murdoch::Message;
+use colony_proto::DecodeError;
 
 fn corpus_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus/tasks_decode")
@@ -29,8 +30,9 @@ fn variant(e: &DecodeError) -> &'static str {
         DecodeError::Packet(_) => "packet",
         DecodeError::Field(_) => "field",
         DecodeError::Empty => "empty",
+        DecodeError::Missing(_) => "missing",
         DecodeError::UnknownMessage { .. } => "unknown-message",
-        DecodeError::Bad { .. } => "bad",
+        DecodeError::Bad { .. } | DecodeError::BadField { .. } => "bad",
         DecodeError::Header(_) => "header",
     }
 }

@@ -2,9 +2,10 @@
 
 use colony_wire::{Line, PacketBuilder, Priority, Subject};
 
-use super::error::{unwritable, DecodeError, EncodeError};
+use super::error::{unwritable, EncodeError};
 use super::fields::{self, clip, valid_name};
-use crate::resource::{Token, NEGOTIATION_PREFIX};
+use super::{Token, MESSAGES, NEGOTIATION_PREFIX};
+use crate::DecodeError;
 
 /// A robot's offer: its score for the task (a cost: lowest wins).
 #[derive(Debug, Clone, PartialEq)]
@@ -262,6 +263,7 @@ impl Negotiation {
                 return Err(DecodeError::UnknownMessage {
                     line: line.number(),
                     label: other.to_owned(),
+                    expected: MESSAGES,
                 })
             }
         })
@@ -273,8 +275,8 @@ mod tests {
     use colony_wire::Packet;
 
     use super::*;
-    use crate::protocol::{Message, MAX_TEXT, NEGOTIATION_LABELS};
-    use crate::resource::negotiation_subject;
+    use crate::murdoch::negotiation_subject;
+    use crate::murdoch::{Message, MAX_TEXT, NEGOTIATION_LABELS};
 
     fn token(s: &str) -> Token {
         Token::new(s).unwrap()
@@ -492,7 +494,8 @@ mod tests {
             decode("@ <murdoch.user.17.1> 0\nhello task 17\n"),
             Err(DecodeError::UnknownMessage {
                 line: 2,
-                label: "hello".into()
+                label: "hello".into(),
+                expected: MESSAGES,
             })
         );
     }

@@ -5,6 +5,8 @@ use std::fmt;
 
 use colony_wire::{Subject, SubjectError};
 
+use super::Token;
+
 /// The state subject of an agent that is free to take a task. Every task
 /// announcement is addressed to it as well as to the task's resources, so a busy
 /// or charging robot never hears one.
@@ -20,7 +22,7 @@ pub const MAX_TASK_RESOURCES: usize = colony_wire::MAX_SUBJECTS - 1;
 /// prints and compares the same way everywhere.
 ///
 /// ```
-/// use colony_tasks::ResourceSet;
+/// use colony_proto::murdoch::ResourceSet;
 /// let need: ResourceSet = "mobile camera".parse().unwrap();
 /// let have: ResourceSet = "camera laser mobile".parse().unwrap();
 /// assert!(need.is_subset(&have));
@@ -127,53 +129,6 @@ impl fmt::Display for ResourceSet {
     }
 }
 
-/// A short name for an agent or an announcer, used in bids to say who bid (never
-/// to address anyone): 1 to 24 characters of `A-Z a-z 0-9 _ -`.
-#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct Token(Box<str>);
-
-/// The most characters a [`Token`] may have, so that a negotiation subject
-/// built from one stays within a subject's 64.
-pub const MAX_TOKEN_LEN: usize = 24;
-
-/// A name that cannot be a token.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("`{0}` is not a token: use 1 to {MAX_TOKEN_LEN} characters of A-Z a-z 0-9 _ -")]
-pub struct TokenError(pub String);
-
-impl Token {
-    /// Checks `s`.
-    pub fn new(s: &str) -> Result<Token, TokenError> {
-        let ok = !s.is_empty()
-            && s.len() <= MAX_TOKEN_LEN
-            && s.bytes()
-                .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-');
-        if ok {
-            Ok(Token(s.into()))
-        } else {
-            Err(TokenError(s.chars().take(80).collect()))
-        }
-    }
-
-    /// The token's text.
-    pub fn as_str(&self) -> &str {
-        &self.0
-    }
-}
-
-impl std::str::FromStr for Token {
-    type Err = TokenError;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Token::new(s)
-    }
-}
-
-impl fmt::Display for Token {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
 /// The fresh subject an announcer negotiates task `task`'s `attempt` on:
 /// `murdoch.<announcer>.<task>.<attempt>`.
 pub fn negotiation_subject(announcer: &Token, task: u64, attempt: u32) -> Subject {
@@ -186,6 +141,7 @@ pub fn negotiation_subject(announcer: &Token, task: u64, attempt: u32) -> Subjec
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::murdoch::MAX_TOKEN_LEN;
 
     fn set(s: &str) -> ResourceSet {
         s.parse().unwrap()
@@ -284,40 +240,6 @@ mod tests {
     }
 
     #[test]
-    fn a_token_is_one_to_24_characters_of_its_alphabet() {
-        for ok in ["r", "r2", "Robot_7-b", "x".repeat(MAX_TOKEN_LEN).as_str()] {
-            assert_eq!(Token::new(ok).unwrap().as_str(), ok);
-        }
-        for bad in [
-            "",
-            "r 1",
-            "r.1",
-            "r:1",
-            "r/1",
-            "\u{e9}",
-            "x".repeat(MAX_TOKEN_LEN + 1).as_str(),
-        ] {
-            assert!(Token::new(bad).is_err(), "{bad:?}");
-        }
-    }
-
-    #[test]
-    fn a_token_error_keeps_at_most_80_characters_of_the_input() {
-        let long = "é".repeat(200);
-        let TokenError(kept) = Token::new(&long).unwrap_err();
-        assert_eq!(kept.chars().count(), 80);
-        let e = Token::new("a b").unwrap_err().to_string();
-        assert!(e.contains("`a b` is not a token"), "{e}");
-    }
-
-    #[test]
-    fn tokens_parse_and_print_as_their_text() {
-        let t: Token = "r2".parse().unwrap();
-        assert_eq!(t.to_string(), "r2");
-        assert!("r 2".parse::<Token>().is_err());
-    }
-
-    #[test]
     fn a_negotiation_subject_names_announcer_task_and_attempt() {
         let s = negotiation_subject(&Token::new("user").unwrap(), 17, 2);
         assert_eq!(s.as_str(), "murdoch.user.17.2");
@@ -329,5 +251,26 @@ mod tests {
         let longest = Token::new(&"z".repeat(MAX_TOKEN_LEN)).unwrap();
         let s = negotiation_subject(&longest, u64::MAX, u32::MAX);
         assert_eq!(s.as_str().len(), colony_wire::MAX_SUBJECT_LEN);
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn any_text_reads_as_a_set_or_an_error_and_a_set_reads_back_from_its_print(
+            text in "[ -~\t\n]{0,80}",
+        ) {
+            if let Ok(set) = text.parse::<ResourceSet>() {
+                proptest::prop_assert_eq!(set.to_string().parse::<ResourceSet>(), Ok(set.clone()));
+                proptest::prop_assert!(set.iter().all(|r| ResourceSet::check(r.as_str()).is_ok()));
+            }
+        }
+
+        #[test]
+        fn a_negotiation_subject_is_always_one(
+            who in "[A-Za-z0-9_-]{1,24}", task in proptest::num::u64::ANY, attempt in proptest::num::u32::ANY,
+        ) {
+            let s = negotiation_subject(&Token::new(&who).unwrap(), task, attempt);
+            proptest::prop_assert!(s.as_str().starts_with(NEGOTIATION_PREFIX));
+            proptest::prop_assert!(ResourceSet::check(s.as_str()).is_err());
+        }
     }
 }

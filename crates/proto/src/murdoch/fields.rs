@@ -5,8 +5,9 @@ use std::time::Duration;
 
 use colony_wire::{Line, Subject};
 
-use super::error::{bad, unwritable, DecodeError, EncodeError};
-use crate::resource::Token;
+use super::error::{unwritable, EncodeError};
+use super::Token;
+use crate::DecodeError;
 
 /// Scores, weights and parameters beyond this are refused: no metric needs them
 /// and they keep sums far from overflow.
@@ -21,6 +22,16 @@ pub const MAX_LENGTH_S: f64 = 7.0 * 24.0 * 3600.0;
 /// The longest reason or text parameter kept, in characters.
 pub const MAX_TEXT: usize = 512;
 
+/// A [`DecodeError::BadField`]: `field` on `line` reads, but its value is wrong.
+pub(crate) fn bad(line: &Line<'_>, field: &str, what: impl Into<String>) -> DecodeError {
+    DecodeError::BadField {
+        line: line.number(),
+        field: field.to_owned(),
+        what: what.into(),
+    }
+}
+
+/// A finite number within [`MAX_MAGNITUDE`] (scores, weights, parameters).
 pub(crate) fn finite(line: &Line<'_>, name: &str) -> Result<f64, DecodeError> {
     let v = line.f64(name)?;
     if v.is_finite() && v.abs() <= MAX_MAGNITUDE {

@@ -1,0 +1,76 @@
+//! What an agent tells its owner: events to act on, its mode and its counts.
+
+use colony_proto::DecodeError;
+
+use crate::protocol::Announcement;
+
+/// Why a robot stopped a task it had started.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StopReason {
+    /// The announcer withdrew it (it presumed this robot failed, or no longer wants it).
+    Cancelled(String),
+    /// The announcer stopped renewing: it is gone, and the task with it.
+    AnnouncerSilent,
+}
+
+/// What the robot's owner must act on.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AgentEvent {
+    /// Start executing this task; call [`Agent::finish`](super::Agent::finish) when it is done.
+    Start(Announcement),
+    /// Stop executing the task (the robot is idle again).
+    Stop {
+        /// The task's number.
+        task: u64,
+        /// Its name.
+        name: String,
+        /// Why.
+        reason: StopReason,
+    },
+    /// The battery is low: the robot has unsubscribed from everything; drive to a
+    /// charger and call [`Agent::charged`](super::Agent::charged) when full.
+    Charge,
+    /// Back from charging, listening again.
+    Rejoined,
+    /// A task was heard but not bid for.
+    Skipped {
+        /// The task's number.
+        task: u64,
+        /// Its name.
+        name: String,
+        /// Why not.
+        why: String,
+    },
+    /// A packet that is not a valid message was ignored.
+    Rejected(DecodeError),
+}
+
+/// Counts of what a robot did.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct AgentStats {
+    /// Packets received.
+    pub heard: u64,
+    /// Bids made.
+    pub bids: u64,
+    /// Tasks won and started.
+    pub started: u64,
+    /// Tasks finished.
+    pub finished: u64,
+    /// Tasks stopped before the end (cancelled or abandoned).
+    pub stopped: u64,
+    /// Trips to the charger.
+    pub charges: u64,
+    /// Packets refused as malformed.
+    pub rejected: u64,
+}
+
+/// The robot's state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AgentMode {
+    /// Listening for tasks (and perhaps bidding).
+    Idle,
+    /// Executing a task.
+    Working,
+    /// Unsubscribed from everything, charging.
+    Charging,
+}

@@ -1,0 +1,223 @@
+//! The robots' control: where the watcher wants each end pushed, how a
+//! pusher gets behind its end and pushes, and where a pusher switched on
+//! again is put back.
+
+use std::f64::consts::PI;
+
+use colony_proto::{wrap_angle, Pose, Vec2, WheelCommand};
+use colony_sim::field::{BoxSpec, Field, RobotSpec};
+
+use super::{PUSH_LEFT, PUSH_RIGHT};
+use crate::protocol::{Announcement, ResourceSet, TaskSpec};
+
+pub(super) const BOX: BoxSpec = BoxSpec {
+    half_length: 30.0,
+    half_width: 4.0,
+    mass: 400.0,
+    damping: 6.0,
+};
+
+pub(super) const PUSHER: RobotSpec = RobotSpec {
+    radius: 8.0,
+    max_speed: 20.0,
+    max_turn: 2.0,
+    amphibious: false,
+};
+
+/// Which way the watcher wants the box to go, and which ends are which.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Frame {
+    pub(super) centre: Vec2,
+    /// Along the length, towards the right end.
+    pub(super) u: Vec2,
+    /// The push direction: perpendicular to the length, towards the goal's side.
+    pub(super) n: Vec2,
+    /// Signed angle from `n` to the goal; positive means turn left.
+    pub(super) error: f64,
+}
+
+pub(super) fn frame(pose: Pose, goal: Vec2) -> Frame {
+    let centre = pose.position();
+    let mut u = Vec2::new(pose.theta.cos(), pose.theta.sin());
+    let mut n = Vec2::new(-u.y, u.x);
+    let g = goal - centre;
+    if n.x * g.x + n.y * g.y < 0.0 {
+        n = n * -1.0;
+        u = u * -1.0;
+    }
+    let error = (n.x * g.y - n.y * g.x).atan2(n.x * g.x + n.y * g.y);
+    // With n = perp(u), the end at -u is on the left looking along n.
+    Frame {
+        centre,
+        u,
+        n,
+        error,
+    }
+}
+
+pub(super) fn dot(a: Vec2, b: Vec2) -> f64 {
+    a.x * b.x + a.y * b.y
+}
+
+/// Where on the box's back face to push the end `side` (-1 left, +1 right).
+pub(super) fn push_point(f: &Frame, side: f64) -> Vec2 {
+    f.centre + f.u * (side * BOX.half_length * 0.7) - f.n * BOX.half_width
+}
+
+/// The watcher's pushing task for one end.
+pub(super) fn push_task(f: &Frame, side: f64, push_s: f64) -> TaskSpec {
+    let p = push_point(f, side);
+    let name = if side < 0.0 { PUSH_LEFT } else { PUSH_RIGHT };
+    TaskSpec::new(name, pusher_resources())
+        .length(push_s)
+        .param("x", p.x)
+        .param("y", p.y)
+        .param("nx", f.n.x)
+        .param("ny", f.n.y)
+        .metric("distance", 1.0)
+}
+
+pub(super) fn pusher_resources() -> ResourceSet {
+    let mut r = ResourceSet::new();
+    // Both names are valid resources; a failure here would be a typo in this file.
+    let _ = r.insert("mobile");
+    let _ = r.insert("bumpers");
+    r
+}
+
+/// A pusher executing one task: get behind the end, face the push direction, push.
+#[derive(Debug, Clone)]
+pub(super) struct Push {
+    /// -1 left end, +1 right end, in the box's own frame (fixed at the start).
+    end: f64,
+    /// The push direction at the start, to pick the same face as the box turns.
+    n0: Vec2,
+    pushing_since: Option<f64>,
+    started: f64,
+    push_s: f64,
+}
+
+impl Push {
+    pub(super) fn new(ann: &Announcement, box_pose: Pose, now: f64) -> Push {
+        let p = Vec2::new(
+            ann.spec.number("x").unwrap_or(box_pose.x),
+            ann.spec.number("y").unwrap_or(box_pose.y),
+        );
+        let n0 = Vec2::new(
+            ann.spec.number("nx").unwrap_or(0.0),
+            ann.spec.number("ny").unwrap_or(1.0),
+        );
+        // Which end of the box, in its own frame, the point is at.
+        let along = Vec2::new(box_pose.theta.cos(), box_pose.theta.sin());
+        let end = if dot(p - box_pose.position(), along) >= 0.0 {
+            1.0
+        } else {
+            -1.0
+        };
+        Push {
+            end,
+            n0,
+            pushing_since: None,
+            started: now,
+            push_s: ann.spec.length_s,
+        }
+    }
+
+    /// The wheels for this step, or `None` when the push is over.
+    pub(super) fn step(&mut self, me: Pose, box_pose: Pose, now: f64) -> Option<WheelCommand> {
+        if let Some(since) = self.pushing_since {
+            if now - since >= self.push_s {
+                return None;
+            }
+        }
+        if now - self.started > 60.0 {
+            return None; // stuck: give the watcher a fresh look
+        }
+        let along = Vec2::new(box_pose.theta.cos(), box_pose.theta.sin());
+        let mut n = Vec2::new(-along.y, along.x);
+        if dot(n, self.n0) < 0.0 {
+            n = n * -1.0;
+        }
+        let end = box_pose.position() + along * (self.end * BOX.half_length * 0.7);
+        let face = end - n * BOX.half_width;
+        let pos = me.position();
+        let stand = face - n * (PUSHER.radius + 10.0);
+        if self.pushing_since.is_none() {
+            // In front of the back face: go round the end first.
+            let behind = dot(pos - box_pose.position(), n);
+            let target = if behind > -(BOX.half_width + PUSHER.radius) {
+                end + along * (self.end * (BOX.half_length * 0.3 + PUSHER.radius + 15.0))
+                    - n * (BOX.half_width + PUSHER.radius + 15.0)
+            } else {
+                stand
+            };
+            let d = target - pos;
+            if target == stand && d.length() < 3.0 {
+                let e = wrap_angle(n.angle() - me.theta);
+                if e.abs() < 0.08 {
+                    self.pushing_since = Some(now);
+                } else {
+                    return Some(WheelCommand {
+                        forward: 0.0,
+                        turn: (2.0 * e).clamp(-1.0, 1.0),
+                    });
+                }
+            } else {
+                return Some(drive_to(me, target));
+            }
+        }
+        // Push: head for a point beyond the face, so the robot stays on its end.
+        Some(drive_to(me, face + n * 40.0))
+    }
+}
+
+/// A go-to-point controller that backs up to close targets behind it.
+fn drive_to(me: Pose, target: Vec2) -> WheelCommand {
+    let d = target - me.position();
+    let dist = d.length();
+    let e = wrap_angle(d.angle() - me.theta);
+    let speed = (dist / 15.0).clamp(0.15, 1.0);
+    if dist < 30.0 && e.abs() > PI / 2.0 {
+        let back = wrap_angle(e - PI);
+        return WheelCommand {
+            forward: -speed * back.cos().max(0.0),
+            turn: (2.0 * back).clamp(-1.0, 1.0),
+        };
+    }
+    WheelCommand {
+        forward: if e.abs() < 0.6 { speed * e.cos() } else { 0.0 },
+        turn: (2.0 * e).clamp(-1.0, 1.0),
+    }
+}
+
+/// Where a pusher switched on again is put back: behind the box, on the side
+/// away from the other pusher, at the first free place.
+pub(super) fn comeback_pose(
+    field: &Field,
+    box_pose: Pose,
+    goal: Vec2,
+    other: Pose,
+) -> Option<Pose> {
+    let f = frame(box_pose, goal);
+    let side = if dot(other.position() - f.centre, f.u) >= 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
+    let theta = f.n.angle();
+    (0..8).find_map(|k| {
+        let back = PUSHER.radius + 30.0 + 15.0 * k as f64;
+        let at = push_point(&f, side) - f.n * back;
+        let pose = Pose {
+            x: at.x,
+            y: at.y,
+            theta,
+        };
+        let size = field.map().size_cm();
+        let inside = at.x > PUSHER.radius
+            && at.y > PUSHER.radius
+            && at.x < size.x - PUSHER.radius
+            && at.y < size.y - PUSHER.radius;
+        inside.then_some(pose)
+    })
+}
