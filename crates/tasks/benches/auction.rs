@@ -16,8 +16,8 @@ use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
 use colony_hub::{HubConfig, Server};
+use colony_node::{Link, Mux};
 use colony_tasks::experiment::optimal::{compare, CompareConfig};
-use colony_tasks::live::{Link, Mux};
 use colony_tasks::{
     Agent, AgentConfig, AgentEvent, Announcer, AnnouncerEvent, AuctionConfig, TaskSpec, Time, Token,
 };

@@ -15,11 +15,11 @@ use rand_chacha::ChaCha8Rng;
 use crate::agent::{Agent, AgentConfig, AgentEvent};
 use crate::announcer::{AnnouncerEvent, AuctionConfig};
 use crate::experiment::longterm::{roster, task_spec, IMPOSSIBLE_TASK, PAPER_TASKS};
-use crate::live::{Link, LiveError, Mux};
-use crate::node::Node;
 use crate::protocol::Token;
-use crate::time::Time;
 use crate::user::{Backoff, UserAgent, UserEvent};
+use colony_node::Node;
+use colony_node::Time;
+use colony_node::{Link, LiveError, Mux};
 
 /// How the demonstration runs.
 #[derive(Debug, Clone, PartialEq)]

@@ -18,7 +18,7 @@
 //! randomized exponential backoff.
 //!
 //! Everything is sans-IO ([`Node`]): the same values run over the real hub
-//! ([`live::Link`]) and over the in-memory [`Bus`] on simulated time, where
+//! ([`Link`]) and over the in-memory [`Bus`] on simulated time, where
 //! [`experiment`] reproduces the paper's two experiments.
 //!
 //! This crate does not plan: a task's decomposition is written by the task's
@@ -32,8 +32,10 @@
 //!   at home in [`colony_proto::murdoch`].
 //! - [`Agent`], [`Announcer`], [`UserAgent`]: the three roles, each a [`Node`].
 //! - [`metric`]: the shared vocabulary robots score themselves with.
-//! - [`Bus`]: the in-memory hub on simulated time; [`live`]: the real hub
-//!   ([`live::Link`] for one node, [`live::Mux`] for many on one thread).
+//! - [`Node`], [`Bus`], [`Link`], [`Mux`], [`Time`]: colony's one node runtime
+//!   ([`colony_node`], re-exported here): the in-memory hub on simulated time,
+//!   which routes through the real sans-IO hub, and the real hub ([`Link`] for
+//!   one node, [`Mux`] for many on one thread).
 //! - [`experiment`]: long-term autonomy, box pushing, greedy against optimal;
 //!   [`demo`]: the live demonstration `colony tasks demo` runs.
 //!
@@ -49,26 +51,20 @@
 
 mod agent;
 mod announcer;
-pub mod bus;
 pub mod demo;
 pub mod experiment;
-pub mod live;
 pub mod metric;
-mod node;
-mod time;
 mod user;
 
 pub use agent::{Agent, AgentConfig, AgentEvent, AgentMode, AgentStats, StopReason};
 pub use announcer::{Announcer, AnnouncerEvent, AnnouncerStats, AuctionConfig, TaskPhase};
-pub use bus::{Bus, BusStats};
+pub use colony_node::{receives, Bus, BusStats, Link, LiveError, Mux, Node, Time};
 pub use colony_proto::murdoch as protocol;
 pub use colony_proto::DecodeError;
 pub use metric::{MetricError, Metrics, RobotView};
-pub use node::{receives, Node};
 pub use protocol::{
     negotiation_subject, Announcement, Bid, EncodeError, Message, MetricTerm, Negotiation, Param,
     ParamValue, ResourceError, ResourceSet, SpecError, TaskSpec, Token, TokenError, IDLE,
     MAX_TASK_RESOURCES, MAX_TOKEN_LEN, NEGOTIATION_PREFIX,
 };
-pub use time::Time;
 pub use user::{Backoff, UserAgent, UserEvent};

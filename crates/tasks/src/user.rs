@@ -10,10 +10,10 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::announcer::{Announcer, AnnouncerEvent, AuctionConfig};
-use crate::node::Node;
 use crate::protocol::Token;
 use crate::protocol::{SpecError, TaskSpec};
-use crate::time::Time;
+use colony_node::Node;
+use colony_node::Time;
 
 /// How a user agent retries.
 #[derive(Debug, Clone, PartialEq)]

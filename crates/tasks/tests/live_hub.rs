@@ -4,8 +4,8 @@ mod common;
 
 use std::time::{Duration, Instant};
 
+use colony_node::Mux;
 use colony_proto::Vec2;
-use colony_tasks::live::Mux;
 use colony_tasks::{
     Agent, AgentEvent, AgentMode, Announcer, AnnouncerEvent, Backoff, Node, TaskSpec, Time, Token,
     UserAgent, UserEvent,

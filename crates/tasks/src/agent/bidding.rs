@@ -6,7 +6,7 @@ use colony_wire::Subject;
 use super::{Agent, AgentEvent, AgentMode, Job, Pending};
 use crate::metric::RobotView;
 use crate::protocol::{Announcement, Bid, Negotiation, MAX_MAGNITUDE};
-use crate::time::Time;
+use colony_node::Time;
 
 impl Agent {
     /// Withdraws every open bid.

@@ -13,10 +13,10 @@ pub use config::AgentConfig;
 pub use events::{AgentEvent, AgentMode, AgentStats, StopReason};
 
 use crate::metric::Metrics;
-use crate::node::Node;
 use crate::protocol::{Announcement, Bid, Message, Negotiation};
 use crate::protocol::{ResourceSet, Token, IDLE};
-use crate::time::Time;
+use colony_node::Node;
+use colony_node::Time;
 
 #[derive(Debug)]
 struct Pending {

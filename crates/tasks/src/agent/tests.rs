@@ -3,9 +3,9 @@
 use std::time::Duration;
 
 use super::*;
-use crate::node::receives;
 use crate::protocol::negotiation_subject;
 use crate::protocol::{TaskSpec, MAX_MAGNITUDE};
+use colony_node::receives;
 
 fn token(s: &str) -> Token {
     Token::new(s).unwrap()

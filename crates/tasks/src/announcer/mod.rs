@@ -12,10 +12,10 @@ use colony_wire::{Packet, Subject};
 pub use config::AuctionConfig;
 pub use events::{AnnouncerEvent, AnnouncerStats, TaskPhase};
 
-use crate::node::Node;
 use crate::protocol::{negotiation_subject, Token};
 use crate::protocol::{Announcement, Bid, Message, Negotiation, SpecError, TaskSpec, MAX_DEADLINE};
-use crate::time::Time;
+use colony_node::Node;
+use colony_node::Time;
 
 #[derive(Debug)]
 enum Phase {

@@ -3,8 +3,8 @@
 use std::time::Duration;
 
 use super::*;
-use crate::node::receives;
 use crate::protocol::ResourceSet;
+use colony_node::receives;
 
 fn token(s: &str) -> Token {
     Token::new(s).unwrap()

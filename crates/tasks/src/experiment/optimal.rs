@@ -21,11 +21,11 @@ use serde::Serialize;
 use super::longterm::{roster, PAPER_TASKS};
 use crate::agent::{Agent, AgentConfig};
 use crate::announcer::{Announcer, AnnouncerEvent, AuctionConfig};
-use crate::bus::Bus;
 use crate::metric::{Metrics, RobotView};
-use crate::node::Node;
 use crate::protocol::{ResourceSet, SpecError, TaskSpec, Token, TokenError};
-use crate::time::Time;
+use colony_node::Bus;
+use colony_node::Node;
+use colony_node::Time;
 
 /// One comparison's setting.
 #[derive(Debug, Clone, PartialEq)]

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
 use colony_hub::{HubConfig, Server};
-use colony_tasks::live::{Link, Mux};
+use colony_node::{Link, Mux};
 use colony_tasks::{AgentConfig, AuctionConfig, Node};
 
 pub struct Hub {

@@ -29,11 +29,11 @@ pub use settings::{BoxPushConfig, MOVE_BOX, PUSH_LEFT, PUSH_RIGHT};
 use super::Progress;
 use crate::agent::{Agent, AgentConfig, AgentEvent};
 use crate::announcer::{Announcer, AnnouncerEvent, AuctionConfig};
-use crate::bus::Bus;
-use crate::node::Node;
 use crate::protocol::{ResourceError, SpecError, TaskSpec, Token, TokenError};
-use crate::time::Time;
 use crate::user::{Backoff, UserAgent, UserEvent};
+use colony_node::Bus;
+use colony_node::Node;
+use colony_node::Time;
 use control::{comeback_pose, frame, push_point, push_task, pusher_resources, Push, BOX, PUSHER};
 
 /// The watcher's side of `move-box`: look, decide, announce, wait for the round.

@@ -29,11 +29,11 @@ pub use settings::{
 use super::Progress;
 use crate::agent::{Agent, AgentConfig, AgentEvent};
 use crate::announcer::AnnouncerEvent;
-use crate::bus::Bus;
-use crate::node::Node;
 use crate::protocol::{ResourceError, ResourceSet, SpecError, Token, TokenError};
-use crate::time::Time;
 use crate::user::{UserAgent, UserEvent};
+use colony_node::Bus;
+use colony_node::Node;
+use colony_node::Time;
 
 /// Why a run could not be made or went wrong.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
