@@ -12,7 +12,7 @@
 //!   last packet, clients, drops, minimum priority; staleness: no word from the hub, or no vision,
 //!   for [`STALE_AFTER`].
 //! - [`operator`]: the operator's override: which robots are held and how each is driven
-//!   (stopped, by keys, or steered to a point by [`steer`]), and the hub's minimum priority for
+//!   (stopped, by keys, or steered to a point by [`steer()`]), and the hub's minimum priority for
 //!   "take control of all".
 //! - [`command`]: what the browser may ask, already checked, and why a request could not be done.
 //! - [`forge`]: checking a packet the operator typed.
