@@ -25,7 +25,7 @@ use colony_wire::{Packet, Reply, Request, HUB_SUBJECT};
 use tokio::sync::{oneshot, watch};
 
 use crate::game::{GameView, GAME_CHANNELS};
-use crate::state::{Command, MonitorState, CORE_CHANNELS};
+use crate::state::{Command, CommandError, MonitorState, CORE_CHANNELS};
 
 /// The channel the control client leases, so the hub will answer `status`.
 pub const LEASE_CHANNEL: &str = "colony-monitor";
@@ -48,7 +48,7 @@ const OVERRIDE_EVERY: Duration = Duration::from_millis(80);
 const TICK: Duration = Duration::from_millis(10);
 
 /// A browser's request on its way to the bridge, with where the answer goes.
-pub type Envelope = (Command, oneshot::Sender<Result<String, String>>);
+pub type Envelope = (Command, oneshot::Sender<Result<String, CommandError>>);
 
 /// The bridge's two clients and its state, ready to run on a thread.
 pub struct Bridge {
@@ -277,27 +277,23 @@ impl Bridge {
         }
     }
 
-    fn carry_out(&mut self, now: Instant, command: Command) -> Result<String, String> {
+    fn carry_out(&mut self, now: Instant, command: Command) -> Result<String, CommandError> {
         if let Command::Publish(bytes) = &command {
             // Subscribe first, so the hub view shows the packet when it comes back.
             let subjects: Vec<String> = match Packet::parse(bytes) {
                 Ok(p) => p.subjects().map(str::to_owned).collect(),
-                Err(e) => return Err(e.to_string()),
+                Err(e) => return Err(CommandError::Packet(e)),
             };
             for s in subjects.iter().filter(|s| s.as_str() != HUB_SUBJECT) {
                 self.subscribe(s);
             }
-            self.control
-                .publish(bytes)
-                .map_err(|e| format!("cannot publish: {e}"))?;
+            self.control.publish(bytes).map_err(CommandError::Publish)?;
         }
         if let Command::Squad(order) = &command {
-            let bytes = order
-                .packet()
-                .map_err(|e| format!("cannot write the squad command: {e}"))?;
+            let bytes = order.packet().map_err(CommandError::Write)?;
             self.control
                 .publish(&bytes)
-                .map_err(|e| format!("cannot publish: {e}"))?;
+                .map_err(CommandError::Publish)?;
         }
         self.state.apply(now, command)
     }

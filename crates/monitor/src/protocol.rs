@@ -61,9 +61,12 @@ enum ClientMsg {
 /// Why a browser message was refused; `line` and `column` point into a forged packet.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Refusal {
+    /// Why, for the operator to read.
     pub message: String,
+    /// The forged packet's line at fault.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub line: Option<u32>,
+    /// The column in that line.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub column: Option<u32>,
 }
@@ -81,13 +84,18 @@ impl Refusal {
 /// The server's answer to one browser message.
 #[derive(Debug, Serialize)]
 pub struct ReplyJson<'a> {
+    /// Always `"reply"`.
     pub t: &'static str,
+    /// Whether the request was carried out.
     pub ok: bool,
     /// The request's `t`, when it could be read.
     pub to: Option<&'a str>,
+    /// What was done, or why not.
     pub msg: &'a str,
+    /// A refused forged packet's line at fault.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub line: Option<u32>,
+    /// The column in that line.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub column: Option<u32>,
 }

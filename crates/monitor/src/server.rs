@@ -63,20 +63,29 @@ impl Default for MonitorConfig {
 /// Why the monitor could not start or stopped badly.
 #[derive(Debug, thiserror::Error)]
 pub enum MonitorError {
+    /// The web server's address could not be bound.
     #[error("cannot listen on `{addr}`: {source} (is something else using that port? choose another with --bind)")]
     Bind {
+        /// The address asked for.
         addr: String,
+        /// Why.
         source: std::io::Error,
     },
+    /// The hub's address does not resolve.
     #[error("hub address `{addr}`: {source}")]
     Hub {
+        /// The address given.
         addr: String,
+        /// Why.
         source: std::io::Error,
     },
+    /// A hub client could not be made.
     #[error(transparent)]
     Client(#[from] colony_client::ClientError),
+    /// A socket or thread could not be set up.
     #[error(transparent)]
     Io(#[from] std::io::Error),
+    /// One of the monitor's threads panicked (which one).
     #[error("the monitor's {0} thread panicked")]
     Panicked(&'static str),
 }
@@ -369,7 +378,7 @@ async fn handle(app: &App, text: &str) -> String {
     }
     let answer = match tokio::time::timeout(Duration::from_secs(2), rx).await {
         Ok(Ok(Ok(msg))) => Ok(msg),
-        Ok(Ok(Err(msg))) => Err(refusal(&msg)),
+        Ok(Ok(Err(e))) => Err(refusal(&e.to_string())),
         Ok(Err(_)) => Err(refusal("the monitor is stopping")),
         Err(_) => Err(refusal("no answer from the hub bridge within 2 s")),
     };

@@ -108,7 +108,7 @@ impl WheelCommand {
         turn: 0.0,
     };
 
-    /// A command with each component brought into range by [`unit`].
+    /// A command with each component brought into range by [`unit()`].
     pub fn clamped(forward: f64, turn: f64) -> WheelCommand {
         WheelCommand {
             forward: unit(forward),

@@ -11,8 +11,9 @@
 //! | [`geometry`] | [`Vec2`], [`Pose`], [`WheelCommand`] with its one clamp rule, [`wrap_angle`] |
 //! | [`radio`] | the `radio` channel's wheel commands |
 //! | [`hold`] | the operator-override hold rule: which command is in force for each robot |
+//! | [`swarm`] | the swarm channels: `camera.N`, `vision` (in parts, with a reassembler), `debug`, `metrics` |
 //! | [`fields`] | field readers with their range rules ([`fields::MAX_COORD`]) |
-//! | [`error`] | [`DecodeError`], what every decoder returns |
+//! | [`error`] | [`DecodeError`], what every decoder returns; [`Skimmed`], what a viewer's returns |
 //! | [`murdoch`] | MURDOCH's task-allocation messages, with its resource sets and tokens |
 //!
 //! Units everywhere: centimetres, seconds, radians (counter-clockwise from +x).
@@ -26,8 +27,9 @@ pub mod geometry;
 pub mod hold;
 pub mod murdoch;
 pub mod radio;
+pub mod swarm;
 
-pub use error::DecodeError;
+pub use error::{DecodeError, Skimmed};
 pub use geometry::{wrap_angle, Pose, Vec2, WheelCommand};
 pub use hold::CommandHold;
 pub use radio::{RadioCommand, RADIO};

@@ -84,7 +84,7 @@ mod tests {
         let bytes = encode(&sent, Priority(10)).unwrap();
         assert_eq!(
             std::str::from_utf8(&bytes).unwrap(),
-            "@ <radio> 10\ncmd id 2 forward 0.8 turn -0.25\ncmd id 7 forward 1 turn 0\n"
+            "@ <radio> 10\ncmd id 2 forward 0.8 turn -0.25\ncmd id 7 forward 1.0 turn 0.0\n"
         );
         let got = parse(&bytes).unwrap();
         assert_eq!(

@@ -20,6 +20,7 @@ use colony_sim::{PuckKind, Vec2};
 pub struct Member {
     /// Index of the puck in the slice the clusters were built from.
     pub index: usize,
+    /// Its position (cm).
     pub pos: Vec2,
     /// Number of edges at this puck in the cluster graph.
     pub degree: usize,
@@ -28,9 +29,11 @@ pub struct Member {
 /// A connected component of one puck type.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Cluster {
+    /// The kind of its pucks.
     pub kind: PuckKind,
     /// Members in increasing `index` order.
     pub members: Vec<Member>,
+    /// The mean of its pucks' positions.
     pub centroid: Vec2,
 }
 
@@ -78,7 +81,9 @@ impl Cluster {
 /// Which end of the size order to pick.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Extreme {
+    /// The smallest one.
     Smallest,
+    /// The largest one.
     Largest,
 }
 

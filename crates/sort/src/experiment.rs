@@ -18,8 +18,11 @@ use crate::params::SortParams;
 /// One trial to run.
 #[derive(Debug, Clone)]
 pub struct TrialSpec {
+    /// Which sorting method every robot runs.
     pub method: Method,
+    /// The arena, robots and pucks.
     pub scene: SceneConfig,
+    /// The controllers' parameters.
     pub params: SortParams,
     /// Control steps to run.
     pub steps: u64,
@@ -72,6 +75,7 @@ fn disturb(
 /// The metrics at one sampled step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample {
+    /// The control step it was taken at.
     pub step: u64,
     /// Percentage completion (eq. 6).
     pub pc: f64,
@@ -82,6 +86,7 @@ pub struct Sample {
 /// The arena at one step, for figures.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Snapshot {
+    /// The control step it was taken at.
     pub step: u64,
     /// (x, y, kind)
     pub pucks: Vec<(f64, f64, u8)>,
@@ -94,15 +99,21 @@ pub struct Snapshot {
 /// What one trial produced.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrialResult {
+    /// The method the robots ran.
     pub method: Method,
+    /// How many puck kinds there were.
     pub types: usize,
+    /// The trial's seed.
     pub seed: u64,
+    /// Control steps run.
     pub steps: u64,
+    /// The metrics, sampled every few steps.
     pub samples: Vec<Sample>,
     /// First sampled step with PC at or above 50 %, if any.
     pub stc: Option<u64>,
     /// Time-weighted completion (eq. 7) over the samples.
     pub twc: f64,
+    /// Arena snapshots for figures.
     pub snapshots: Vec<Snapshot>,
 }
 
@@ -113,6 +124,7 @@ impl TrialResult {
         self.stc.unwrap_or(self.steps) as f64
     }
 
+    /// The percentage completion at the last sample (0 with no samples).
     pub fn final_pc(&self) -> f64 {
         self.samples.last().map_or(0.0, |s| s.pc)
     }
@@ -121,13 +133,18 @@ impl TrialResult {
 /// Why an experiment could not run.
 #[derive(Debug, thiserror::Error)]
 pub enum ExperimentError {
+    /// The world could not be built.
     #[error(transparent)]
     Sim(#[from] SimError),
+    /// The experiment's settings make no sense.
     #[error("{0}")]
     Invalid(String),
-    #[error("cannot write {path}: {source}")]
+    /// A result file could not be written.
+    #[error("cannot write {path}")]
     Write {
+        /// The file.
         path: String,
+        /// Why.
         source: std::io::Error,
     },
 }
@@ -252,6 +269,7 @@ pub fn run_trials(
 pub struct StepCounter(pub AtomicU64);
 
 impl StepCounter {
+    /// Counts `n` more steps done.
     pub fn add(&self, n: u64) {
         self.0.fetch_add(n, Ordering::Relaxed);
     }

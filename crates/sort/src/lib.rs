@@ -24,6 +24,9 @@
 //! assert!(command.forward > 0.0);
 //! ```
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 pub mod experiment;
 pub mod live;
 pub mod plot;

@@ -23,22 +23,33 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, thiserror::Error)]
 pub enum ParamsError {
     /// The file could not be read.
-    #[error("{path}: cannot read: {source}")]
+    #[error("{path}: cannot read")]
     Io {
+        /// The file.
         path: String,
         #[source]
+        /// Why.
         source: std::io::Error,
     },
     /// The text is not valid TOML, or a field is unknown or of the wrong type.
     /// `message` comes from the TOML parser and names the line, column and key.
     #[error("{path}: {message}")]
-    Parse { path: String, message: String },
+    Parse {
+        /// The file.
+        path: String,
+        /// The parser's message.
+        message: String,
+    },
     /// A field parsed but its value cannot work.
     #[error("{path}: field `{field}` = {value}: {reason}")]
     Invalid {
+        /// The file.
         path: String,
+        /// The field.
         field: &'static str,
+        /// Its value, as written.
         value: String,
+        /// Why it cannot work.
         reason: &'static str,
     },
 }
@@ -47,14 +58,23 @@ pub enum ParamsError {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(default, deny_unknown_fields)]
 pub struct SortParams {
+    /// The robot's body and speeds.
     pub robot: RobotParams,
+    /// Perception: the local map and clusters.
     pub perception: PerceptionParams,
+    /// Deneubourg's pick-up and deposit constants.
     pub deneubourg: DeneubourgParams,
+    /// How long the timed states last.
     pub timing: TimingParams,
+    /// PROBSEEK's search.
     pub seek: SeekParams,
+    /// CACHECONS' cache points.
     pub cache: CacheParams,
+    /// CACHECONS_INFORMED's preset caches.
     pub informed: InformedParams,
+    /// VFH+ obstacle avoidance.
     pub vfh: VfhParams,
+    /// The steering law.
     pub steering: SteeringParams,
 }
 
@@ -113,7 +133,9 @@ impl Default for PerceptionParams {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DeneubourgParams {
+    /// k1 of the pick-up probability (k1 / (k1 + f))^2.
     pub k1: f64,
+    /// k2 of the deposit probability (f / (k2 + f))^2.
     pub k2: f64,
 }
 
@@ -127,7 +149,9 @@ impl Default for DeneubourgParams {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct TimingParams {
+    /// DE_PUSH lasts this many steps.
     pub push_steps: u32,
+    /// DE_BACKUP lasts this many steps.
     pub backup_steps: u32,
     /// Control steps for a 180-degree turn at full turn rate; a random turn of
     /// angle a in [pi/2, pi] lasts round(a / pi * half_turn_steps) steps.
@@ -136,7 +160,9 @@ pub struct TimingParams {
     pub pick_up_timeout_steps: u32,
     /// DE_TARGET gives up after this many steps.
     pub placement_timeout_steps: u32,
+    /// EXILE lasts this many steps.
     pub exile_steps: u32,
+    /// SPIT_OUT lasts this many steps.
     pub spit_out_steps: u32,
 }
 
@@ -193,6 +219,7 @@ pub struct CacheParams {
     /// C_j, the visible cache cluster, is the cluster of type j with a puck
     /// nearest the cache point, if that puck is closer than this.
     pub match_cm: f64,
+    /// Which clusters may become cache points.
     pub candidates: CacheCandidates,
     /// Per-step probability of wiping all caches (`cachecons-erase`).
     pub erase_probability: f64,
@@ -237,6 +264,7 @@ impl Default for InformedParams {
 pub struct VfhParams {
     /// Number of sectors over [-half_range, +half_range]; odd so one is centred on 0.
     pub sectors: usize,
+    /// The histogram spans [-half_range, +half_range] degrees.
     pub half_range_deg: f64,
     /// Cell magnitude is 1 - d^2 / magnitude_zero^2 (zero from this distance on).
     pub magnitude_zero_cm: f64,
@@ -246,6 +274,7 @@ pub struct VfhParams {
     pub safety_margin_cm: f64,
     /// Binary histogram hysteresis: free below `tau_low`, blocked above `tau_high`.
     pub tau_low: f64,
+    /// See `tau_low`.
     pub tau_high: f64,
     /// Openings at least this many sectors wide are wide valleys.
     pub s_max: usize,
@@ -287,6 +316,7 @@ pub struct SteeringParams {
     pub full_turn_angle_deg: f64,
     /// forward = sat((slow_angle - |theta|) / slow_angle, min_forward, 1).
     pub slow_angle_deg: f64,
+    /// The floor of `forward` in the law above.
     pub min_forward: f64,
     /// Forward speed when VFH+ finds no free direction (turn is then hard
     /// toward the freer side).

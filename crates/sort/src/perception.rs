@@ -33,7 +33,9 @@ use crate::vfh::Obstacle;
 /// A puck in the local map (robot frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MapPuck {
+    /// Its kind.
     pub kind: PuckKind,
+    /// Its position (robot frame, cm).
     pub pos: Vec2,
     /// This is the puck in the robot's own gripper.
     pub carried: bool,

@@ -12,7 +12,9 @@ use plotters::prelude::*;
 #[derive(Debug, thiserror::Error)]
 #[error("cannot draw {path}: {message}")]
 pub struct PlotError {
+    /// The file being drawn.
     pub path: String,
+    /// What went wrong.
     pub message: String,
 }
 
@@ -47,6 +49,7 @@ pub const PALETTE: [RGBColor; 8] = [
 
 /// One curve: mean with a band of ±1.96 standard errors.
 pub struct Band {
+    /// The legend's text.
     pub label: String,
     /// (x, mean, half-width of the band).
     pub points: Vec<(f64, f64, f64)>,
@@ -179,9 +182,13 @@ pub fn boxes(
 
 /// What an arena snapshot shows.
 pub struct ArenaView<'a> {
+    /// The caption.
     pub title: String,
+    /// The arena's side (cm).
     pub width: f64,
+    /// The arena's corner radius (cm).
     pub corner_radius: f64,
+    /// A puck's diameter (cm).
     pub puck_diameter: f64,
     /// (x, y, kind) in the world frame.
     pub pucks: &'a [(f64, f64, u8)],

@@ -26,8 +26,11 @@ pub fn std_error(xs: &[f64]) -> f64 {
 /// A two-sided paired t-test.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TTest {
+    /// The t statistic.
     pub t: f64,
+    /// Degrees of freedom.
     pub df: f64,
+    /// The two-sided p-value.
     pub p: f64,
     /// Mean of `a - b`.
     pub mean_difference: f64,
@@ -70,9 +73,13 @@ pub fn paired_t_test(a: &[f64], b: &[f64]) -> Option<TTest> {
 /// A one-way repeated-measures ANOVA.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Anova {
+    /// The F statistic.
     pub f: f64,
+    /// Degrees of freedom between conditions.
     pub df_conditions: f64,
+    /// Degrees of freedom within conditions (error).
     pub df_error: f64,
+    /// The p-value.
     pub p: f64,
     /// Mean square of the error term, which Tukey's test uses.
     pub ms_error: f64,
@@ -128,12 +135,15 @@ pub fn repeated_measures_anova(conditions: &[Vec<f64>]) -> Option<Anova> {
 /// One pair in Tukey's multiple comparisons.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TukeyPair {
+    /// The first condition's index.
     pub a: usize,
+    /// The second condition's index.
     pub b: usize,
     /// mean(a) - mean(b).
     pub difference: f64,
     /// The studentized range statistic.
     pub q: f64,
+    /// The adjusted p-value.
     pub p: f64,
 }
 

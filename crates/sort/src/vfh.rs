@@ -26,6 +26,7 @@
 
 use std::f64::consts::PI;
 
+use colony_proto::wrap_angle;
 use colony_sim::{Vec2, WheelCommand};
 
 use crate::params::{RobotParams, SteeringParams, VfhParams};
@@ -33,6 +34,7 @@ use crate::params::{RobotParams, SteeringParams, VfhParams};
 /// Something to avoid, in the robot frame (x forward, y left, cm).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Obstacle {
+    /// Its position (robot frame, cm).
     pub pos: Vec2,
     /// 0 for an occupancy point (wall, robot body), the puck radius for a puck.
     pub radius: f64,
@@ -43,18 +45,6 @@ impl Obstacle {
     pub fn point(pos: Vec2) -> Obstacle {
         Obstacle { pos, radius: 0.0 }
     }
-}
-
-/// Wraps an angle into (-pi, pi].
-pub fn wrap_angle(a: f64) -> f64 {
-    if !a.is_finite() {
-        return 0.0;
-    }
-    let mut r = a.rem_euclid(2.0 * PI);
-    if r > PI {
-        r -= 2.0 * PI;
-    }
-    r
 }
 
 fn half_range(p: &VfhParams) -> f64 {
@@ -236,6 +226,7 @@ pub struct Vfh {
 }
 
 impl Vfh {
+    /// A VFH+ with no history: nothing blocked, previous direction straight ahead.
     pub fn new(params: &VfhParams, robot: &RobotParams) -> Vfh {
         Vfh {
             params: params.clone(),

@@ -6,20 +6,34 @@
 //! controller and publishes commands and intentions. Either side can be
 //! killed and restarted: a robot with no fresh command stops, and a
 //! restarted controller picks up from the next observation.
+//!
+//! Every packet is one of [`colony_proto`]'s messages: [`colony_proto::swarm`] for
+//! `camera.N`, `vision`, `debug` and `metrics`, [`colony_proto::radio`] for the commands.
 
-pub mod codec;
 pub mod robot;
 pub mod world;
 
 /// What can stop a live world or robot.
 #[derive(Debug, thiserror::Error)]
 pub enum LiveError {
+    /// The hub client failed.
     #[error(transparent)]
     Client(#[from] colony_client::ClientError),
+    /// A socket wait failed.
     #[error(transparent)]
     Io(#[from] std::io::Error),
-    #[error("cannot write a packet: {0}")]
+    /// A packet could not be written (a value the format cannot carry).
+    #[error("cannot write a packet")]
     Packet(#[from] colony_wire::ParseError),
+    /// The options make no sense.
     #[error("{0}")]
     Options(String),
+    /// A robot id does not fit the `u32` every message writes ids as.
+    #[error("robot {0} has no id on the wire: ids go up to {max}", max = u32::MAX)]
+    RobotId(usize),
+}
+
+/// `robot` as the `u32` every message writes robot ids as.
+pub(crate) fn wire_id(robot: usize) -> Result<u32, LiveError> {
+    u32::try_from(robot).map_err(|_| LiveError::RobotId(robot))
 }

@@ -4,11 +4,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
+use colony_proto::radio::{self, RadioCommand};
+use colony_proto::swarm::{camera, debug, CachePoint, Intent, Intentions};
 use colony_wire::Priority;
 use rand_chacha::rand_core::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use super::{codec, LiveError};
+use super::{wire_id, LiveError};
 use crate::Controller;
 
 /// Runs one robot's controller until `stop`: each camera observation from
@@ -22,7 +24,8 @@ pub fn run(
     seed: u64,
     stop: &AtomicBool,
 ) -> Result<(), LiveError> {
-    client.subscribe(&codec::camera_channel(robot))?;
+    let id = wire_id(robot)?;
+    client.subscribe(&camera::camera_channel(id))?;
     let mut rng =
         ChaCha8Rng::seed_from_u64(seed ^ (robot as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
     while !stop.load(Ordering::Relaxed) {
@@ -35,21 +38,37 @@ pub fn run(
         client.poll(Instant::now())?;
         let mut newest = None;
         while let Some(packet) = client.recv()? {
-            match codec::parse_observation(&packet) {
-                Ok(obs) => newest = Some(obs),
+            match camera::decode(&packet) {
+                Ok(view) => newest = Some(view.observation),
                 Err(e) => tracing::debug!(robot, error = %e, "ignored a bad observation"),
             }
         }
-        let Some((_, obs)) = newest else { continue };
+        let Some(obs) = newest else { continue };
         let cmd = controller.step(&obs, &mut rng);
-        client.publish(&codec::command_packet(robot, cmd, Priority(0))?)?;
-        let target = controller.target();
-        client.publish(&codec::debug_packet(
-            robot,
-            controller.state(),
-            target,
-            &controller.cache_points(),
+        client.publish(&radio::encode(
+            &[RadioCommand {
+                robot: id,
+                wheels: cmd,
+            }],
+            Priority(0),
         )?)?;
+        let intentions = Intentions {
+            intents: vec![Intent {
+                robot: id,
+                state: controller.state().to_owned(),
+                target: controller.target(),
+            }],
+            caches: controller
+                .cache_points()
+                .into_iter()
+                .map(|(kind, pos)| CachePoint {
+                    robot: id,
+                    kind,
+                    pos,
+                })
+                .collect(),
+        };
+        client.publish(&debug::encode(&intentions)?)?;
     }
     Ok(())
 }

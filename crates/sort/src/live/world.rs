@@ -5,9 +5,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
-use colony_sim::{RobotId, WheelCommand, World};
+use colony_proto::radio::{self, RADIO};
+use colony_proto::swarm::{
+    camera, metrics, vision, Arena, Progress, Sizes, VisionFrame, VisionPuck, VisionRobot,
+};
+use colony_proto::CommandHold;
+use colony_sim::{RobotId, SceneConfig, World};
 
-use super::{codec, LiveError};
+use super::{wire_id, LiveError};
 
 /// How the live world runs.
 #[derive(Debug, Clone)]
@@ -27,59 +32,11 @@ pub struct WorldOptions {
     pub cluster_threshold: f64,
 }
 
-/// The command in force for each robot: the newest one, unless a fresher
-/// command of higher priority holds the robot (an operator's override).
-pub struct Commands {
-    latest: Vec<Option<Held>>,
-    timeout: u64,
-}
-
-#[derive(Debug, Clone, Copy)]
-struct Held {
-    cmd: WheelCommand,
-    priority: i32,
-    step: u64,
-}
-
-impl Commands {
-    /// Commands for `robots` robots; one older than `timeout` steps lapses.
-    pub fn new(robots: usize, timeout: u64) -> Commands {
-        Commands {
-            latest: vec![None; robots],
-            timeout,
-        }
-    }
-
-    /// Takes a command that arrived at `step`. A command of lower priority
-    /// than the one in force is ignored until that one lapses.
-    pub fn offer(&mut self, robot: usize, cmd: WheelCommand, priority: i32, step: u64) {
-        let timeout = self.timeout;
-        let Some(slot) = self.latest.get_mut(robot) else {
-            return;
-        };
-        let replace = match slot {
-            Some(h) => priority >= h.priority || step.saturating_sub(h.step) > timeout,
-            None => true,
-        };
-        if replace {
-            *slot = Some(Held {
-                cmd,
-                priority,
-                step,
-            });
-        }
-    }
-
-    /// What each robot does at `step`: its command in force, or stop.
-    pub fn for_step(&self, step: u64) -> Vec<WheelCommand> {
-        self.latest
-            .iter()
-            .map(|c| match c {
-                Some(h) if step.saturating_sub(h.step) <= self.timeout => h.cmd,
-                _ => WheelCommand::STOP,
-            })
-            .collect()
-    }
+/// The command in force for each of `robots` robots, lapsing once it is older than
+/// `timeout_steps`: [`CommandHold`] holds a command while its age is below its hold, so a
+/// command that may still act at age `timeout_steps` holds for one step more than that.
+pub fn command_hold(robots: usize, timeout_steps: u64) -> CommandHold {
+    CommandHold::new(robots, timeout_steps.saturating_add(1))
 }
 
 /// Runs `world` over the hub until `stop` (or `max_steps`); calls `each_step`
@@ -97,9 +54,9 @@ pub fn run(
             options.speed
         )));
     }
-    client.subscribe(codec::RADIO)?;
+    client.subscribe(RADIO)?;
     let n = world.robots().len();
-    let mut commands = Commands::new(n, options.command_timeout_steps);
+    let mut commands = command_hold(n, options.command_timeout_steps);
     let period = Duration::from_secs_f64(options.step_seconds / options.speed);
     let start = Instant::now();
     let mut done = 0u64;
@@ -110,13 +67,18 @@ pub fn run(
             let now = Instant::now();
             client.poll(now)?;
             while let Some(packet) = client.recv()? {
-                if !packet.has_subject(codec::RADIO) {
+                if !packet.has_subject(RADIO) {
                     continue;
                 }
-                match codec::parse_commands(&packet) {
+                match radio::decode(&packet) {
                     Ok(cmds) => {
-                        for (id, cmd) in cmds {
-                            commands.offer(id, cmd, packet.priority().0, world.step_count());
+                        for c in cmds {
+                            commands.offer(
+                                c.robot as usize,
+                                c.wheels,
+                                packet.priority().0,
+                                world.step_count(),
+                            );
                         }
                     }
                     Err(e) => tracing::debug!(error = %e, "ignored a bad radio packet"),
@@ -134,7 +96,10 @@ pub fn run(
         if world.step_count() % options.metrics_every.max(1) == 0 {
             let pc =
                 crate::metrics::percentage_completion(&world.pucks(), options.cluster_threshold);
-            client.publish(&codec::metrics_packet(world.step_count(), pc)?)?;
+            client.publish(&metrics::encode(Progress {
+                step: world.step_count(),
+                pc,
+            })?)?;
         }
         each_step(world);
         done += 1;
@@ -145,19 +110,68 @@ pub fn run(
 fn publish_step(world: &World, client: &mut UdpClient) -> Result<(), LiveError> {
     let step = world.step_count();
     let robots = world.robots();
-    for part in codec::vision_packets(step, world.config(), &robots, &world.pucks())? {
+    for part in vision::encode(&vision_frame(world)?)? {
         client.publish(&part)?;
     }
     for rb in robots.iter() {
         let obs = world.observe(RobotId(rb.id.0));
-        client.publish(&codec::observation_packet(rb.id.0, step, &obs)?)?;
+        client.publish(&camera::encode(wire_id(rb.id.0)?, step, &obs)?)?;
     }
     Ok(())
+}
+
+/// The world as the overhead camera sees it.
+fn vision_frame(world: &World) -> Result<VisionFrame, LiveError> {
+    let scene: &SceneConfig = world.config();
+    let robots = world
+        .robots()
+        .iter()
+        .map(|rb| {
+            Ok(VisionRobot {
+                id: wire_id(rb.id.0)?,
+                pose: rb.pose,
+                carrying: rb.carrying.map(|c| puck_id(c.0)).transpose()?,
+            })
+        })
+        .collect::<Result<_, LiveError>>()?;
+    let pucks = world
+        .pucks()
+        .iter()
+        .map(|pk| {
+            Ok(VisionPuck {
+                id: puck_id(pk.id.0)?,
+                kind: pk.kind,
+                pos: pk.pos,
+            })
+        })
+        .collect::<Result<_, LiveError>>()?;
+    Ok(VisionFrame {
+        step: world.step_count(),
+        arena: Some(Arena {
+            width: scene.arena.width,
+            height: scene.arena.height,
+            corner: scene.arena.corner_radius,
+        }),
+        sizes: Some(Sizes {
+            robot_length: scene.robots.length,
+            robot_width: scene.robots.width,
+            gripper_radius: scene.robots.gripper_radius,
+            puck_diameter: scene.pucks.diameter,
+        }),
+        robots,
+        pucks,
+    })
+}
+
+/// A puck id as the `u32` messages write it (the same rule as a robot's).
+fn puck_id(puck: usize) -> Result<u32, LiveError> {
+    wire_id(puck)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use colony_sim::WheelCommand;
 
     fn cmd(f: f64) -> WheelCommand {
         WheelCommand {
@@ -168,7 +182,7 @@ mod tests {
 
     #[test]
     fn an_operator_command_holds_its_robot_against_the_ai_until_it_lapses() {
-        let mut c = Commands::new(2, 10);
+        let mut c = command_hold(2, 10);
         c.offer(0, cmd(0.1), 0, 0);
         c.offer(1, cmd(0.2), 0, 0);
         c.offer(0, cmd(-1.0), 10, 1);
@@ -178,6 +192,12 @@ mod tests {
             c.for_step(3),
             [cmd(-1.0), cmd(0.4)],
             "robot 0 held, robot 1 still the AI's"
+        );
+        c.offer(0, cmd(0.5), 0, 11);
+        assert_eq!(
+            c.for_step(11),
+            [cmd(-1.0), cmd(0.4)],
+            "10 steps old: the override still holds"
         );
         c.offer(0, cmd(0.5), 0, 12);
         assert_eq!(
@@ -189,10 +209,21 @@ mod tests {
 
     #[test]
     fn a_robot_with_no_fresh_command_stops() {
-        let mut c = Commands::new(1, 5);
+        let mut c = command_hold(1, 5);
         c.offer(0, cmd(1.0), 0, 0);
-        assert_eq!(c.for_step(5), [cmd(1.0)]);
+        assert_eq!(c.for_step(5), [cmd(1.0)], "5 steps old: still in force");
         assert_eq!(c.for_step(6), [WheelCommand::STOP]);
         c.offer(7, cmd(1.0), 0, 0);
+    }
+
+    #[test]
+    fn the_vision_frame_carries_every_robot_and_puck_with_the_scene() {
+        let scene = SceneConfig::default();
+        let world = World::new(&scene, 3).unwrap();
+        let frame = vision_frame(&world).unwrap();
+        assert_eq!(frame.robots.len(), world.robot_count());
+        assert_eq!(frame.pucks.len(), world.pucks().len());
+        assert_eq!(frame.arena.unwrap().corner, scene.arena.corner_radius);
+        assert_eq!(frame.sizes.unwrap().puck_diameter, scene.pucks.diameter);
     }
 }

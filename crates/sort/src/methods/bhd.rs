@@ -20,9 +20,13 @@ use crate::Controller;
 /// The states of Fig. 4.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BhdState {
+    /// Driving forward, looking for pucks.
     Forward,
+    /// Pushing a puck forward.
     Push,
+    /// Backing away from a deposited puck.
     Backup,
+    /// Turning on the spot by a random angle.
     Turn,
 }
 
@@ -49,6 +53,7 @@ pub struct Bhd {
 }
 
 impl Bhd {
+    /// A BHD controller with these parameters.
     pub fn new(params: &SortParams) -> Bhd {
         Bhd {
             params: params.clone(),

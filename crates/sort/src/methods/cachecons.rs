@@ -20,18 +20,26 @@ use super::caches::{CacheMemory, Separation};
 use super::common::{gaussian_angle, select_pick_up, track_puck, Clock, Driver, FORWARD, REVERSE};
 use crate::params::{CacheCandidates, SortParams};
 use crate::perception::{LocalMap, PuckObstacles};
-use crate::vfh::{steer_toward, wrap_angle};
+use crate::vfh::steer_toward;
 use crate::Controller;
+use colony_proto::wrap_angle;
 
 /// The states of Fig. 5b, plus SPIT_OUT.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CacheConsState {
+    /// PU_SCAN: wandering, looking for a puck to pick up.
     PuScan,
+    /// PU_TARGET: driving to a chosen puck.
     PuTarget,
+    /// HOMING: carrying a puck to its kind's cache.
     Homing,
+    /// DE_PUSH: pushing the puck into the cache.
     DePush,
+    /// DE_BACKUP: backing away after depositing.
     DeBackup,
+    /// EXILE: driving away from a cache it may not deposit in.
     Exile,
+    /// SPIT_OUT: dropping a puck it cannot take home.
     SpitOut,
 }
 
@@ -58,11 +66,19 @@ pub enum CacheConsVariant {
     /// CACHECONS_INFORMED: `n_types` caches preset on a circle (diameter
     /// `informed.diameter_fraction` of `arena_width`, centred on the world
     /// origin), never reassigned.
-    Informed { n_types: usize, arena_width: f64 },
+    Informed {
+        /// How many puck kinds (and caches).
+        n_types: usize,
+        /// The arena's side (cm).
+        arena_width: f64,
+    },
     /// CacheCons_Ignore: no cache separation.
     IgnoreSeparation,
     /// Every step, all caches are forgotten with probability `p`.
-    EraseMemory { p: f64 },
+    EraseMemory {
+        /// The probability per step.
+        p: f64,
+    },
 }
 
 /// The preset cache points of CACHECONS_INFORMED: type k at angle
@@ -101,6 +117,7 @@ pub struct CacheCons {
 }
 
 impl CacheCons {
+    /// A CACHECONS controller of `variant`.
     pub fn new(params: &SortParams, variant: CacheConsVariant) -> CacheCons {
         let memory = match variant {
             CacheConsVariant::Informed {
@@ -135,6 +152,7 @@ impl CacheCons {
         &self.memory
     }
 
+    /// Which variant this controller runs.
     pub fn variant(&self) -> CacheConsVariant {
         self.variant
     }

@@ -31,7 +31,10 @@ pub enum Separation {
     Ignore,
     /// A candidate closer than `distance_cm` to other types' caches is adopted
     /// only if larger than each of them, and they are forgotten.
-    AcceptLarger { distance_cm: f64 },
+    AcceptLarger {
+        /// How close counts as too close (cm).
+        distance_cm: f64,
+    },
 }
 
 /// The cache points of one robot (m_j = 0 for a type without one).
@@ -41,6 +44,7 @@ pub struct CacheMemory {
 }
 
 impl CacheMemory {
+    /// A memory with no cache points.
     pub fn new() -> CacheMemory {
         CacheMemory::default()
     }
@@ -55,6 +59,7 @@ impl CacheMemory {
         }
     }
 
+    /// The cache point for `kind`, if there is one.
     pub fn get(&self, kind: PuckKind) -> Option<&CachePoint> {
         self.caches.get(&kind)
     }

@@ -80,6 +80,7 @@ impl fmt::Display for Method {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("unknown method `{name}`; valid methods: bhd, probseek, cachecons, cachecons-informed, cachecons-ignore, cachecons-erase")]
 pub struct UnknownMethod {
+    /// The name that was not recognised.
     pub name: String,
 }
 

@@ -23,12 +23,19 @@ use crate::Controller;
 /// The states of Fig. 5a.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ProbSeekState {
+    /// PU_SCAN: wandering, looking for a puck to pick up.
     PuScan,
+    /// PU_TARGET: driving to a chosen puck.
     PuTarget,
+    /// DE_SCAN: carrying a puck, looking for a cluster of its kind.
     DeScan,
+    /// DE_TARGET: driving to the chosen deposit point.
     DeTarget,
+    /// DE_PUSH: pushing the puck into place.
     DePush,
+    /// DE_BACKUP: backing away after depositing.
     DeBackup,
+    /// DE_TURN: turning away before scanning again.
     DeTurn,
 }
 
@@ -61,6 +68,7 @@ pub struct ProbSeek {
 }
 
 impl ProbSeek {
+    /// A PROBSEEK controller with these parameters.
     pub fn new(params: &SortParams) -> ProbSeek {
         ProbSeek {
             params: params.clone(),
