@@ -10,7 +10,7 @@ use crate::map::{Battlefield, Cell, Terrain};
 use crate::protocol::{
     Action, Event, FlagState, GameState, RobotState, SquadState, Status, TeamState, WorldFrame,
 };
-use crate::rules::{Mode, RobotKind, RuleError, Rules, TeamSetup};
+use crate::rules::{KindRules, Mode, RobotKind, RuleError, Rules, TeamSetup};
 
 /// A robot picks up a flag within this distance of it, cm.
 pub const FLAG_REACH: f64 = 30.0;

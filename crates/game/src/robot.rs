@@ -22,7 +22,7 @@ use colony_behave::{Arbitrator, Behaviour, Reason};
 use colony_sim::{Pose, Vec2};
 
 use crate::protocol::{Action, Command, Order, RobotDebug, Sense};
-use crate::rules::{KindStats, RobotKind};
+use crate::rules::{KindRules, KindStats, RobotKind};
 
 /// The sonar's critical distance, cm from the robot's edge (Table 1's d_crit).
 pub const D_CRIT: f64 = 5.0;

@@ -21,7 +21,7 @@ use crate::formation::{along_path, assign, Formation};
 use crate::nav::Nav;
 use crate::path::{Mover, Replanner};
 use crate::protocol::{Command, SquadState, Target, Verb};
-use crate::rules::RobotKind;
+use crate::rules::{KindRules, RobotKind};
 
 /// A robot as the swarm intelligence sees it this tick.
 #[derive(Debug, Clone, PartialEq)]

@@ -13,6 +13,7 @@
 //! | [`hold`] | the operator-override hold rule: which command is in force for each robot |
 //! | [`fields`] | field readers with their range rules ([`fields::MAX_COORD`]) |
 //! | [`error`] | [`DecodeError`], what every decoder returns |
+//! | [`game`] | the strategy game's messages, one module per channel (`game.*`) |
 //!
 //! Units everywhere: centimetres, seconds, radians (counter-clockwise from +x).
 
@@ -21,6 +22,7 @@
 
 pub mod error;
 pub mod fields;
+pub mod game;
 pub mod geometry;
 pub mod hold;
 pub mod radio;
