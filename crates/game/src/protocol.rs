@@ -55,7 +55,10 @@ mod tests {
             m.on_packet(&Packet::parse(&p).unwrap());
         }
         let got = m.map().unwrap();
-        assert_eq!((got.width, got.height), (field.grid.width(), field.grid.height()));
+        assert_eq!(
+            (got.width, got.height),
+            (field.grid.width(), field.grid.height())
+        );
         assert_eq!(got.sites.len(), field.teams.len());
         assert_eq!(got, &map);
         assert_eq!(m.bad_lines(), 0);

@@ -500,14 +500,14 @@ mod tests {
         let mut pose = Pose::default();
         let t = b.tick(sense(0.0, pose));
         assert_eq!(b.active(), Some("command"));
-        assert_eq!(t.debug.unwrap_angle().behaviour, "command");
+        assert_eq!(t.debug.unwrap().behaviour, "command");
         drive(&mut pose, t.wheels, &stats, 0.1);
         // Something touches the front-left: the bump reflex takes over.
         let mut s = sense(0.1, pose);
         s.bump_front = true;
         s.contact = Some(0.3);
         let t = b.tick(s);
-        let d = t.debug.unwrap_angle();
+        let d = t.debug.unwrap();
         assert_eq!(
             (d.behaviour.as_str(), d.reason.as_str()),
             ("avoid-bump", "front touch sensor pressed")

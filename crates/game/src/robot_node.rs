@@ -58,8 +58,8 @@ impl Node for RobotNode {
         let tick = self.brain.tick(sense);
         let wheels = RadioCommand::new(self.id, tick.wheels.0, tick.wheels.1);
         let packets = std::iter::once(radio::encode(&[wheels], Priority(0)))
-        .chain(tick.actions.iter().map(|a| a.encode()))
-        .chain(tick.debug.iter().map(|d| d.encode()));
+            .chain(tick.actions.iter().map(|a| a.encode()))
+            .chain(tick.debug.iter().map(|d| d.encode()));
         for p in packets {
             match p {
                 Ok(p) => out.push(p),

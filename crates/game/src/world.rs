@@ -3,18 +3,18 @@
 //! the newest wheel command for it, and takes destroyed robots out of play
 //! when the game logic's state says so.
 
+use colony_proto::{radio, CommandHold};
 use colony_sim::field::{
     Field, FieldConfig, FieldRobotId, RobotSpec, Terrain as SimTerrain, TileMap,
 };
-use colony_proto::{radio, CommandHold};
 use colony_sim::SimError;
 use colony_wire::Packet;
 
 use crate::logic::RobotEntry;
 use crate::map::{Battlefield, Terrain};
-use crate::rules::KindRules;
 use crate::node::Node;
 use crate::protocol::{self, GameState, RobotPose, Sense, WorldFrame};
+use crate::rules::KindRules;
 
 /// A robot whose newest command is older than 10 steps stops (a dead controller must not leave
 /// its robot driving): a command holds for 11 steps, the one it arrived at and 10 more.

@@ -1,8 +1,8 @@
 //! The formation shapes and their slot positions.
 
-use std::f64::consts::{FRAC_1_SQRT_2, FRAC_PI_2, PI, TAU};
 pub use colony_proto::game::{Formation, UnknownFormation};
 use colony_sim::Vec2;
+use std::f64::consts::{FRAC_1_SQRT_2, FRAC_PI_2, PI, TAU};
 
 /// Where each robot of a squad stands: the geometry behind the [`Formation`] a message names.
 ///
@@ -36,26 +36,26 @@ impl Slots for Formation {
 
 /// Slots relative to the destination in the paper's frame (facing +y).
 fn local_slots(formation: Formation, n: usize, d: f64) -> Vec<Vec2> {
-        let nf = n as f64;
-        match formation {
-            Formation::Line => (0..n)
-                .map(|i| Vec2::new(d * (i as f64 - (nf - 1.0) / 2.0), 0.0))
-                .collect(),
-            Formation::Circle if n == 1 => vec![Vec2::ZERO],
-            Formation::Circle => (0..n).map(|i| polar(nf * d, i as f64 * TAU / nf)).collect(),
-            Formation::HalfCircle => {
-                let step = 1.5 * PI / nf;
-                (0..n)
-                    .map(|i| polar(nf * d, -FRAC_PI_2 + (i as f64 - (nf - 1.0) / 2.0) * step))
-                    .collect()
-            }
-            Formation::Wedge => wedge(n, d),
-            Formation::InverseWedge => wedge(n, d)
-                .into_iter()
-                .map(|p| Vec2::new(p.x, -p.y))
-                .collect(),
+    let nf = n as f64;
+    match formation {
+        Formation::Line => (0..n)
+            .map(|i| Vec2::new(d * (i as f64 - (nf - 1.0) / 2.0), 0.0))
+            .collect(),
+        Formation::Circle if n == 1 => vec![Vec2::ZERO],
+        Formation::Circle => (0..n).map(|i| polar(nf * d, i as f64 * TAU / nf)).collect(),
+        Formation::HalfCircle => {
+            let step = 1.5 * PI / nf;
+            (0..n)
+                .map(|i| polar(nf * d, -FRAC_PI_2 + (i as f64 - (nf - 1.0) / 2.0) * step))
+                .collect()
         }
+        Formation::Wedge => wedge(n, d),
+        Formation::InverseWedge => wedge(n, d)
+            .into_iter()
+            .map(|p| Vec2::new(p.x, -p.y))
+            .collect(),
     }
+}
 
 fn polar(r: f64, angle: f64) -> Vec2 {
     Vec2::new(r * angle.cos(), r * angle.sin())

@@ -91,7 +91,10 @@ mod tests {
     #[test]
     fn every_action_survives_the_trip() {
         for a in [
-            Action::Fire { robot: 1, target: 2 },
+            Action::Fire {
+                robot: 1,
+                target: 2,
+            },
             Action::PickUp {
                 robot: 3,
                 flag: "red".into(),

@@ -57,6 +57,9 @@ mod tests {
             reason: "bumper front pressed".into(),
         };
         let bytes = d.encode().unwrap();
-        assert_eq!(RobotDebug::decode(&Packet::parse(&bytes).unwrap()).unwrap(), d);
+        assert_eq!(
+            RobotDebug::decode(&Packet::parse(&bytes).unwrap()).unwrap(),
+            d
+        );
     }
 }

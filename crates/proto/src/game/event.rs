@@ -88,7 +88,10 @@ mod tests {
         let read = Event::decode_lenient(&p);
         assert_eq!(read.skipped, 2);
         assert_eq!(
-            read.value.iter().map(|e| e.kind.as_str()).collect::<Vec<_>>(),
+            read.value
+                .iter()
+                .map(|e| e.kind.as_str())
+                .collect::<Vec<_>>(),
             ["hit", "over"]
         );
         assert_eq!(read.value[1].text, "", "a missing text reads as empty");

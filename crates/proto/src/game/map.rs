@@ -88,7 +88,9 @@ impl GameMap {
                     }
                 }
                 for y in range {
-                    p.line("row").field("y", y).field("cells", self.rows[y].as_str());
+                    p.line("row")
+                        .field("y", y)
+                        .field("cells", self.rows[y].as_str());
                 }
                 p.finish()
             })
@@ -179,9 +181,8 @@ fn header(line: &Line<'_>) -> Option<(Header, u32)> {
 fn row(line: &Line<'_>, width: u32, height: usize) -> Option<(usize, String)> {
     let y = usize::try_from(line.i64("y").ok()?).ok()?;
     let cells = line.str("cells").ok()?;
-    let ok = y < height
-        && cells.len() == width as usize
-        && cells.bytes().all(|b| TERRAIN.contains(&b));
+    let ok =
+        y < height && cells.len() == width as usize && cells.bytes().all(|b| TERRAIN.contains(&b));
     ok.then(|| (y, cells.into_owned()))
 }
 

@@ -185,7 +185,10 @@ mod tests {
             assert_eq!(f.name().to_uppercase().parse::<Formation>(), Ok(f));
         }
         assert!("square".parse::<Formation>().is_err());
-        assert_eq!("robot".parse::<RobotKind>(), Err(UnknownKind("robot".into())));
+        assert_eq!(
+            "robot".parse::<RobotKind>(),
+            Err(UnknownKind("robot".into()))
+        );
     }
 
     #[test]

@@ -91,7 +91,7 @@ mod tests {
                     pose: Pose {
                         x: 1.0,
                         y: -2.5,
-                        theta: 3.14,
+                        theta: 3.1,
                     },
                     active: true,
                 },
@@ -103,7 +103,10 @@ mod tests {
             ],
         };
         let bytes = w.encode().unwrap();
-        assert_eq!(WorldFrame::decode(&Packet::parse(&bytes).unwrap()).unwrap(), w);
+        assert_eq!(
+            WorldFrame::decode(&Packet::parse(&bytes).unwrap()).unwrap(),
+            w
+        );
         let p = b"@ <game.world> 0\nstep n 1 time 0\nrobot id 1 x 0 y 0 theta 0 active 2\n";
         assert!(WorldFrame::decode(&Packet::parse(p).unwrap()).is_err());
     }

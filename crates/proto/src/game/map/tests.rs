@@ -28,8 +28,7 @@ fn a_one_part_map_is_kept_and_a_repeat_changes_nothing() {
 fn parts_are_put_together_and_a_lost_part_costs_one_broadcast() {
     let mut m = MapAssembler::default();
     let p0 = "@ <game.map> 0\nmap width 2 height 3 cell 10 part 0 parts 2\nsite team red base_x 5 base_y 5 flag_x 5 flag_y 15\nrow y 0 cells \"..\"\nrow y 1 cells \"TT\"\n";
-    let p1 =
-        "@ <game.map> 0\nmap width 2 height 3 cell 10 part 1 parts 2\nrow y 2 cells \"WW\"\n";
+    let p1 = "@ <game.map> 0\nmap width 2 height 3 cell 10 part 1 parts 2\nrow y 2 cells \"WW\"\n";
     assert!(!feed(&mut m, p0));
     assert!(feed(&mut m, p1));
     assert_eq!(m.map().unwrap().rows, ["..", "TT", "WW"]);

@@ -50,7 +50,12 @@ fn every_command_the_page_can_send_is_read_as_sent_byte_for_byte() {
             let sent = command(verb.clone(), formation);
             let bytes = sent.encode().unwrap();
             let read = decode(&bytes);
-            assert_eq!(read, vec![sent.clone()], "{}", String::from_utf8_lossy(&bytes));
+            assert_eq!(
+                read,
+                vec![sent.clone()],
+                "{}",
+                String::from_utf8_lossy(&bytes)
+            );
             assert_eq!(read[0].encode().unwrap(), bytes);
             checked += 1;
         }
@@ -65,7 +70,10 @@ fn the_packets_are_the_lines_the_game_reads() {
             command(Verb::Attack(Target::Robot(7)), Some(Formation::Wedge)),
             "squad name alpha do attack robot 7 formation wedge",
         ),
-        (command(Verb::Gather(None), None), "squad name alpha do gather"),
+        (
+            command(Verb::Gather(None), None),
+            "squad name alpha do gather",
+        ),
         (
             command(Verb::Gather(Some(Vec2::new(10.0, -2.5))), None),
             "squad name alpha do gather x 10.0 y -2.5",
@@ -78,7 +86,10 @@ fn the_packets_are_the_lines_the_game_reads() {
             "squad name alpha do goto x 310.46 y 88.0 formation inverse-wedge",
         ),
         (
-            command(Verb::Defend(Target::Base("red".into())), Some(Formation::HalfCircle)),
+            command(
+                Verb::Defend(Target::Base("red".into())),
+                Some(Formation::HalfCircle),
+            ),
             "squad name alpha do defend base red formation half-circle",
         ),
         (
@@ -99,7 +110,10 @@ fn the_packets_are_the_lines_the_game_reads() {
 fn bad_squad_commands_name_the_problem() {
     let p = b"@ <game.player.red> 0\nsquad name a do dance\n";
     let e = SquadCommand::decode("red", &Packet::parse(p).unwrap()).unwrap_err();
-    assert!(e.to_string().contains("unknown squad command \"dance\""), "{e}");
+    assert!(
+        e.to_string().contains("unknown squad command \"dance\""),
+        "{e}"
+    );
     let p = b"@ <game.player.red> 0\nsquad name a do goto x 1e300 y 0\n";
     assert!(SquadCommand::decode("red", &Packet::parse(p).unwrap()).is_err());
     let p = b"@ <game.player.red> 0\nsquad name a do attack\n";

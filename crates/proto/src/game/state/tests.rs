@@ -21,7 +21,10 @@ fn sample() -> GameState {
 #[test]
 fn a_state_is_read_whole_and_reencodes_to_itself() {
     let s = sample();
-    assert_eq!((s.mode.as_str(), s.status, s.time), ("ctf", Status::Running, 12.4));
+    assert_eq!(
+        (s.mode.as_str(), s.status, s.time),
+        ("ctf", Status::Running, 12.4)
+    );
     assert_eq!(s.winner, None);
     assert_eq!(s.teams[1].score, 1);
     assert_eq!(s.flags[0].carrier, Some(3));
@@ -40,7 +43,13 @@ fn a_state_is_read_whole_and_reencodes_to_itself() {
     let again = GameState::decode(&Packet::parse(&s.encode().unwrap()).unwrap()).unwrap();
     assert_eq!(again, s);
     let lenient = GameState::decode_lenient(&Packet::parse(STATE_PACKET.as_bytes()).unwrap());
-    assert_eq!(lenient, Ok(Lenient { value: s, skipped: 0 }));
+    assert_eq!(
+        lenient,
+        Ok(Lenient {
+            value: s,
+            skipped: 0
+        })
+    );
 }
 
 #[test]
@@ -74,7 +83,8 @@ ufo x 1\n";
         GameState::decode_lenient(&headless),
         Err(DecodeError::Missing("game"))
     );
-    let bad_status = Packet::parse(b"@ <game.state> 0\ngame mode ctf status paused time 1 winner -\n").unwrap();
+    let bad_status =
+        Packet::parse(b"@ <game.state> 0\ngame mode ctf status paused time 1 winner -\n").unwrap();
     assert!(GameState::decode_lenient(&bad_status).is_err());
 }
 
@@ -92,21 +102,23 @@ fn robot() -> impl Strategy<Value = RobotState> {
         any::<bool>(),
         "[a-z -]{0,20}",
     )
-        .prop_map(|(id, squad, kind, (x, y, theta), health, alive, why)| RobotState {
-            id,
-            team: "red".into(),
-            squad,
-            kind,
-            pose: Pose {
-                x: r(x),
-                y: r(y),
-                theta: r(theta),
+        .prop_map(
+            |(id, squad, kind, (x, y, theta), health, alive, why)| RobotState {
+                id,
+                team: "red".into(),
+                squad,
+                kind,
+                pose: Pose {
+                    x: r(x),
+                    y: r(y),
+                    theta: r(theta),
+                },
+                health: r(health),
+                alive,
+                behaviour: "goto".into(),
+                reason: why,
             },
-            health: r(health),
-            alive,
-            behaviour: "goto".into(),
-            reason: why,
-        })
+        )
 }
 
 fn squad() -> impl Strategy<Value = SquadState> {
