@@ -51,43 +51,67 @@ const MAX_ROBOTS: usize = 4096;
 const MAX_SQUADS: usize = 1024;
 const MAX_PATH: usize = 512;
 
+/// A team's standing.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TeamView {
+    /// Its name.
     pub name: String,
+    /// Flags captured (CTF) or robots destroyed (DM).
     pub score: i64,
+    /// Enemy robots destroyed.
     pub kills: i64,
 }
 
+/// A flag.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FlagView {
+    /// Whose flag.
     pub team: String,
+    /// Where it is, cm.
     pub x: f64,
+    /// Where it is, cm.
     pub y: f64,
     /// On its stand at its base.
     pub home: bool,
+    /// The robot carrying it.
     pub carrier: Option<u32>,
 }
 
+/// A robot.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct RobotView {
+    /// Its id.
     pub id: u32,
+    /// Its team.
     pub team: String,
+    /// Its squad.
     pub squad: String,
+    /// Its type (`scout`, `tank`, `infantry`, `amphibian`).
     pub kind: String,
+    /// Where it is, cm.
     pub x: f64,
+    /// Where it is, cm.
     pub y: f64,
+    /// Its heading, rad.
     pub theta: f64,
+    /// Health left.
     pub health: f64,
+    /// Not destroyed.
     pub alive: bool,
     /// The robot's active behaviour, and why it has control.
     pub behaviour: String,
+    /// Why that behaviour has control.
     pub reason: String,
 }
 
+/// A squad.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SquadView {
+    /// Its team.
     pub team: String,
+    /// Its name.
     pub name: String,
+    /// Its formation's name.
     pub formation: String,
     /// The player's command it carries out, as the game words it.
     pub order: String,
@@ -97,28 +121,39 @@ pub struct SquadView {
     pub path: Vec<(f64, f64)>,
 }
 
-/// One `game.state` packet.
+/// One `game.state` packet, as the page shows it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct GameStateView {
+    /// `ctf` or `dm`.
     pub mode: String,
     /// `running` or `over`.
     pub status: String,
     /// Game time, s.
     pub time: f64,
+    /// The winner, when over (None: a draw or not over).
     pub winner: Option<String>,
+    /// Why it ended.
     pub reason: String,
+    /// The teams.
     pub teams: Vec<TeamView>,
+    /// The flags.
     pub flags: Vec<FlagView>,
+    /// The robots, in id order.
     pub robots: Vec<RobotView>,
+    /// The squads.
     pub squads: Vec<SquadView>,
 }
 
+/// An event for the page's log.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct EventView {
     /// Counts events since the monitor started, so the page can tell new from seen.
     pub seq: u64,
+    /// `hit`, `destroyed`, `refused`, ...
     pub kind: String,
+    /// Game time, s.
     pub time: f64,
+    /// The text a person reads.
     pub text: String,
 }
 
