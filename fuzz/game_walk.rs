@@ -4,8 +4,8 @@
 //! `crates/game/tests/fuzz_corpus.rs`, which runs the seed corpus in plain
 //! `cargo test`.
 
-use colony_game::protocol::{
-    decode_wheels, Action, Event, GameState, Order, RobotDebug, Sense, SquadCommand, WorldFrame,
+use colony_proto::game::{
+    Action, Event, GameState, MapAssembler, Order, RobotDebug, Sense, SquadCommand, WorldFrame,
 };
 use colony_wire::Packet;
 
@@ -34,11 +34,18 @@ pub fn walk_messages(data: &[u8]) {
     let _ = Action::decode(&p);
     let _ = RobotDebug::decode(&p);
     let _ = Event::decode(&p);
-    let _ = decode_wheels(&p);
+    let _ = Event::decode_lenient(&p);
+    let _ = colony_proto::radio::decode(&p);
+    MapAssembler::default().on_packet(&p);
     if let Ok(s) = GameState::decode(&p) {
         let b = s.encode().unwrap();
         let again = GameState::decode(&Packet::parse(&b).unwrap()).unwrap();
         assert_eq!(again.robots.len(), s.robots.len());
+    }
+    if let Ok(lenient) = GameState::decode_lenient(&p) {
+        let b = lenient.value.encode().unwrap();
+        let again = GameState::decode(&Packet::parse(&b).unwrap()).unwrap();
+        assert_eq!(again.robots.len(), lenient.value.robots.len());
     }
 }
 

@@ -10,7 +10,8 @@
 //! - [`formation`]: line, circle, half circle and the wedges, slot assignment,
 //!   and formations that bend with the path.
 //! - [`rules`]: the data model: robot types, budgets, squads.
-//! - [`protocol`]: every message of the game as a hub packet.
+//! - [`protocol`]: the game's messages (their home is `colony_proto::game`, one module per
+//!   channel) and the map message built from a [`map::Battlefield`].
 //! - [`robot`]: robot intelligence, reflexes over commands ([`robot_node`] on the bus).
 //! - [`squad`]: server-side swarm intelligence, one squad arbitrator per squad.
 //! - [`logic`]: the referee: health, shots, flags, score, the end.
@@ -19,6 +20,9 @@
 //! - [`bot`]: the built-in scripted player.
 //! - [`node`] and [`matches`]: the parts wired together in memory, fast-forwarded;
 //!   [`live`] runs them over the hub.
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 pub mod bot;
 pub mod formation;

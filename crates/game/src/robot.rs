@@ -19,10 +19,11 @@ use std::collections::VecDeque;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use colony_behave::{Arbitrator, Behaviour, Reason};
+use colony_proto::wrap_angle;
 use colony_sim::{Pose, Vec2};
 
 use crate::protocol::{Action, Command, Order, RobotDebug, Sense};
-use crate::rules::{KindStats, RobotKind};
+use crate::rules::{KindRules, KindStats, RobotKind};
 
 /// The sonar's critical distance, cm from the robot's edge (Table 1's d_crit).
 pub const D_CRIT: f64 = 5.0;
@@ -37,17 +38,6 @@ const MANOEUVRE_TIMEOUT: f64 = 3.0;
 const ALIGNED: f64 = 0.08;
 /// Heading error above which a GoTo turns on the spot before driving, rad.
 const TURN_FIRST: f64 = 0.6;
-
-/// Wraps an angle into (-pi, pi].
-pub fn wrap(a: f64) -> f64 {
-    let mut a = a % (2.0 * PI);
-    if a <= -PI {
-        a += 2.0 * PI;
-    } else if a > PI {
-        a -= 2.0 * PI;
-    }
-    a
-}
 
 /// What the behaviours read and write each tick.
 #[derive(Debug, Clone)]
@@ -72,7 +62,7 @@ pub struct Ctx {
 
 impl Ctx {
     fn turn_toward(&mut self, heading: f64) -> f64 {
-        let err = wrap(heading - self.sense.pose.theta);
+        let err = wrap_angle(heading - self.sense.pose.theta);
         // Proportional, saturating: full rate until about 30° off.
         let turn = (err * 2.0).clamp(-1.0, 1.0);
         self.wheels = (0.0, turn);
@@ -101,7 +91,7 @@ struct Manoeuvre {
 impl Manoeuvre {
     fn new(ctx: &Ctx, turn: f64, forward_cm: f64) -> Manoeuvre {
         Manoeuvre {
-            heading: wrap(ctx.sense.pose.theta + turn),
+            heading: wrap_angle(ctx.sense.pose.theta + turn),
             forward_cm,
             from: None,
             started: ctx.sense.time,
@@ -262,7 +252,7 @@ impl Behaviour<Ctx> for CommandBehaviour {
             Command::Rotate { deg } => {
                 let target = *ctx
                     .rotate_to
-                    .get_or_insert(wrap(ctx.sense.pose.theta + deg.to_radians()));
+                    .get_or_insert(wrap_angle(ctx.sense.pose.theta + deg.to_radians()));
                 let finished = ctx.turn_toward(target).abs() < ALIGNED;
                 if finished {
                     ctx.rotate_to = None;
@@ -303,7 +293,7 @@ fn go_to(ctx: &mut Ctx, to: Vec2, speed: Option<f64>) -> bool {
         ctx.wheels = (0.0, 0.0);
         return true;
     }
-    let err = wrap((to - pos).angle() - ctx.sense.pose.theta);
+    let err = wrap_angle((to - pos).angle() - ctx.sense.pose.theta);
     if err.abs() > TURN_FIRST {
         ctx.turn_toward((to - pos).angle());
         return false;
@@ -462,7 +452,7 @@ mod tests {
 
     /// Integrates the wheels like the simulator would, ideally.
     fn drive(pose: &mut Pose, wheels: (f64, f64), stats: &KindStats, dt: f64) {
-        pose.theta = wrap(pose.theta + wheels.1 * stats.turn_rad_s * dt);
+        pose.theta = wrap_angle(pose.theta + wheels.1 * stats.turn_rad_s * dt);
         pose.x += wheels.0 * stats.speed_cm_s * dt * pose.theta.cos();
         pose.y += wheels.0 * stats.speed_cm_s * dt * pose.theta.sin();
     }

@@ -2,10 +2,10 @@
 //! its orders, and answers each sensor reading with wheels, actions and,
 //! when it changes, its active behaviour.
 
-use colony_wire::Packet;
+use colony_wire::{Packet, Priority};
 
 use crate::node::Node;
-use crate::protocol::{self, Order, Sense};
+use crate::protocol::{self, radio, Order, RadioCommand, Sense};
 use crate::robot::Brain;
 use crate::rules::RobotKind;
 
@@ -56,13 +56,10 @@ impl Node for RobotNode {
             }
         };
         let tick = self.brain.tick(sense);
-        let packets = std::iter::once(protocol::wheel_packet(
-            self.id,
-            tick.wheels.0,
-            tick.wheels.1,
-        ))
-        .chain(tick.actions.iter().map(|a| a.encode()))
-        .chain(tick.debug.iter().map(|d| d.encode()));
+        let wheels = RadioCommand::new(self.id, tick.wheels.0, tick.wheels.1);
+        let packets = std::iter::once(radio::encode(&[wheels], Priority(0)))
+            .chain(tick.actions.iter().map(|a| a.encode()))
+            .chain(tick.debug.iter().map(|d| d.encode()));
         for p in packets {
             match p {
                 Ok(p) => out.push(p),

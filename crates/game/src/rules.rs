@@ -10,21 +10,8 @@
 use std::fmt;
 use std::str::FromStr;
 
+pub use colony_proto::game::{valid_name, RobotKind, UnknownKind};
 use serde::Serialize;
-
-/// The four robot types of the paper.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum RobotKind {
-    /// Fast, fragile, short range.
-    Scout,
-    /// Slow, armoured, long range, hard-hitting.
-    Tank,
-    /// The all-rounder.
-    Infantry,
-    /// Crosses water, which stops every other type.
-    Amphibian,
-}
 
 /// What a robot type can do.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -49,17 +36,14 @@ pub struct KindStats {
     pub amphibious: bool,
 }
 
-impl RobotKind {
-    /// Every type, in a fixed order.
-    pub const ALL: [RobotKind; 4] = [
-        RobotKind::Scout,
-        RobotKind::Tank,
-        RobotKind::Infantry,
-        RobotKind::Amphibian,
-    ];
-
+/// The rules' numbers for a robot type (the type itself is a word of the game's messages).
+pub trait KindRules {
     /// The type's numbers.
-    pub fn stats(self) -> KindStats {
+    fn stats(self) -> KindStats;
+}
+
+impl KindRules for RobotKind {
+    fn stats(self) -> KindStats {
         match self {
             RobotKind::Scout => KindStats {
                 cost: 2,
@@ -106,32 +90,6 @@ impl RobotKind {
                 amphibious: true,
             },
         }
-    }
-
-    /// The name used in packets and configs.
-    pub fn name(self) -> &'static str {
-        match self {
-            RobotKind::Scout => "scout",
-            RobotKind::Tank => "tank",
-            RobotKind::Infantry => "infantry",
-            RobotKind::Amphibian => "amphibian",
-        }
-    }
-}
-
-impl fmt::Display for RobotKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for RobotKind {
-    type Err = RuleError;
-    fn from_str(s: &str) -> Result<RobotKind, RuleError> {
-        RobotKind::ALL
-            .into_iter()
-            .find(|k| k.name() == s)
-            .ok_or_else(|| RuleError::UnknownKind(s.to_string()))
     }
 }
 
@@ -278,14 +236,6 @@ impl TeamSetup {
     }
 }
 
-/// A name usable as a token in packets.
-pub fn valid_name(s: &str) -> bool {
-    !s.is_empty()
-        && s.len() <= 32
-        && s.bytes()
-            .all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'_')
-}
-
 /// Why a setup or an operation was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum RuleError {
@@ -330,6 +280,12 @@ pub enum RuleError {
     /// A setup string that isn't `squad:kind,kind ...`.
     #[error("{0:?}: expected squad:kind,kind,... (e.g. alpha:tank,infantry)")]
     BadSetup(String),
+}
+
+impl From<UnknownKind> for RuleError {
+    fn from(e: UnknownKind) -> RuleError {
+        RuleError::UnknownKind(e.0)
+    }
 }
 
 #[cfg(test)]

@@ -17,7 +17,7 @@ use crate::node::Node;
 use crate::protocol::{
     self, Action, Command, Event, Order, RobotDebug, SquadCommand, Target, Verb, WorldFrame,
 };
-use crate::rules::Rules;
+use crate::rules::{KindRules, Rules};
 use crate::squad::{SeenRobot, Squad, SquadMotion, View};
 
 /// The squad arbitrators run every this many world frames (0.2 s at 10 Hz):
@@ -329,7 +329,7 @@ impl Node for Server {
                         self.resend(out);
                     }
                     if self.frames % MAP_EVERY == 1 {
-                        match protocol::map_packets(&self.field) {
+                        match protocol::map_message(&self.field).encode() {
                             Ok(parts) => out.extend(parts),
                             Err(e) => tracing::warn!(error = %e, "cannot send the map"),
                         }

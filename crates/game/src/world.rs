@@ -3,38 +3,33 @@
 //! the newest wheel command for it, and takes destroyed robots out of play
 //! when the game logic's state says so.
 
+use colony_proto::{radio, CommandHold};
 use colony_sim::field::{
     Field, FieldConfig, FieldRobotId, RobotSpec, Terrain as SimTerrain, TileMap,
 };
-use colony_sim::{SimError, WheelCommand};
+use colony_sim::SimError;
 use colony_wire::Packet;
 
 use crate::logic::RobotEntry;
 use crate::map::{Battlefield, Terrain};
 use crate::node::Node;
 use crate::protocol::{self, GameState, RobotPose, Sense, WorldFrame};
+use crate::rules::KindRules;
 
-/// A robot whose newest command is older than this many steps stops: a dead
-/// controller must not leave its robot driving.
-const COMMAND_TIMEOUT_STEPS: u64 = 10;
+/// A robot whose newest command is older than 10 steps stops (a dead controller must not leave
+/// its robot driving): a command holds for 11 steps, the one it arrived at and 10 more.
+const HOLD_STEPS: u64 = 11;
 /// A world restarted into a running game adopts its state only this early.
 const SYNC_WINDOW_STEPS: u64 = 10;
 
 /// The world's side of the game.
 pub struct GameWorld {
     field: Field,
-    commands: Vec<Held>,
+    commands: CommandHold,
     /// Game time when this world started: a restarted world takes the
     /// game's clock and poses from the first game state it hears.
     time_offset: f64,
     synced: bool,
-}
-
-#[derive(Debug, Clone, Copy, Default)]
-struct Held {
-    cmd: WheelCommand,
-    priority: i32,
-    step: u64,
 }
 
 /// The simulator's tile map for a battlefield: trees and out-of-bounds are
@@ -70,7 +65,7 @@ impl GameWorld {
             )?;
         }
         Ok(GameWorld {
-            commands: vec![Held::default(); roster.len()],
+            commands: CommandHold::new(roster.len(), HOLD_STEPS),
             field: sim,
             time_offset: 0.0,
             synced: false,
@@ -113,44 +108,15 @@ impl GameWorld {
         tracing::info!(time = state.time, "joined a game under way");
     }
 
-    /// Takes a wheel command; one of lower priority than a fresh one in force
-    /// (an operator's) is ignored until that one lapses.
-    fn offer(&mut self, id: u32, forward: f64, turn: f64, priority: i32) {
-        let step = self.field.step_count();
-        let Some(h) = self.commands.get_mut(id as usize) else {
-            return;
-        };
-        let fresh = step.saturating_sub(h.step) < COMMAND_TIMEOUT_STEPS;
-        if priority < h.priority && fresh {
-            return;
-        }
-        *h = Held {
-            cmd: WheelCommand { forward, turn },
-            priority,
-            step,
-        };
-    }
-
     /// One control step; pushes the sensor packets and the world frame.
     pub fn step(&mut self, out: &mut Vec<Vec<u8>>) {
-        let now = self.field.step_count();
-        let cmds: Vec<WheelCommand> = self
-            .commands
-            .iter()
-            .map(|h| {
-                if now.saturating_sub(h.step) <= COMMAND_TIMEOUT_STEPS {
-                    h.cmd
-                } else {
-                    WheelCommand::STOP
-                }
-            })
-            .collect();
+        let cmds = self.commands.for_step(self.field.step_count());
         self.field.step(&cmds);
         let (step, time) = (self.field.step_count(), self.time());
         let mut frame = WorldFrame {
             step,
             time,
-            robots: Vec::with_capacity(self.commands.len()),
+            robots: Vec::with_capacity(cmds.len()),
         };
         for r in self.field.robots() {
             frame.robots.push(RobotPose {
@@ -191,10 +157,14 @@ impl Node for GameWorld {
 
     fn handle(&mut self, packet: &Packet<'_>, _out: &mut Vec<Vec<u8>>) {
         if packet.has_subject(protocol::RADIO) {
-            match protocol::decode_wheels(packet) {
+            match radio::decode(packet) {
                 Ok(cmds) => {
-                    for (id, f, t) in cmds {
-                        self.offer(id, f, t, packet.priority().0);
+                    // One of lower priority than a fresh one in force (an operator's) is
+                    // ignored until that one lapses.
+                    let step = self.field.step_count();
+                    for c in cmds {
+                        self.commands
+                            .offer(c.robot as usize, c.wheels, packet.priority().0, step);
                     }
                 }
                 Err(e) => tracing::debug!(error = %e, "ignored a bad radio packet"),

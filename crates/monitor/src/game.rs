@@ -3,11 +3,11 @@
 //! game page (`/game`) comes out, and the page's squad commands go back to
 //! the game as `game.player.<team>` packets ([`squad`]).
 //!
-//! The monitor reads the game's packets generically with
-//! [`colony_wire::Packet`] rather than through the game crate: it stays a
-//! plain hub client (DESIGN), and a line it cannot read is skipped and
-//! counted, never fatal. Everything kept is bounded: names are tokens,
-//! texts are cut short, lists are capped, and the map is refused past
+//! The monitor reads the game's packets with the game's own decoders from
+//! [`colony_proto::game`] (their lenient forms: a line it cannot read is
+//! skipped and counted, never fatal) and stays a plain hub client that does
+//! not depend on the game crate. Everything kept is bounded: names are
+//! tokens, texts are cut short, lists are capped, and the map is refused past
 //! [`map::MAX_SIDE`] cells a side.
 //!
 //! To the page:
@@ -29,18 +29,13 @@ pub mod squad;
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
-use colony_wire::{Line, Packet};
+use colony_proto::game::{Event, GameState};
+use colony_wire::Packet;
 use serde::Serialize;
 
-use self::map::MapAssembler;
-use self::squad::{is_token, MAX_GAME_COORD};
+use self::map::MapView;
 
-/// The game logic's view of the game, several times a second.
-pub const STATE: &str = "game.state";
-/// The battlefield, every few seconds.
-pub const MAP: &str = "game.map";
-/// What happened: hits, kills, flags, refusals, the end.
-pub const EVENT: &str = "game.event";
+pub use colony_proto::game::{EVENT, MAP, STATE};
 /// The game channels the monitor always subscribes to.
 pub const GAME_CHANNELS: [&str; 3] = [STATE, MAP, EVENT];
 
@@ -56,43 +51,67 @@ const MAX_ROBOTS: usize = 4096;
 const MAX_SQUADS: usize = 1024;
 const MAX_PATH: usize = 512;
 
+/// A team's standing.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TeamView {
+    /// Its name.
     pub name: String,
+    /// Flags captured (CTF) or robots destroyed (DM).
     pub score: i64,
+    /// Enemy robots destroyed.
     pub kills: i64,
 }
 
+/// A flag.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FlagView {
+    /// Whose flag.
     pub team: String,
+    /// Where it is, cm.
     pub x: f64,
+    /// Where it is, cm.
     pub y: f64,
     /// On its stand at its base.
     pub home: bool,
+    /// The robot carrying it.
     pub carrier: Option<u32>,
 }
 
+/// A robot.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct RobotView {
+    /// Its id.
     pub id: u32,
+    /// Its team.
     pub team: String,
+    /// Its squad.
     pub squad: String,
+    /// Its type (`scout`, `tank`, `infantry`, `amphibian`).
     pub kind: String,
+    /// Where it is, cm.
     pub x: f64,
+    /// Where it is, cm.
     pub y: f64,
+    /// Its heading, rad.
     pub theta: f64,
+    /// Health left.
     pub health: f64,
+    /// Not destroyed.
     pub alive: bool,
     /// The robot's active behaviour, and why it has control.
     pub behaviour: String,
+    /// Why that behaviour has control.
     pub reason: String,
 }
 
+/// A squad.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SquadView {
+    /// Its team.
     pub team: String,
+    /// Its name.
     pub name: String,
+    /// Its formation's name.
     pub formation: String,
     /// The player's command it carries out, as the game words it.
     pub order: String,
@@ -102,28 +121,39 @@ pub struct SquadView {
     pub path: Vec<(f64, f64)>,
 }
 
-/// One `game.state` packet.
+/// One `game.state` packet, as the page shows it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct GameStateView {
+    /// `ctf` or `dm`.
     pub mode: String,
     /// `running` or `over`.
     pub status: String,
     /// Game time, s.
     pub time: f64,
+    /// The winner, when over (None: a draw or not over).
     pub winner: Option<String>,
+    /// Why it ended.
     pub reason: String,
+    /// The teams.
     pub teams: Vec<TeamView>,
+    /// The flags.
     pub flags: Vec<FlagView>,
+    /// The robots, in id order.
     pub robots: Vec<RobotView>,
+    /// The squads.
     pub squads: Vec<SquadView>,
 }
 
+/// An event for the page's log.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct EventView {
     /// Counts events since the monitor started, so the page can tell new from seen.
     pub seq: u64,
+    /// `hit`, `destroyed`, `refused`, ...
     pub kind: String,
+    /// Game time, s.
     pub time: f64,
+    /// The text a person reads.
     pub text: String,
 }
 
@@ -134,7 +164,7 @@ pub struct GameView {
     wall_start_ms: u64,
     state: Option<GameStateView>,
     state_at: Option<Instant>,
-    map: MapAssembler,
+    map: MapView,
     events: VecDeque<EventView>,
     next_seq: u64,
     refusal: Option<EventView>,
@@ -163,114 +193,78 @@ struct MapJson<'a> {
 }
 
 /// Text cut to [`MAX_TEXT`] characters.
-fn text(line: &Line<'_>, name: &str) -> Option<String> {
-    Some(line.str(name).ok()?.chars().take(MAX_TEXT).collect())
-}
-
-/// Text that may be missing: a robot without a reason is still a robot.
-fn text_or_empty(line: &Line<'_>, name: &str) -> String {
-    match line.get(name) {
-        None => String::new(),
-        Some(_) => text(line, name).unwrap_or_default(),
+fn cut(text: String) -> String {
+    if text.chars().count() <= MAX_TEXT {
+        text
+    } else {
+        text.chars().take(MAX_TEXT).collect()
     }
 }
 
-fn name(line: &Line<'_>, field: &str) -> Option<String> {
-    line.str(field)
-        .ok()
-        .filter(|s| is_token(s))
-        .map(|s| s.into_owned())
-}
-
-fn coord(line: &Line<'_>, field: &str) -> Option<f64> {
-    line.f64(field)
-        .ok()
-        .filter(|v| v.is_finite() && v.abs() <= MAX_GAME_COORD)
-}
-
-fn finite(line: &Line<'_>, field: &str) -> Option<f64> {
-    line.f64(field).ok().filter(|v| v.is_finite())
-}
-
-fn id(line: &Line<'_>, field: &str) -> Option<u32> {
-    u32::try_from(line.i64(field).ok()?).ok()
-}
-
-fn flag01(line: &Line<'_>, field: &str) -> Option<bool> {
-    match line.i64(field).ok()? {
-        0 => Some(false),
-        1 => Some(true),
-        _ => None,
+/// What the page shows of a state: texts cut short, lists capped, robots in id order.
+fn state_view(s: GameState) -> GameStateView {
+    let mut robots: Vec<RobotView> = s
+        .robots
+        .into_iter()
+        .take(MAX_ROBOTS)
+        .map(|r| RobotView {
+            id: r.id,
+            team: r.team,
+            squad: r.squad,
+            kind: r.kind.name().to_string(),
+            x: r.pose.x,
+            y: r.pose.y,
+            theta: r.pose.theta,
+            health: r.health,
+            alive: r.alive,
+            behaviour: cut(r.behaviour),
+            reason: cut(r.reason),
+        })
+        .collect();
+    robots.sort_by_key(|r| r.id);
+    GameStateView {
+        mode: s.mode,
+        status: s.status.name().to_string(),
+        time: s.time,
+        winner: s.winner,
+        reason: cut(s.reason),
+        teams: s
+            .teams
+            .into_iter()
+            .take(MAX_TEAMS)
+            .map(|t| TeamView {
+                name: t.name,
+                score: i64::from(t.score),
+                kills: i64::from(t.kills),
+            })
+            .collect(),
+        flags: s
+            .flags
+            .into_iter()
+            .take(MAX_FLAGS)
+            .map(|f| FlagView {
+                team: f.team,
+                x: f.at.x,
+                y: f.at.y,
+                home: f.home,
+                carrier: f.carrier,
+            })
+            .collect(),
+        robots,
+        squads: s
+            .squads
+            .into_iter()
+            .take(MAX_SQUADS)
+            .map(|q| SquadView {
+                team: q.team,
+                name: q.name,
+                formation: q.formation.name().to_string(),
+                order: cut(q.order),
+                behaviour: cut(q.behaviour),
+                path: q.path.iter().take(MAX_PATH).map(|p| (p.x, p.y)).collect(),
+            })
+            .collect(),
     }
-}
-
-/// `"x,y x,y ..."`; the points that read, at most [`MAX_PATH`].
-fn path(s: &str) -> Option<Vec<(f64, f64)>> {
-    let mut out = Vec::new();
-    for pt in s.split_whitespace().take(MAX_PATH) {
-        let (x, y) = pt.split_once(',')?;
-        let (x, y) = (x.parse::<f64>().ok()?, y.parse::<f64>().ok()?);
-        if !(x.is_finite()
-            && y.is_finite()
-            && x.abs() <= MAX_GAME_COORD
-            && y.abs() <= MAX_GAME_COORD)
-        {
-            return None;
-        }
-        out.push((x, y));
-    }
-    Some(out)
-}
-
-fn team(l: &Line<'_>) -> Option<TeamView> {
-    Some(TeamView {
-        name: name(l, "name")?,
-        score: l.i64("score").ok()?,
-        kills: l.i64("kills").unwrap_or(0),
-    })
-}
-
-fn flag(l: &Line<'_>) -> Option<FlagView> {
-    Some(FlagView {
-        team: name(l, "team")?,
-        x: coord(l, "x")?,
-        y: coord(l, "y")?,
-        home: flag01(l, "home").unwrap_or(false),
-        carrier: match l.get("carrier") {
-            None => None,
-            Some(_) => Some(id(l, "carrier")?),
-        },
-    })
-}
-
-fn robot(l: &Line<'_>) -> Option<RobotView> {
-    Some(RobotView {
-        id: id(l, "id")?,
-        team: name(l, "team")?,
-        squad: name(l, "squad")?,
-        kind: name(l, "kind")?,
-        x: coord(l, "x")?,
-        y: coord(l, "y")?,
-        theta: finite(l, "theta")?,
-        health: finite(l, "health")?,
-        alive: flag01(l, "alive")?,
-        behaviour: text_or_empty(l, "behaviour"),
-        reason: text_or_empty(l, "reason"),
-    })
-}
-
-fn squad(l: &Line<'_>) -> Option<SquadView> {
-    Some(SquadView {
-        team: name(l, "team")?,
-        name: name(l, "name")?,
-        formation: name(l, "formation")?,
-        order: text_or_empty(l, "order"),
-        behaviour: text_or_empty(l, "behaviour"),
-        path: match l.get("path") {
-            None => Vec::new(),
-            Some(_) => path(&l.str("path").ok()?)?,
-        },
-    })
 }
 
 impl GameView {
@@ -281,7 +275,7 @@ impl GameView {
             wall_start_ms: wall_ms,
             state: None,
             state_at: None,
-            map: MapAssembler::default(),
+            map: MapView::default(),
             events: VecDeque::new(),
             next_seq: 0,
             refusal: None,
@@ -340,50 +334,12 @@ impl GameView {
     }
 
     fn on_state(&mut self, now: Instant, packet: &Packet<'_>) {
-        let head = packet.line("game").and_then(|g| {
-            let status = name(&g, "status")?;
-            let winner = match name(&g, "winner") {
-                Some(w) if w == "-" => None,
-                w => w,
-            };
-            Some((
-                name(&g, "mode")?,
-                status,
-                finite(&g, "time")?,
-                winner,
-                text_or_empty(&g, "reason"),
-            ))
-        });
-        let Some((mode, status, time, winner, reason)) = head else {
+        let Ok(read) = GameState::decode_lenient(packet) else {
             self.bad_lines += 1;
             return;
         };
-        let mut s = GameStateView {
-            mode,
-            status,
-            time,
-            winner,
-            reason,
-            teams: Vec::new(),
-            flags: Vec::new(),
-            robots: Vec::new(),
-            squads: Vec::new(),
-        };
-        let mut bad = 0;
-        for l in packet.lines() {
-            let ok = match l.label() {
-                "team" if s.teams.len() < MAX_TEAMS => team(&l).map(|t| s.teams.push(t)),
-                "flag" if s.flags.len() < MAX_FLAGS => flag(&l).map(|f| s.flags.push(f)),
-                "robot" if s.robots.len() < MAX_ROBOTS => robot(&l).map(|r| s.robots.push(r)),
-                "squad" if s.squads.len() < MAX_SQUADS => squad(&l).map(|q| s.squads.push(q)),
-                _ => Some(()),
-            };
-            if ok.is_none() {
-                bad += 1;
-            }
-        }
-        self.bad_lines += bad;
-        s.robots.sort_by_key(|r| r.id);
+        self.bad_lines += read.skipped;
+        let s = state_view(read.value);
         // Game time going back is a new game: the old one's log is history.
         if self
             .state
@@ -399,18 +355,14 @@ impl GameView {
     }
 
     fn on_event(&mut self, packet: &Packet<'_>) {
-        for l in packet.lines_labelled("event") {
-            let e = (|| {
-                Some(EventView {
-                    seq: 0,
-                    kind: name(&l, "kind")?,
-                    time: finite(&l, "time")?,
-                    text: text_or_empty(&l, "text"),
-                })
-            })();
-            let Some(mut e) = e else {
-                self.bad_lines += 1;
-                continue;
+        let read = Event::decode_lenient(packet);
+        self.bad_lines += read.skipped;
+        for e in read.value {
+            let mut e = EventView {
+                seq: 0,
+                kind: e.kind,
+                time: e.time,
+                text: cut(e.text),
             };
             e.seq = self.next_seq;
             self.next_seq += 1;

@@ -14,6 +14,7 @@
 //! | [`swarm`] | the swarm channels: `camera.N`, `vision` (in parts, with a reassembler), `debug`, `metrics` |
 //! | [`fields`] | field readers with their range rules ([`fields::MAX_COORD`]) |
 //! | [`error`] | [`DecodeError`], what every decoder returns; [`Skimmed`], what a viewer's returns |
+//! | [`game`] | the strategy game's messages, one module per channel (`game.*`) |
 //! | [`murdoch`] | MURDOCH's task-allocation messages, with its resource sets and tokens |
 //!
 //! Units everywhere: centimetres, seconds, radians (counter-clockwise from +x).
@@ -23,6 +24,7 @@
 
 pub mod error;
 pub mod fields;
+pub mod game;
 pub mod geometry;
 pub mod hold;
 pub mod murdoch;

@@ -2,7 +2,7 @@
 
 use colony_sim::Vec2;
 
-use super::Formation;
+use super::{Formation, Slots};
 
 /// Segments shorter than this (cm) have no direction.
 const MIN_SEGMENT_CM: f64 = 1e-9;

@@ -21,7 +21,7 @@
 //! Gathering three scattered robots into a wedge heading east at (100, 50):
 //!
 //! ```
-//! use colony_game::formation::{assign, Formation};
+//! use colony_game::formation::{assign, Formation, Slots};
 //! use colony_sim::Vec2;
 //!
 //! let robots = [Vec2::new(0.0, 0.0), Vec2::new(0.0, 100.0), Vec2::new(200.0, 50.0)];
@@ -39,4 +39,4 @@ mod shape;
 
 pub use assign::assign;
 pub use bend::along_path;
-pub use shape::{Formation, UnknownFormation};
+pub use shape::{Formation, Slots, UnknownFormation};

@@ -1,69 +1,16 @@
 //! The formation shapes and their slot positions.
 
-use std::f64::consts::{FRAC_1_SQRT_2, FRAC_PI_2, PI, TAU};
-use std::fmt;
-use std::str::FromStr;
-
+pub use colony_proto::game::{Formation, UnknownFormation};
 use colony_sim::Vec2;
+use std::f64::consts::{FRAC_1_SQRT_2, FRAC_PI_2, PI, TAU};
 
-/// A squad formation from the paper (sec. 4.2).
+/// Where each robot of a squad stands: the geometry behind the [`Formation`] a message names.
 ///
 /// Slots are computed in the paper's frame, where the squad faces +y (the
 /// paper's horizontal line is across the direction of travel), then rotated
 /// so that +y points along the requested facing. With `facing = π/2` the line
 /// and the circle are therefore exactly the paper's formulas.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Formation {
-    /// Side by side across the facing, `d` apart, centred on the destination:
-    /// Robot_i = D + d(i − (n−1)/2) measured towards the squad's right, so
-    /// slot 0 is on the left.
-    Line,
-    /// Around the destination, for defending it: radius R = n·d, Robot_i at
-    /// angle i·360°/n. A single robot stands on the destination itself.
-    Circle,
-    /// An arc around the destination on the approach side, for attacking it.
-    ///
-    /// As the paper writes it: radius R = n·d and consecutive robots i·270°/n
-    /// apart. That literal step spans 270°·(n−1)/n, which is a true half circle
-    /// only for n = 3 and opens towards 270° as n grows; it is kept as written
-    /// so squads match the paper's. The paper starts the arc at +x; here it is
-    /// rotated to be symmetric about the approach direction (its middle lies
-    /// at `centre − R·facing`), so the squad wraps around the target from the
-    /// side it comes from and never has to pass the target to take its place.
-    /// A single robot stands `d` short of the target.
-    HalfCircle,
-    /// Two diagonal lines forming a V whose point leads along the facing; arms
-    /// at 45° to the facing with robots `d` apart along each arm. For odd n the
-    /// leader (slot 0) stands at the apex; for even n the apex is left empty
-    /// (two robots either side of it would stand closer than `d`).
-    Wedge,
-    /// The [`Wedge`](Formation::Wedge) mirrored: the V's point trails, and
-    /// for odd n the leader stands at the rear apex.
-    InverseWedge,
-}
-
-impl Formation {
-    /// Every formation, in a stable order for menus and tests.
-    pub const ALL: [Formation; 5] = [
-        Formation::Line,
-        Formation::Circle,
-        Formation::HalfCircle,
-        Formation::Wedge,
-        Formation::InverseWedge,
-    ];
-
-    /// The name [`FromStr`] accepts and [`Display`](fmt::Display) writes.
-    pub fn name(self) -> &'static str {
-        match self {
-            Formation::Line => "line",
-            Formation::Circle => "circle",
-            Formation::HalfCircle => "half-circle",
-            Formation::Wedge => "wedge",
-            Formation::InverseWedge => "inverse-wedge",
-        }
-    }
-
+pub trait Slots {
     /// The `n` slot positions of this formation around `centre`, facing
     /// `facing` (radians from +x), with robots spaced `d` cm.
     ///
@@ -71,38 +18,42 @@ impl Formation {
     /// slots is `centre`); the half circle surrounds it. Spacing is at least
     /// `d` between any two slots. `n = 0` gives no slots; `d <= 0` (or not
     /// finite) puts every slot on `centre`; a non-finite facing counts as 0.
-    pub fn slots(&self, centre: Vec2, facing: f64, n: usize, d: f64) -> Vec<Vec2> {
+    fn slots(&self, centre: Vec2, facing: f64, n: usize, d: f64) -> Vec<Vec2>;
+}
+
+impl Slots for Formation {
+    fn slots(&self, centre: Vec2, facing: f64, n: usize, d: f64) -> Vec<Vec2> {
         let d = if d.is_finite() && d > 0.0 { d } else { 0.0 };
         let facing = if facing.is_finite() { facing } else { 0.0 };
         let forward = Vec2::new(facing.cos(), facing.sin());
         let right = Vec2::new(facing.sin(), -facing.cos());
-        self.local_slots(n, d)
+        local_slots(*self, n, d)
             .into_iter()
             .map(|p| centre + right * p.x + forward * p.y)
             .collect()
     }
+}
 
-    /// Slots relative to the destination in the paper's frame (facing +y).
-    fn local_slots(self, n: usize, d: f64) -> Vec<Vec2> {
-        let nf = n as f64;
-        match self {
-            Formation::Line => (0..n)
-                .map(|i| Vec2::new(d * (i as f64 - (nf - 1.0) / 2.0), 0.0))
-                .collect(),
-            Formation::Circle if n == 1 => vec![Vec2::ZERO],
-            Formation::Circle => (0..n).map(|i| polar(nf * d, i as f64 * TAU / nf)).collect(),
-            Formation::HalfCircle => {
-                let step = 1.5 * PI / nf;
-                (0..n)
-                    .map(|i| polar(nf * d, -FRAC_PI_2 + (i as f64 - (nf - 1.0) / 2.0) * step))
-                    .collect()
-            }
-            Formation::Wedge => wedge(n, d),
-            Formation::InverseWedge => wedge(n, d)
-                .into_iter()
-                .map(|p| Vec2::new(p.x, -p.y))
-                .collect(),
+/// Slots relative to the destination in the paper's frame (facing +y).
+fn local_slots(formation: Formation, n: usize, d: f64) -> Vec<Vec2> {
+    let nf = n as f64;
+    match formation {
+        Formation::Line => (0..n)
+            .map(|i| Vec2::new(d * (i as f64 - (nf - 1.0) / 2.0), 0.0))
+            .collect(),
+        Formation::Circle if n == 1 => vec![Vec2::ZERO],
+        Formation::Circle => (0..n).map(|i| polar(nf * d, i as f64 * TAU / nf)).collect(),
+        Formation::HalfCircle => {
+            let step = 1.5 * PI / nf;
+            (0..n)
+                .map(|i| polar(nf * d, -FRAC_PI_2 + (i as f64 - (nf - 1.0) / 2.0) * step))
+                .collect()
         }
+        Formation::Wedge => wedge(n, d),
+        Formation::InverseWedge => wedge(n, d)
+            .into_iter()
+            .map(|p| Vec2::new(p.x, -p.y))
+            .collect(),
     }
 }
 
@@ -129,46 +80,6 @@ fn wedge(n: usize, d: f64) -> Vec<Vec2> {
     let mean = slots.iter().map(|p| p.y).sum::<f64>() / n.max(1) as f64;
     slots.iter_mut().for_each(|p| p.y -= mean);
     slots
-}
-
-impl fmt::Display for Formation {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// A formation name that is not one of [`Formation::ALL`]'s.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct UnknownFormation {
-    /// The name as given.
-    pub name: String,
-}
-
-impl fmt::Display for UnknownFormation {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "unknown formation {:?}; expected one of: ", self.name)?;
-        for (i, formation) in Formation::ALL.iter().enumerate() {
-            let sep = if i == 0 { "" } else { ", " };
-            write!(f, "{sep}{formation}")?;
-        }
-        Ok(())
-    }
-}
-
-impl std::error::Error for UnknownFormation {}
-
-impl FromStr for Formation {
-    type Err = UnknownFormation;
-
-    /// Parses a name such as `"half-circle"`, ignoring ASCII case and
-    /// surrounding whitespace.
-    fn from_str(s: &str) -> Result<Formation, UnknownFormation> {
-        let wanted = s.trim();
-        Formation::ALL
-            .into_iter()
-            .find(|f| f.name().eq_ignore_ascii_case(wanted))
-            .ok_or_else(|| UnknownFormation { name: s.to_owned() })
-    }
 }
 
 #[cfg(test)]

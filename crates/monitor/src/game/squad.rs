@@ -9,104 +9,21 @@
 //! squad name alpha do attack robot 7 formation wedge
 //! ```
 //!
-//! The monitor knows only the packet format, not the game crate (DESIGN:
-//! the monitor talks to `client` and `wire` alone), so the verbs and
-//! formations are spelled out here; the game server still has the last
-//! word and answers with a `refused` event when the rules say no.
+//! The packet, its verbs and formations are [`colony_proto::game::squad`]'s: this module only
+//! checks what the page sent (a sentence for the player when it is wrong) and words the reply.
+//! The game server still has the last word and answers with a `refused` event when the rules
+//! say no.
 
 use std::fmt;
 
-use colony_wire::{PacketBuilder, Priority};
+use colony_proto::fields::MAX_COORD;
+use colony_proto::game::{valid_name, Formation, SquadCommand, Target, Verb, MAX_NAME};
+use colony_proto::Vec2;
 use serde::Deserialize;
 
-/// Coordinates and robot ids beyond this are refused (the game's own limit, cm).
-pub const MAX_GAME_COORD: f64 = 1.0e6;
-/// The longest team or squad name (the game's own limit).
-pub const MAX_NAME: usize = 32;
-
-/// A team, squad or formation name as the game writes it: 1 to [`MAX_NAME`]
-/// characters of `A-Z a-z 0-9 _ -`, so it can stand bare in a packet and in
-/// a channel name.
-pub fn is_token(s: &str) -> bool {
-    !s.is_empty()
-        && s.len() <= MAX_NAME
-        && s.bytes()
-            .all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'_')
-}
-
-/// The channel a team's player commands travel on.
-pub fn player_channel(team: &str) -> String {
-    format!("game.player.{team}")
-}
-
-/// How a squad arranges itself.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Formation {
-    Line,
-    Circle,
-    HalfCircle,
-    Wedge,
-    InverseWedge,
-}
-
-impl Formation {
-    pub const ALL: [Formation; 5] = [
-        Formation::Line,
-        Formation::Circle,
-        Formation::HalfCircle,
-        Formation::Wedge,
-        Formation::InverseWedge,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Formation::Line => "line",
-            Formation::Circle => "circle",
-            Formation::HalfCircle => "half-circle",
-            Formation::Wedge => "wedge",
-            Formation::InverseWedge => "inverse-wedge",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Formation> {
-        Formation::ALL.into_iter().find(|f| f.name() == s)
-    }
-}
-
-/// What an attack or a defence is about.
+/// A checked squad command, ready to publish; it displays as the reply the player reads.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Target {
-    Robot(u32),
-    /// A team's flag.
-    Flag(String),
-    /// A team's base.
-    Base(String),
-    /// A point on the battlefield, cm.
-    Point(f64, f64),
-}
-
-/// What the squad is told to do.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Verb {
-    /// Gather in formation at a point, or where the squad stands.
-    Gather(Option<(f64, f64)>),
-    Goto(f64, f64),
-    Attack(Target),
-    Defend(Target),
-    /// Take this team's flag home.
-    Capture(String),
-    Stop,
-}
-
-/// A checked squad command, ready to publish.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SquadOrder {
-    pub team: String,
-    pub squad: String,
-    pub verb: Verb,
-    /// None: the squad keeps its formation.
-    pub formation: Option<Formation>,
-}
+pub struct SquadOrder(pub SquadCommand);
 
 /// The browser's message, before it is checked. Numbers arrive as JSON
 /// numbers; ids as whole numbers.
@@ -131,7 +48,7 @@ pub struct SquadMsg {
 }
 
 fn token(what: &str, s: &str) -> Result<String, String> {
-    if is_token(s) {
+    if valid_name(s) {
         Ok(s.to_owned())
     } else {
         let shown: String = s.chars().take(40).collect();
@@ -142,20 +59,20 @@ fn token(what: &str, s: &str) -> Result<String, String> {
 }
 
 fn coord(name: &str, v: f64) -> Result<f64, String> {
-    if v.is_finite() && v.abs() <= MAX_GAME_COORD {
+    if v.is_finite() && v.abs() <= MAX_COORD {
         Ok(v)
     } else {
         Err(format!(
-            "{name} must be a position in cm within ±{MAX_GAME_COORD}, not {v}"
+            "{name} must be a position in cm within ±{MAX_COORD}, not {v}"
         ))
     }
 }
 
 impl SquadMsg {
     /// The point `x y`, when both or neither are given.
-    fn point(&self) -> Result<Option<(f64, f64)>, String> {
+    fn point(&self) -> Result<Option<Vec2>, String> {
         match (self.x, self.y) {
-            (Some(x), Some(y)) => Ok(Some((coord("x", x)?, coord("y", y)?))),
+            (Some(x), Some(y)) => Ok(Some(Vec2::new(coord("x", x)?, coord("y", y)?))),
             (None, None) => Ok(None),
             _ => Err("give both x and y (cm), or neither".into()),
         }
@@ -186,8 +103,8 @@ impl SquadMsg {
         } else if let Some(b) = &self.base {
             Ok(Target::Base(token("base team", b)?))
         } else if point_allowed {
-            let (x, y) = self.point()?.ok_or("give both x and y (cm)")?;
-            Ok(Target::Point(x, y))
+            let p = self.point()?.ok_or("give both x and y (cm)")?;
+            Ok(Target::Point(p))
         } else {
             Err(format!("{verb} needs a target: {choices}"))
         }
@@ -222,8 +139,8 @@ impl SquadMsg {
             }
             "goto" => {
                 self.only("goto", &["x", "y"])?;
-                let (x, y) = self.point()?.ok_or("goto needs x and y (cm)")?;
-                Verb::Goto(x, y)
+                let p = self.point()?.ok_or("goto needs x and y (cm)")?;
+                Verb::GoTo(p)
             }
             "attack" => Verb::Attack(self.target("attack", true)?),
             "defend" => Verb::Defend(self.target("defend", false)?),
@@ -248,92 +165,44 @@ impl SquadMsg {
         };
         let formation = match self.formation.as_deref() {
             None | Some("") => None,
-            Some(f) => Some(Formation::parse(f).ok_or_else(|| {
+            Some(f) => Some(f.parse::<Formation>().map_err(|_| {
                 let shown: String = f.chars().take(40).collect();
                 format!(
                     "unknown formation {shown:?} (expected line, circle, half-circle, wedge or inverse-wedge)"
                 )
             })?),
         };
-        Ok(SquadOrder {
+        Ok(SquadOrder(SquadCommand {
             team,
             squad,
             verb,
             formation,
-        })
+        }))
     }
-}
-
-/// Rounds to 0.01 cm, as the game writes positions: finer than any robot
-/// can stand, and keeps the packet short.
-fn r(v: f64) -> f64 {
-    (v * 100.0).round() / 100.0
 }
 
 impl SquadOrder {
     /// The channel this order is published on.
     pub fn channel(&self) -> String {
-        player_channel(&self.team)
+        colony_proto::game::player_channel(&self.0.team)
     }
 
     /// The packet for the game server.
     pub fn packet(&self) -> Result<Vec<u8>, colony_wire::ParseError> {
-        let mut p = PacketBuilder::new([self.channel()], Priority(0));
-        let mut l = p.line("squad");
-        l.bare("name", &self.squad);
-        let target = |l: &mut colony_wire::LineBuilder<'_>, t: &Target| match t {
-            Target::Robot(id) => {
-                l.field("robot", *id);
-            }
-            Target::Flag(team) => {
-                l.bare("flag", team);
-            }
-            Target::Base(team) => {
-                l.bare("base", team);
-            }
-            Target::Point(x, y) => {
-                l.field("x", r(*x)).field("y", r(*y));
-            }
-        };
-        match &self.verb {
-            Verb::Gather(at) => {
-                l.bare("do", "gather");
-                if let Some((x, y)) = at {
-                    l.field("x", r(*x)).field("y", r(*y));
-                }
-            }
-            Verb::Goto(x, y) => {
-                l.bare("do", "goto").field("x", r(*x)).field("y", r(*y));
-            }
-            Verb::Attack(t) => {
-                l.bare("do", "attack");
-                target(&mut l, t);
-            }
-            Verb::Defend(t) => {
-                l.bare("do", "defend");
-                target(&mut l, t);
-            }
-            Verb::Capture(team) => {
-                l.bare("do", "capture").bare("flag", team);
-            }
-            Verb::Stop => {
-                l.bare("do", "stop");
-            }
-        }
-        if let Some(f) = self.formation {
-            l.bare("formation", f.name());
-        }
-        p.finish()
+        self.0.encode()
     }
 }
 
-impl fmt::Display for Target {
+/// A target as the reply words it.
+struct Shown<'a>(&'a Target);
+
+impl fmt::Display for Shown<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
+        match self.0 {
             Target::Robot(id) => write!(f, "robot {id}"),
             Target::Flag(t) => write!(f, "{t}'s flag"),
             Target::Base(t) => write!(f, "{t}'s base"),
-            Target::Point(x, y) => write!(f, "({x:.0}, {y:.0})"),
+            Target::Point(p) => write!(f, "({:.0}, {:.0})", p.x, p.y),
         }
     }
 }
@@ -341,17 +210,18 @@ impl fmt::Display for Target {
 impl fmt::Display for SquadOrder {
     /// The reply the player reads: `red alpha: attack robot 7 in wedge`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} {}: ", self.team, self.squad)?;
-        match &self.verb {
+        let c = &self.0;
+        write!(f, "{} {}: ", c.team, c.squad)?;
+        match &c.verb {
             Verb::Gather(None) => f.write_str("gather")?,
-            Verb::Gather(Some((x, y))) => write!(f, "gather at ({x:.0}, {y:.0})")?,
-            Verb::Goto(x, y) => write!(f, "go to ({x:.0}, {y:.0})")?,
-            Verb::Attack(t) => write!(f, "attack {t}")?,
-            Verb::Defend(t) => write!(f, "defend {t}")?,
+            Verb::Gather(Some(p)) => write!(f, "gather at ({:.0}, {:.0})", p.x, p.y)?,
+            Verb::GoTo(p) => write!(f, "go to ({:.0}, {:.0})", p.x, p.y)?,
+            Verb::Attack(t) => write!(f, "attack {}", Shown(t))?,
+            Verb::Defend(t) => write!(f, "defend {}", Shown(t))?,
             Verb::Capture(t) => write!(f, "capture {t}'s flag")?,
             Verb::Stop => f.write_str("stop")?,
         }
-        if let Some(form) = self.formation {
+        if let Some(form) = c.formation {
             write!(f, " in {}", form.name())?;
         }
         Ok(())
@@ -427,6 +297,49 @@ mod tests {
                 "{json}"
             );
         }
+    }
+
+    /// Every command the page can send, in every formation, is read by the game's decoder as
+    /// the command checked, and re-encodes to the same bytes.
+    #[test]
+    fn every_squad_command_the_page_can_send_is_read_by_the_game_as_sent() {
+        let targets = [
+            r#""robot":7"#,
+            r#""flag":"blue""#,
+            r#""base":"red""#,
+            r#""x":120.5,"y":-33.25"#,
+        ];
+        let mut bodies = vec![
+            r#""do":"gather""#.to_string(),
+            r#""do":"gather","x":10,"y":20.125"#.to_string(),
+            r#""do":"goto","x":1500,"y":0.01"#.to_string(),
+            r#""do":"capture","flag":"blue""#.to_string(),
+            r#""do":"stop""#.to_string(),
+        ];
+        for t in targets {
+            bodies.push(format!(r#""do":"attack",{t}"#));
+            if !t.starts_with(r#""x""#) {
+                bodies.push(format!(r#""do":"defend",{t}"#));
+            }
+        }
+        let mut checked = 0;
+        for body in &bodies {
+            for formation in std::iter::once(String::new())
+                .chain(Formation::ALL.map(|f| format!(r#","formation":"{f}""#)))
+            {
+                let json = format!(r#"{{"team":"red","squad":"alpha",{body}{formation}}}"#);
+                let order = check(&json).unwrap_or_else(|e| panic!("{json}: {e}"));
+                let sent = order.packet().unwrap();
+                let packet = colony_wire::Packet::parse(&sent).unwrap();
+                let read = SquadCommand::decode("red", &packet)
+                    .unwrap_or_else(|e| panic!("the game refuses {json}: {e}"));
+                assert_eq!(read.len(), 1, "{json}");
+                assert_eq!(read[0].encode().unwrap(), sent, "{json}");
+                assert_eq!(read[0].squad, "alpha");
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 12 * 6);
     }
 
     #[test]

@@ -1,0 +1,314 @@
+//! `game.state`: the game logic's view of the game, several times a second; everything a player
+//! (and the monitor's game page) sees.
+//!
+//! ```text
+//! @ <game.state> 0
+//! game mode ctf status running time 12 winner - reason ""
+//! team name red score 0 kills 1
+//! flag team blue x 800 y 900 home 0 carrier 3
+//! robot id 3 team red squad alpha kind tank x 310.5 y 88.2 theta 1.57 health 120 alive 1 behaviour goto reason "..."
+//! squad team red name alpha formation wedge order "attack robot 9" behaviour shoot path "310,88 400,120"
+//! ```
+//!
+//! Texts (`reason`, `behaviour`, `order`, `path`) may be left out and read as empty. A node
+//! reads a state with [`GameState::decode`], which refuses the packet at its first bad line; a
+//! viewer reads it with [`GameState::decode_lenient`], which skips and counts bad lines.
+
+use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
+
+use super::read::{b, flag, name, tally, text};
+use super::{Formation, Lenient, RobotKind, STATE};
+use crate::fields::{bad, coord, finite, r, robot_id, MAX_COORD};
+use crate::{DecodeError, Pose, Vec2};
+
+/// Where a game stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Status {
+    /// Being played.
+    Running,
+    /// Finished.
+    Over,
+}
+
+/// A team's standing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TeamState {
+    /// Its name.
+    pub name: String,
+    /// Flags captured (CTF) or robots destroyed (DM).
+    pub score: u32,
+    /// Enemy robots destroyed.
+    pub kills: u32,
+}
+
+/// A flag as the game logic knows it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlagState {
+    /// Whose flag.
+    pub team: String,
+    /// Where it is, cm.
+    pub at: Vec2,
+    /// The robot carrying it.
+    pub carrier: Option<u32>,
+    /// It is on its stand at its base.
+    pub home: bool,
+}
+
+/// A robot as the game logic knows it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RobotState {
+    /// Its id.
+    pub id: u32,
+    /// Its team.
+    pub team: String,
+    /// Its squad.
+    pub squad: String,
+    /// Its type.
+    pub kind: RobotKind,
+    /// Where it is.
+    pub pose: Pose,
+    /// Health left.
+    pub health: f64,
+    /// Not destroyed.
+    pub alive: bool,
+    /// Its active behaviour and why.
+    pub behaviour: String,
+    /// Why that behaviour has control.
+    pub reason: String,
+}
+
+/// A squad as the game logic knows it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SquadState {
+    /// Its team.
+    pub team: String,
+    /// Its name.
+    pub name: String,
+    /// Its formation.
+    pub formation: Formation,
+    /// The player's command it carries out (text).
+    pub order: String,
+    /// The squad behaviour in control and why.
+    pub behaviour: String,
+    /// The planned path's turn points, cm.
+    pub path: Vec<Vec2>,
+}
+
+/// The whole game as a player sees it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GameState {
+    /// The mode (`ctf` or `dm`).
+    pub mode: String,
+    /// Running or over.
+    pub status: Status,
+    /// Game time, s.
+    pub time: f64,
+    /// The winner, when over (None: a draw).
+    pub winner: Option<String>,
+    /// Why it ended.
+    pub reason: String,
+    /// The teams.
+    pub teams: Vec<TeamState>,
+    /// The flags.
+    pub flags: Vec<FlagState>,
+    /// The robots.
+    pub robots: Vec<RobotState>,
+    /// The squads.
+    pub squads: Vec<SquadState>,
+}
+
+/// The path as the packet carries it: `x,y` turn points, whole centimetres, space-separated.
+fn path_text(path: &[Vec2]) -> String {
+    let mut s = String::new();
+    for (i, p) in path.iter().enumerate() {
+        if i > 0 {
+            s.push(' ');
+        }
+        s.push_str(&format!("{:.0},{:.0}", p.x, p.y));
+    }
+    s
+}
+
+fn parse_path(l: &Line<'_>, text: &str) -> Result<Vec<Vec2>, DecodeError> {
+    text.split_whitespace()
+        .map(|pt| {
+            let point = pt.split_once(',').and_then(|(x, y)| {
+                let (x, y) = (x.parse::<f64>().ok()?, y.parse::<f64>().ok()?);
+                let ok = |v: f64| v.is_finite() && v.abs() <= MAX_COORD;
+                (ok(x) && ok(y)).then(|| Vec2::new(x, y))
+            });
+            point.ok_or_else(|| bad(l, format!("path point {pt:?} is not x,y")))
+        })
+        .collect()
+}
+
+impl Status {
+    /// The word a packet carries.
+    pub fn name(self) -> &'static str {
+        match self {
+            Status::Running => "running",
+            Status::Over => "over",
+        }
+    }
+}
+
+/// The `game` line: everything but the lists.
+fn head(g: &Line<'_>) -> Result<GameState, DecodeError> {
+    let status = match &*g.str("status")? {
+        "running" => Status::Running,
+        "over" => Status::Over,
+        other => return Err(bad(g, format!("unknown status {other:?}"))),
+    };
+    let winner = match name(g, "winner")?.as_str() {
+        "-" => None,
+        w => Some(w.to_string()),
+    };
+    Ok(GameState {
+        mode: name(g, "mode")?,
+        status,
+        time: finite(g, "time")?,
+        winner,
+        reason: text(g, "reason")?,
+        teams: Vec::new(),
+        flags: Vec::new(),
+        robots: Vec::new(),
+        squads: Vec::new(),
+    })
+}
+
+/// Adds one line of a state to `state`; lines of other labels are ignored (a newer game may
+/// say more).
+fn add_line(state: &mut GameState, l: &Line<'_>) -> Result<(), DecodeError> {
+    match l.label() {
+        "team" => state.teams.push(TeamState {
+            name: name(l, "name")?,
+            score: tally(l, "score")?,
+            kills: tally(l, "kills")?,
+        }),
+        "flag" => state.flags.push(FlagState {
+            team: name(l, "team")?,
+            at: Vec2::new(coord(l, "x")?, coord(l, "y")?),
+            home: flag(l, "home")?,
+            carrier: match l.get("carrier") {
+                Some(_) => Some(robot_id(l, "carrier")?),
+                None => None,
+            },
+        }),
+        "robot" => state.robots.push(RobotState {
+            id: robot_id(l, "id")?,
+            team: name(l, "team")?,
+            squad: name(l, "squad")?,
+            kind: l
+                .str("kind")?
+                .parse::<RobotKind>()
+                .map_err(|e| bad(l, e.to_string()))?,
+            pose: Pose {
+                x: coord(l, "x")?,
+                y: coord(l, "y")?,
+                theta: finite(l, "theta")?,
+            },
+            health: finite(l, "health")?,
+            alive: flag(l, "alive")?,
+            behaviour: text(l, "behaviour")?,
+            reason: text(l, "reason")?,
+        }),
+        "squad" => state.squads.push(SquadState {
+            team: name(l, "team")?,
+            name: name(l, "name")?,
+            formation: l
+                .str("formation")?
+                .parse::<Formation>()
+                .map_err(|e| bad(l, e.to_string()))?,
+            order: text(l, "order")?,
+            behaviour: text(l, "behaviour")?,
+            path: parse_path(l, &text(l, "path")?)?,
+        }),
+        _ => {}
+    }
+    Ok(())
+}
+
+impl GameState {
+    /// The packet.
+    pub fn encode(&self) -> Result<Vec<u8>, ParseError> {
+        let mut p = PacketBuilder::new([STATE], Priority(0));
+        p.line("game")
+            .bare("mode", &self.mode)
+            .bare("status", self.status.name())
+            .field("time", r(self.time))
+            .bare("winner", self.winner.as_deref().unwrap_or("-"))
+            .field("reason", self.reason.as_str());
+        for t in &self.teams {
+            p.line("team")
+                .bare("name", &t.name)
+                .field("score", t.score)
+                .field("kills", t.kills);
+        }
+        for f in &self.flags {
+            let mut l = p.line("flag");
+            l.bare("team", &f.team)
+                .field("x", r(f.at.x))
+                .field("y", r(f.at.y))
+                .field("home", b(f.home));
+            if let Some(c) = f.carrier {
+                l.field("carrier", c);
+            }
+        }
+        for rb in &self.robots {
+            p.line("robot")
+                .field("id", rb.id)
+                .bare("team", &rb.team)
+                .bare("squad", &rb.squad)
+                .bare("kind", rb.kind.name())
+                .field("x", r(rb.pose.x))
+                .field("y", r(rb.pose.y))
+                .field("theta", r(rb.pose.theta))
+                .field("health", r(rb.health))
+                .field("alive", b(rb.alive))
+                .field("behaviour", rb.behaviour.as_str())
+                .field("reason", rb.reason.as_str());
+        }
+        for s in &self.squads {
+            p.line("squad")
+                .bare("team", &s.team)
+                .bare("name", &s.name)
+                .bare("formation", s.formation.name())
+                .field("order", s.order.as_str())
+                .field("behaviour", s.behaviour.as_str())
+                .field("path", path_text(&s.path).as_str());
+        }
+        p.finish()
+    }
+
+    /// Reads a game state; any line that does not read refuses the whole packet.
+    pub fn decode(packet: &Packet<'_>) -> Result<GameState, DecodeError> {
+        let g = packet.line("game").ok_or(DecodeError::Missing("game"))?;
+        let mut state = head(&g)?;
+        for l in packet.lines() {
+            if l.label() != "game" {
+                add_line(&mut state, &l)?;
+            }
+        }
+        Ok(state)
+    }
+
+    /// Reads a game state for a viewer: a `team`, `flag`, `robot` or `squad` line that does not
+    /// read is skipped and counted. Without a readable `game` line there is no state.
+    pub fn decode_lenient(packet: &Packet<'_>) -> Result<Lenient<GameState>, DecodeError> {
+        let g = packet.line("game").ok_or(DecodeError::Missing("game"))?;
+        let mut state = head(&g)?;
+        let mut skipped = 0;
+        for l in packet.lines() {
+            if l.label() != "game" && add_line(&mut state, &l).is_err() {
+                skipped += 1;
+            }
+        }
+        Ok(Lenient {
+            value: state,
+            skipped,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests;
