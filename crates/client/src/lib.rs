@@ -24,6 +24,11 @@
 //! }
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+// The one exception, behind the `tokio` feature: registering the socket
+// with tokio's reactor, which tokio marks unsafe (see tokio_client.rs).
+#![cfg_attr(not(feature = "tokio"), forbid(unsafe_code))]
+#![cfg_attr(feature = "tokio", deny(unsafe_code))]
+#![warn(missing_docs)]
 
 mod session;
 mod udp;

@@ -1,4 +1,5 @@
 //! The `colony` command: each subcommand is a thin call into a library crate.
+#![forbid(unsafe_code)]
 
 mod cmd;
 

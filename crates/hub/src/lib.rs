@@ -9,13 +9,14 @@
 //!
 //! What the hub is not: it keeps no message history, retransmits nothing and
 //! does not read packet bodies beyond checking that they are well formed.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 mod config;
 mod counters;
 pub mod log;
 mod routing;
 mod server;
-mod socket;
 
 pub use config::HubConfig;
 pub use counters::DropReason;

@@ -17,6 +17,8 @@
 //! reads the hub's control requests ([`Request`], [`StatusReport`]). It does
 //! no I/O and depends on nothing but `std`. It is not a schema layer: what a
 //! label or field means is up to the programs that use it.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 mod build;
 mod control;
