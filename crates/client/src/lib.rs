@@ -8,7 +8,7 @@
 //! and does work only when you call [`poll`](UdpClient::poll),
 //! [`recv`](UdpClient::recv) or [`publish`](UdpClient::publish). It starts no
 //! thread and never blocks. With the `tokio` feature, [`AsyncClient`] wraps it
-//! in `AsyncFd`.
+//! in `AsyncFd`. [`status`] asks a hub what it knows.
 //!
 //! ```no_run
 //! use std::time::Instant;
@@ -31,6 +31,7 @@
 #![warn(missing_docs)]
 
 mod session;
+pub mod status;
 mod udp;
 
 #[cfg(feature = "tokio")]

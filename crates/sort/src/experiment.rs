@@ -125,7 +125,7 @@ pub enum ExperimentError {
     Sim(#[from] SimError),
     #[error("{0}")]
     Invalid(String),
-    #[error("cannot write {path}: {source}")]
+    #[error("cannot write {path}")]
     Write {
         path: String,
         source: std::io::Error,
