@@ -8,6 +8,7 @@
 //! restarted controller picks up from the next observation.
 
 pub mod codec;
+pub mod launch;
 pub mod robot;
 pub mod world;
 
