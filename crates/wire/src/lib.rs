@@ -25,6 +25,7 @@ mod control;
 mod error;
 mod packet;
 mod scan;
+mod split;
 mod subject;
 
 pub use build::{write_quoted, write_token_or_quoted, LineBuilder, PacketBuilder, WireValue};
@@ -33,6 +34,7 @@ pub use control::{
 };
 pub use error::{ErrorKind, FieldError, FieldErrorKind, ParseError};
 pub use packet::{Field, Fields, Group, Line, Lines, Packet, Quoted, Subjects, Value};
+pub use split::split_packets;
 pub use subject::{Priority, Subject, SubjectError};
 
 /// The largest packet: the payload of one UDP datagram over IPv4.
