@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use colony_wire::{Reply, Request, StatusReport};
 
-use crate::{ClientError, UdpClient};
+use crate::{ClientError, ConnectError, UdpClient};
 
 /// The channel a status request subscribes to, for the lease the hub wants
 /// to see before it sends a status report.
@@ -17,13 +17,8 @@ pub const STATUS_CHANNEL: &str = "colony-status";
 #[derive(Debug, thiserror::Error)]
 pub enum StatusError {
     /// The address is not a hub's (it does not resolve, or cannot be reached).
-    #[error("cannot reach a hub at `{addr}`")]
-    Connect {
-        /// The address as given.
-        addr: String,
-        /// Why.
-        source: ClientError,
-    },
+    #[error(transparent)]
+    Connect(#[from] ConnectError),
     /// Nothing answered in time.
     #[error("no answer from a hub at {addr} within {:.1} s (is `colony hub` running there?)", timeout.as_secs_f64())]
     NoAnswer {
@@ -43,10 +38,7 @@ pub enum StatusError {
 /// Takes a lease on [`STATUS_CHANNEL`], asks the hub at `hub` for its
 /// status, and waits up to `timeout` for the answer. Leaves no lease behind.
 pub fn fetch_status(hub: &str, timeout: Duration) -> Result<StatusReport, StatusError> {
-    let mut client = UdpClient::connect(hub).map_err(|source| StatusError::Connect {
-        addr: hub.to_string(),
-        source,
-    })?;
+    let mut client = UdpClient::connect_to(hub)?;
     client.subscribe(STATUS_CHANNEL)?;
     let deadline = Instant::now() + timeout;
     let mut leased = false;

@@ -36,6 +36,18 @@ pub enum ClientError {
     Io(#[from] io::Error),
 }
 
+/// No client could be made for the hub at an address: the address does not
+/// resolve, or cannot be reached from here.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot reach a hub at `{hub}`")]
+pub struct ConnectError {
+    /// The address as given.
+    pub hub: String,
+    /// Why.
+    #[source]
+    pub source: ClientError,
+}
+
 /// A hub client on a non-blocking UDP socket. It never blocks, never starts
 /// a thread and never owns the loop: wait on its descriptor (it implements
 /// [`AsFd`]) until [`next_deadline`](Self::next_deadline), then call
@@ -52,6 +64,15 @@ impl UdpClient {
     /// A client of the hub at `hub` with the default timings.
     pub fn connect(hub: impl ToSocketAddrs + std::fmt::Debug) -> Result<UdpClient, ClientError> {
         UdpClient::with_config(hub, ClientConfig::default())
+    }
+
+    /// Like [`connect`](Self::connect), for an address given as text by a
+    /// person, whose error names the address first.
+    pub fn connect_to(hub: &str) -> Result<UdpClient, ConnectError> {
+        UdpClient::connect(hub).map_err(|source| ConnectError {
+            hub: hub.to_string(),
+            source,
+        })
     }
 
     /// A client of the hub at `hub` with these timings.

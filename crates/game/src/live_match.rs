@@ -11,7 +11,7 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use colony_client::{ClientError, UdpClient};
+use colony_client::{ConnectError, UdpClient};
 use colony_sim::field::FieldConfig;
 use colony_sim::SimError;
 
@@ -46,14 +46,9 @@ pub enum LiveMatchError {
     /// The in-memory match could not start.
     #[error(transparent)]
     Match(#[from] MatchError),
-    /// A part's hub client could not be made.
-    #[error("cannot reach a hub at `{hub}`")]
-    Connect {
-        /// The hub's address.
-        hub: String,
-        /// Why.
-        source: ClientError,
-    },
+    /// A hub client could not be made.
+    #[error(transparent)]
+    Connect(#[from] ConnectError),
     /// A part failed.
     #[error(transparent)]
     Live(#[from] LiveError),
@@ -156,10 +151,7 @@ pub fn result_line(s: &GameState) -> String {
 }
 
 fn connect(hub: &str) -> Result<UdpClient, LiveMatchError> {
-    UdpClient::connect(hub).map_err(|source| LiveMatchError::Connect {
-        hub: hub.to_string(),
-        source,
-    })
+    Ok(UdpClient::connect_to(hub)?)
 }
 
 /// A part's thread.

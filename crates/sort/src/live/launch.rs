@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
-use colony_client::{ClientError, UdpClient};
+use colony_client::{ConnectError, UdpClient};
 use colony_sim::{SceneConfig, SimError, World};
 
 use super::world::WorldOptions;
@@ -23,13 +23,8 @@ pub enum LaunchError {
     #[error(transparent)]
     Sim(#[from] SimError),
     /// A hub client could not be made.
-    #[error("cannot reach a hub at `{hub}`")]
-    Connect {
-        /// The hub's address.
-        hub: String,
-        /// Why.
-        source: ClientError,
-    },
+    #[error(transparent)]
+    Connect(#[from] ConnectError),
     /// A robot's controller could not be started.
     #[error("cannot start the controller of robot {robot}")]
     Spawn {
@@ -79,10 +74,7 @@ pub enum Controllers {
 }
 
 fn connect(hub: &str) -> Result<UdpClient, LaunchError> {
-    UdpClient::connect(hub).map_err(|source| LaunchError::Connect {
-        hub: hub.to_string(),
-        source,
-    })
+    Ok(UdpClient::connect_to(hub)?)
 }
 
 /// Child processes that are killed when this value drops, however we leave.
