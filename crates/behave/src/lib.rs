@@ -78,6 +78,8 @@
 //!     ["stand still", "drive to target", "goto preempted: stop wheels", "turn away", "drive to target"]
 //! );
 //! ```
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 use std::borrow::Cow;
 use std::fmt;

@@ -2,6 +2,7 @@
 //! Mosquitto, in one run. Latency of a 100-byte packet (one in flight) and
 //! delivered throughput at several fan-outs. Prints a markdown report and can
 //! write it into BENCHMARKS.md under `## Hub on loopback`.
+#![forbid(unsafe_code)]
 
 mod hub;
 mod latency;

@@ -5,7 +5,6 @@
 use std::fs::File;
 use std::io::{self, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
-use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -209,8 +208,7 @@ impl Mosquitto {
         // the broker's side (better latency, more segments). Run as root, it
         // would drop to the `mosquitto` user, and that would clear the
         // parent-death signal set below; it listens on loopback only, briefly.
-        // SAFETY: geteuid only reads the caller's credentials.
-        let user = if unsafe { libc::geteuid() } == 0 {
+        let user = if colony_sys::process::is_root() {
             "user root\n"
         } else {
             ""
@@ -225,15 +223,8 @@ impl Mosquitto {
         let log_path = dir.join("stderr.log");
         let log = File::create(&log_path)?;
         let mut command = Command::new(program);
-        // SAFETY: the closure runs in the child between fork and exec and only
-        // calls prctl, which is async-signal-safe.
-        unsafe {
-            command.pre_exec(|| {
-                // The broker dies with the benchmark, however the benchmark ends.
-                libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
-                Ok(())
-            });
-        }
+        // The broker dies with the benchmark, however the benchmark ends.
+        colony_sys::process::die_with_parent(&mut command, libc::SIGTERM);
         let child = command
             .arg("-c")
             .arg(&conf)

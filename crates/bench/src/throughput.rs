@@ -12,7 +12,7 @@
 
 use std::io::{self, Write};
 use std::net::{SocketAddr, TcpStream, UdpSocket};
-use std::os::fd::{AsRawFd, RawFd};
+use std::os::fd::{AsFd, BorrowedFd};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread::{self, Thread};
 use std::time::{Duration, Instant};
@@ -29,7 +29,7 @@ const DRAIN: Duration = Duration::from_millis(300);
 
 /// One subscriber as a receiver thread sees it.
 pub trait Subscriber: Send {
-    fn fd(&self) -> RawFd;
+    fn fd(&self) -> BorrowedFd<'_>;
     /// Takes in what is waiting, without blocking.
     fn drain(&mut self) -> io::Result<()>;
     /// Packets received so far.
@@ -57,7 +57,7 @@ impl UdpSub {
         sock.set_nonblocking(true)?;
         Ok(UdpSub {
             sock,
-            batch: RecvBatch::new(),
+            batch: RecvBatch::new(sys::SLOT),
             count: 0,
             next: 0,
         })
@@ -65,14 +65,14 @@ impl UdpSub {
 }
 
 impl Subscriber for UdpSub {
-    fn fd(&self) -> RawFd {
-        self.sock.as_raw_fd()
+    fn fd(&self) -> BorrowedFd<'_> {
+        self.sock.as_fd()
     }
 
     fn drain(&mut self) -> io::Result<()> {
         // A few batches at most, so other sockets of the thread get their turn.
         for _ in 0..4 {
-            let n = self.batch.recv(self.sock.as_raw_fd())?;
+            let n = self.batch.recv(&self.sock)?;
             for i in 0..n {
                 if let Some(seq) = payload::seq_of(self.batch.get(i)) {
                     self.count += 1;
@@ -119,7 +119,7 @@ impl Publisher for UdpPub {
             p.stamp(first + i as u64);
         }
         let msgs: Vec<&[u8]> = self.packets[..n].iter().map(|p| &p.bytes()[..]).collect();
-        sys::send_batch(self.sock.as_raw_fd(), &msgs)
+        sys::send_batch(&self.sock, &msgs)
     }
 }
 
@@ -142,8 +142,8 @@ impl MqttSub {
 }
 
 impl Subscriber for MqttSub {
-    fn fd(&self) -> RawFd {
-        self.conn.stream.as_raw_fd()
+    fn fd(&self) -> BorrowedFd<'_> {
+        self.conn.stream.as_fd()
     }
 
     fn drain(&mut self) -> io::Result<()> {
@@ -263,7 +263,7 @@ impl Shared {
 fn receive(shared: &Shared, me: usize, mut subs: Vec<Box<dyn Subscriber>>) -> io::Result<()> {
     let mut epoll = sys::Epoll::new()?;
     for (i, s) in subs.iter().enumerate() {
-        epoll.add(s.fd(), i)?;
+        epoll.add(&s.fd(), i)?;
     }
     let mut acked = 0;
     let mut received = 0;

@@ -8,7 +8,7 @@
 //! and does work only when you call [`poll`](UdpClient::poll),
 //! [`recv`](UdpClient::recv) or [`publish`](UdpClient::publish). It starts no
 //! thread and never blocks. With the `tokio` feature, [`AsyncClient`] wraps it
-//! in `AsyncFd`.
+//! in `AsyncFd`. [`status`] asks a hub what it knows.
 //!
 //! ```no_run
 //! use std::time::Instant;
@@ -24,15 +24,21 @@
 //! }
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+// The one exception, behind the `tokio` feature: registering the socket
+// with tokio's reactor, which tokio marks unsafe (see tokio_client.rs).
+#![cfg_attr(not(feature = "tokio"), forbid(unsafe_code))]
+#![cfg_attr(feature = "tokio", deny(unsafe_code))]
+#![warn(missing_docs)]
 
 mod session;
+pub mod status;
 mod udp;
 
 #[cfg(feature = "tokio")]
 mod tokio_client;
 
 pub use session::{ClientConfig, HubState, Incoming, Session};
-pub use udp::{ClientError, UdpClient};
+pub use udp::{ClientError, ConnectError, UdpClient};
 
 #[cfg(feature = "tokio")]
 pub use tokio_client::AsyncClient;

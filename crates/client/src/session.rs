@@ -35,8 +35,11 @@ pub enum HubState {
     Unknown,
     /// Heard from within [`ClientConfig::unreachable_after`].
     Alive,
-    /// Silent for this long while the client was asking it for data.
-    Unreachable { silent_for: Duration },
+    /// Silent for `silent_for` while the client was asking it for data.
+    Unreachable {
+        /// How long nothing was heard.
+        silent_for: Duration,
+    },
 }
 
 #[derive(Debug)]
@@ -83,6 +86,7 @@ pub enum Incoming<'a> {
 }
 
 impl Session {
+    /// A session with no subscriptions, started at `now`.
     pub fn new(config: ClientConfig, now: Instant) -> Session {
         Session {
             config,
@@ -94,6 +98,7 @@ impl Session {
         }
     }
 
+    /// The timings it was made with.
     pub fn config(&self) -> &ClientConfig {
         &self.config
     }
@@ -110,6 +115,7 @@ impl Session {
         }
     }
 
+    /// Drops a subscription; the request goes out with the next transmit.
     pub fn unsubscribe(&mut self, subject: &Subject) {
         if let Some(i) = self.subs.iter().position(|s| &s.subject == subject) {
             self.subs.remove(i);
@@ -118,6 +124,7 @@ impl Session {
         }
     }
 
+    /// Drops every subscription; the request goes out with the next transmit.
     pub fn unsubscribe_all(&mut self) {
         self.subs.clear();
         self.outbox

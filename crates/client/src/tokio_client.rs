@@ -20,22 +20,27 @@ impl AsyncClient {
         // closed only when the client drops, so its descriptor stays valid and
         // the same while the AsyncFd owns it. This type never hands out
         // `&mut UdpClient`, through which the client could be swapped out.
+        #[allow(unsafe_code)]
         let inner = unsafe { AsyncFd::register(client) }.map_err(io::Error::from)?;
         Ok(AsyncClient { inner })
     }
 
+    /// The client inside.
     pub fn get_ref(&self) -> &UdpClient {
         self.inner.get_ref()
     }
 
+    /// See [`UdpClient::subscribe`].
     pub fn subscribe(&mut self, subject: &str) -> Result<(), ClientError> {
         self.inner.get_mut().subscribe(subject)
     }
 
+    /// See [`UdpClient::unsubscribe`].
     pub fn unsubscribe(&mut self, subject: &str) -> Result<(), ClientError> {
         self.inner.get_mut().unsubscribe(subject)
     }
 
+    /// See [`UdpClient::publish`].
     pub fn publish(&mut self, packet: &[u8]) -> Result<(), ClientError> {
         self.inner.get_mut().publish(packet)
     }

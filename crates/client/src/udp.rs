@@ -3,7 +3,7 @@
 use std::io;
 use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr, ToSocketAddrs, UdpSocket};
 use std::os::fd::{AsFd, AsRawFd, BorrowedFd, RawFd};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use colony_wire::{
     Packet, ParseError, Reply, Request, Subject, SubjectError, HUB_SUBJECT, MAX_PACKET,
@@ -14,16 +14,38 @@ use crate::session::{ClientConfig, HubState, Incoming, Session};
 /// Something the client was asked to do that cannot be done.
 #[derive(Debug, thiserror::Error)]
 pub enum ClientError {
+    /// The name is not a subject.
     #[error(transparent)]
     Subject(#[from] SubjectError),
+    /// The subject is the hub's own, which carries control requests only.
     #[error("`{0}` is reserved for requests to the hub itself")]
     Reserved(String),
-    #[error("refusing to publish a malformed packet: {0}")]
+    /// The packet does not parse; the source says where and why.
+    #[error("refusing to publish a malformed packet")]
     Malformed(#[from] ParseError),
-    #[error("hub address `{addr}`: {source}")]
-    Address { addr: String, source: io::Error },
+    /// The hub's address does not resolve, or cannot be reached from here.
+    #[error("hub address `{addr}`")]
+    Address {
+        /// The address as given.
+        addr: String,
+        /// Why it cannot be used.
+        source: io::Error,
+    },
+    /// The socket failed.
     #[error(transparent)]
     Io(#[from] io::Error),
+}
+
+/// No client could be made for the hub at an address: the address does not
+/// resolve, or cannot be reached from here.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot reach a hub at `{hub}`")]
+pub struct ConnectError {
+    /// The address as given.
+    pub hub: String,
+    /// Why.
+    #[source]
+    pub source: ClientError,
 }
 
 /// A hub client on a non-blocking UDP socket. It never blocks, never starts
@@ -44,6 +66,16 @@ impl UdpClient {
         UdpClient::with_config(hub, ClientConfig::default())
     }
 
+    /// Like [`connect`](Self::connect), for an address given as text by a
+    /// person, whose error names the address first.
+    pub fn connect_to(hub: &str) -> Result<UdpClient, ConnectError> {
+        UdpClient::connect(hub).map_err(|source| ConnectError {
+            hub: hub.to_string(),
+            source,
+        })
+    }
+
+    /// A client of the hub at `hub` with these timings.
     pub fn with_config(
         hub: impl ToSocketAddrs + std::fmt::Debug,
         config: ClientConfig,
@@ -82,14 +114,17 @@ impl UdpClient {
         })
     }
 
+    /// The hub's address, resolved.
     pub fn hub_addr(&self) -> SocketAddr {
         self.hub
     }
 
+    /// This client's own address.
     pub fn local_addr(&self) -> io::Result<SocketAddr> {
         self.socket.local_addr()
     }
 
+    /// The protocol state inside.
     pub fn session(&self) -> &Session {
         &self.session
     }
@@ -106,12 +141,14 @@ impl UdpClient {
         Ok(())
     }
 
+    /// Drops a subscription and tells the hub now.
     pub fn unsubscribe(&mut self, subject: &str) -> Result<(), ClientError> {
         self.session.unsubscribe(&Subject::new(subject)?);
         self.flush()?;
         Ok(())
     }
 
+    /// Drops every subscription and tells the hub now.
     pub fn unsubscribe_all(&mut self) -> io::Result<()> {
         self.session.unsubscribe_all();
         self.flush()
@@ -248,33 +285,13 @@ impl UdpClient {
     /// library itself never calls it.
     pub fn wait(&self, deadline: Option<Instant>) -> io::Result<bool> {
         let timeout = deadline.map(|d| d.saturating_duration_since(Instant::now()));
-        wait_readable(self.socket.as_raw_fd(), timeout)
+        colony_sys::wait::wait_readable(&self.socket, timeout)
     }
 }
 
 enum Received {
     Data(usize),
     Reply(Reply),
-}
-
-fn wait_readable(fd: RawFd, timeout: Option<Duration>) -> io::Result<bool> {
-    let mut pfd = libc::pollfd {
-        fd,
-        events: libc::POLLIN,
-        revents: 0,
-    };
-    let ms = timeout.map_or(-1, |t| t.as_millis().min(i32::MAX as u128) as libc::c_int);
-    // SAFETY: `pfd` is one valid pollfd that outlives the call, and the count is 1.
-    let r = unsafe { libc::poll(&mut pfd, 1, ms) };
-    if r < 0 {
-        let e = io::Error::last_os_error();
-        return if e.kind() == io::ErrorKind::Interrupted {
-            Ok(false)
-        } else {
-            Err(e)
-        };
-    }
-    Ok(r > 0)
 }
 
 impl AsFd for UdpClient {

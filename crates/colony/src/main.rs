@@ -1,4 +1,5 @@
 //! The `colony` command: each subcommand is a thin call into a library crate.
+#![forbid(unsafe_code)]
 
 mod cmd;
 
@@ -74,7 +75,9 @@ fn main() -> ExitCode {
         // error of ours: end quietly, as other command-line tools do.
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("colony: {}", describe(&e));
+            // Every error either prints its source or returns it (never
+            // both), so the chain, `: `-separated, says each thing once.
+            eprintln!("colony: {e:#}");
             ExitCode::FAILURE
         }
     }
@@ -86,22 +89,4 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
             .downcast_ref::<std::io::Error>()
             .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
     })
-}
-
-/// The error and its causes, `: `-separated, leaving out a cause whose text
-/// the message before it already ends with (library errors often quote
-/// their source in their own message).
-fn describe(e: &anyhow::Error) -> String {
-    let mut text = String::new();
-    for cause in e.chain() {
-        let part = cause.to_string();
-        if text.ends_with(&part) {
-            continue;
-        }
-        if !text.is_empty() {
-            text.push_str(": ");
-        }
-        text.push_str(&part);
-    }
-    text
 }

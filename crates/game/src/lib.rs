@@ -19,7 +19,7 @@
 //! - [`world`]: the battlefield in the simulator.
 //! - [`bot`]: the built-in scripted player.
 //! - [`node`] and [`matches`]: the parts wired together in memory, fast-forwarded;
-//!   [`live`] runs them over the hub.
+//!   [`live`] runs them over the hub, and [`live_match`] runs and watches a whole match.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -27,6 +27,7 @@
 pub mod bot;
 pub mod formation;
 pub mod live;
+pub mod live_match;
 pub mod logic;
 pub mod map;
 pub mod matches;

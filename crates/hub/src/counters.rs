@@ -24,6 +24,7 @@ pub enum DropReason {
 }
 
 impl DropReason {
+    /// Every reason, in the order status reports list them.
     pub const ALL: [DropReason; 8] = [
         DropReason::Malformed,
         DropReason::BelowMinPriority,
@@ -35,6 +36,7 @@ impl DropReason {
         DropReason::SendFailed,
     ];
 
+    /// The reason's name in status reports.
     pub fn name(self) -> &'static str {
         match self {
             DropReason::Malformed => "malformed",

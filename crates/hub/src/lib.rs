@@ -4,20 +4,26 @@
 //! clock: feed it `(now, source, bytes)` with [`Hub::handle`] and it says
 //! where to repeat the datagram; ask [`Hub::poll_transmit`] for its own
 //! replies and [`Hub::poll_timeout`] for when it next needs
-//! [`Hub::handle_timeout`]. [`Server`] is the thin UDP runtime around it, and
-//! [`log`] holds the crash-tolerant traffic log and its reader.
+//! [`Hub::handle_timeout`]. [`Server`] is the thin UDP runtime around it,
+//! [`HubSite`] starts one on a thread for a program that was given none,
+//! [`log`] holds the crash-tolerant traffic log and its reader, and
+//! [`replay`] publishes a log again with its original timing.
 //!
 //! What the hub is not: it keeps no message history, retransmits nothing and
 //! does not read packet bodies beyond checking that they are well formed.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 mod config;
 mod counters;
+mod local;
 pub mod log;
+pub mod replay;
 mod routing;
 mod server;
-mod socket;
 
 pub use config::HubConfig;
 pub use counters::DropReason;
+pub use local::{HubSite, HubSpec, HubThread, HubThreadError, StartError};
 pub use routing::{Hub, Outcome, Transmit};
 pub use server::Server;

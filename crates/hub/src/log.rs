@@ -31,14 +31,28 @@ const MAX_REST: usize = 8 + 1 + 255 + colony_wire::MAX_PACKET + 1;
 /// A problem reading or writing a log.
 #[derive(Debug, thiserror::Error)]
 pub enum LogError {
-    #[error("{path}: {source}")]
-    Io { path: PathBuf, source: io::Error },
+    /// The file cannot be opened, read or written; the source says why.
+    #[error("{path}")]
+    Io {
+        /// The log.
+        path: PathBuf,
+        /// What the system said.
+        source: io::Error,
+    },
+    /// The file is something else.
     #[error("{path}: not a colony traffic log (it does not start with `colony-log 1`)")]
-    NotALog { path: PathBuf },
+    NotALog {
+        /// The file.
+        path: PathBuf,
+    },
+    /// A record in the middle of the log fails its checksum or length check.
     #[error("{path}: record at byte {offset} is corrupt ({why}) and whole records follow it")]
     Corrupt {
+        /// The log.
         path: PathBuf,
+        /// Where the record starts.
         offset: u64,
+        /// Which check it fails.
         why: &'static str,
     },
 }
@@ -50,6 +64,7 @@ pub struct Record {
     pub time_us: u64,
     /// The sender, as the hub saw it.
     pub source: String,
+    /// The datagram, byte for byte.
     pub payload: Vec<u8>,
 }
 
@@ -140,6 +155,7 @@ impl LogWriter {
         self.append_raw(r.time_us, &r.source, &r.payload)
     }
 
+    /// Writes what is buffered to the file.
     pub fn flush(&mut self) -> io::Result<()> {
         self.file.flush()
     }
@@ -157,6 +173,7 @@ pub struct LogReader {
 }
 
 impl LogReader {
+    /// Opens a log and checks its header.
     pub fn open(path: impl AsRef<Path>) -> Result<LogReader, LogError> {
         let path = path.as_ref();
         let file = File::open(path).map_err(|source| LogError::Io {

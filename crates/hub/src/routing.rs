@@ -14,7 +14,9 @@ use crate::counters::{Counters, DropReason};
 /// A datagram the hub wants sent: a reply to a control request.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Transmit {
+    /// Where it goes.
     pub dest: SocketAddr,
+    /// The datagram.
     pub payload: Vec<u8>,
 }
 
@@ -74,6 +76,7 @@ pub struct Hub {
 }
 
 impl Hub {
+    /// A hub with no clients, started at `now`.
     pub fn new(config: HubConfig, now: Instant) -> Hub {
         let next_sweep = now + sweep_interval(&config);
         Hub {
@@ -89,6 +92,7 @@ impl Hub {
         }
     }
 
+    /// The limits it was made with.
     pub fn config(&self) -> &HubConfig {
         &self.config
     }

@@ -6,7 +6,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant, SystemTime};
 
 use crate::log::LogWriter;
-use crate::socket::{enlarge_buffers, recv_batch, send_to_many, wait_readable, RecvBatch};
+use colony_sys::buffers::{self, Buffer};
+use colony_sys::udp::{send_to_many, RecvBatch};
+use colony_sys::wait::wait_readable;
+
 use crate::{DropReason, Hub, HubConfig, Outcome};
 
 /// The hub on a UDP socket. It owns its loop only inside [`Server::run`];
@@ -15,8 +18,13 @@ pub struct Server {
     socket: UdpSocket,
     hub: Hub,
     log: Option<LogWriter>,
-    batch: RecvBatch,
+    batch: RecvBatch<BATCH>,
 }
+
+/// Datagrams taken per receive call.
+const BATCH: usize = 32;
+/// Room for the largest UDP payload, plus one byte to notice anything larger.
+const SLOT: usize = colony_wire::MAX_PACKET + 1;
 
 /// Socket buffer the hub asks for: about 4,000 small datagrams of burst.
 const SOCKET_BUFFER: usize = 4 << 20;
@@ -41,7 +49,7 @@ impl Server {
             socket,
             hub: Hub::new(config, Instant::now()),
             log: None,
-            batch: RecvBatch::new(),
+            batch: RecvBatch::new(SLOT),
         })
     }
 
@@ -51,10 +59,12 @@ impl Server {
         self
     }
 
+    /// The address the hub listens on (with the port chosen, if 0 was asked for).
     pub fn local_addr(&self) -> io::Result<SocketAddr> {
         self.socket.local_addr()
     }
 
+    /// The state machine inside, for its counters.
     pub fn hub(&self) -> &Hub {
         &self.hub
     }
@@ -76,7 +86,7 @@ impl Server {
     pub fn poll(&mut self, max_wait: Duration) -> io::Result<usize> {
         let mut handled = 0;
         loop {
-            let n = recv_batch(&self.socket, &mut self.batch)?;
+            let n = self.batch.recv(&self.socket)?;
             if n == 0 {
                 break;
             }
@@ -99,7 +109,7 @@ impl Server {
                 .poll_timeout()
                 .saturating_duration_since(now)
                 .min(max_wait);
-            wait_readable(&self.socket, wait)?;
+            wait_readable(&self.socket, Some(wait))?;
         }
         Ok(handled)
     }
@@ -132,4 +142,22 @@ impl Server {
             }
         }
     }
+}
+
+/// Asks for `bytes` of receive and send buffer: a hub takes bursts from many
+/// publishers at once, and the default (about 208 KiB, some 200 small
+/// datagrams) drops them at its own socket. The kernel caps the request at
+/// `net.core.rmem_max`; a privileged process may exceed that cap, so that is
+/// tried next. Returns the receive buffer size in force.
+fn enlarge_buffers(sock: &UdpSocket, bytes: usize) -> usize {
+    // Linux reports double the size asked for (it counts its bookkeeping).
+    let size = |which| buffers::size(sock, which).map_or(0, |b| b / 2);
+    for which in [Buffer::Receive, Buffer::Send] {
+        // Refusals are fine: the size in force is what counts, and it is read back.
+        let _ = buffers::set_size(sock, which, bytes, false);
+        if size(which) < bytes {
+            let _ = buffers::set_size(sock, which, bytes, true);
+        }
+    }
+    size(Buffer::Receive)
 }

@@ -10,7 +10,7 @@ pub enum SimError {
     #[error("{0}")]
     Config(ConfigError),
     /// A configuration file could not be read.
-    #[error("cannot read scene configuration {path}: {source}", path = .path.display())]
+    #[error("cannot read scene configuration {path}", path = .path.display())]
     Io {
         /// The file that could not be read.
         path: PathBuf,

@@ -63,7 +63,7 @@
 //! let obs = world.observe(RobotId(0));
 //! println!("robot 0 at {:?} sees {} pucks", obs.pose, obs.pucks.len());
 //! ```
-
+#![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 mod arena;

@@ -118,6 +118,7 @@ impl LineBuilder<'_> {
 
 /// A value the builder knows how to write.
 pub trait WireValue {
+    /// Appends the value as packet text.
     fn write_to(&self, out: &mut String);
 }
 

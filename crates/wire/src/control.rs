@@ -29,7 +29,9 @@ pub const HUB_SUBJECT: &str = "hub";
 pub enum Request {
     /// Take or refresh a lease on a subject.
     Subscribe(Subject),
+    /// Drop the lease on a subject.
     Unsubscribe(Subject),
+    /// Drop every lease this client holds.
     UnsubscribeAll,
     /// Ask for a [`StatusReport`]; only answered to a client that already holds a lease.
     Status,
@@ -43,11 +45,21 @@ pub enum ControlError {
     /// Control packets name `<hub>` and nothing else.
     NotControl,
     /// A line whose label is no known request.
-    Unknown { label: String, line: u32 },
+    Unknown {
+        /// The label.
+        label: String,
+        /// 1-based line of the packet.
+        line: u32,
+    },
     /// A request whose field is missing or of the wrong type.
     Field(FieldError),
     /// A subscription to a subject that cannot be one (such as `hub` itself).
-    BadSubject { name: String, line: u32 },
+    BadSubject {
+        /// The subject asked for.
+        name: String,
+        /// 1-based line of the packet.
+        line: u32,
+    },
 }
 
 impl fmt::Display for ControlError {
@@ -162,8 +174,10 @@ impl Request {
 pub enum Reply {
     /// A subscription was taken; it lasts this long unless refreshed.
     Lease {
+        /// The lease, in milliseconds.
         ms: u64,
     },
+    /// The answer to a `status` request.
     Status(StatusReport),
 }
 
@@ -201,6 +215,7 @@ impl Reply {
 /// One client the hub knows, with its subscriptions.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ClientInfo {
+    /// The client's address, as the hub sees it.
     pub addr: String,
     /// Time since the hub last heard from it.
     pub idle_ms: u64,
@@ -211,20 +226,28 @@ pub struct ClientInfo {
 /// Traffic on one channel (or subject set, written `a b`).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ChannelInfo {
+    /// The channel, or the subjects of a set joined by blanks.
     pub subjects: String,
+    /// Packets published on it.
     pub packets: u64,
+    /// Bytes published on it.
     pub bytes: u64,
 }
 
 /// The hub's answer to `status`.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct StatusReport {
+    /// Time since the hub started.
     pub uptime_ms: u64,
+    /// How long a subscription lasts without a refresh.
     pub lease_ms: u64,
+    /// Packets below this priority are dropped (`i32::MIN`: none are).
     pub min_priority: Priority,
     /// How many clients the hub holds, even where `clients` was cut short.
     pub client_count: u64,
+    /// The clients, as many as fit in one datagram.
     pub clients: Vec<ClientInfo>,
+    /// Traffic by channel.
     pub channels: Vec<ChannelInfo>,
     /// Packets dropped, by reason.
     pub drops: Vec<(String, u64)>,
@@ -293,6 +316,7 @@ impl StatusReport {
         text.into_bytes()
     }
 
+    /// Reads a report from the hub's `status` packet.
     pub fn from_packet(packet: &Packet<'_>) -> Result<StatusReport, ControlError> {
         let mut r = StatusReport::default();
         for line in packet.lines() {

@@ -7,7 +7,10 @@ use std::fmt;
 #[non_exhaustive]
 pub enum ErrorKind {
     /// The datagram is larger than one UDP payload can be.
-    TooLarge { len: usize },
+    TooLarge {
+        /// Its length in bytes.
+        len: usize,
+    },
     /// The datagram holds no header.
     Empty,
     /// The bytes are not UTF-8.
@@ -27,9 +30,15 @@ pub enum ErrorKind {
     /// A name was expected (a bare token) and something else was found.
     ExpectedName(char),
     /// A name at the end of its line or group, with no value after it.
-    MissingValue { name: String },
+    MissingValue {
+        /// The name.
+        name: String,
+    },
     /// A name appears twice on one line or in one group.
-    DuplicateName { name: String },
+    DuplicateName {
+        /// The name.
+        name: String,
+    },
     /// A `(` was not closed before the end of its line.
     UnclosedGroup,
     /// A `)` with no `(` to close.
@@ -45,8 +54,11 @@ pub enum ErrorKind {
 /// A malformed packet: what was wrong and where (1-based line and byte column).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ParseError {
+    /// What was wrong.
     pub kind: ErrorKind,
+    /// 1-based line of the packet (the header is line 1).
     pub line: u32,
+    /// 1-based byte column within that line.
     pub column: u32,
 }
 
@@ -130,12 +142,15 @@ pub enum FieldErrorKind {
 /// A typed getter's failure, naming the line's label, the field and where it stands.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct FieldError {
+    /// The label of the line the field belongs to.
     pub label: String,
+    /// The field's name.
     pub field: String,
     /// 1-based line of the packet the field (or, when missing, its line) is on.
     pub line: u32,
     /// 1-based byte column of the field's value, or of the line's label when missing.
     pub column: u32,
+    /// What was wrong with it.
     pub kind: FieldErrorKind,
 }
 

@@ -17,12 +17,15 @@
 //! reads the hub's control requests ([`Request`], [`StatusReport`]). It does
 //! no I/O and depends on nothing but `std`. It is not a schema layer: what a
 //! label or field means is up to the programs that use it.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 mod build;
 mod control;
 mod error;
 mod packet;
 mod scan;
+mod split;
 mod subject;
 
 pub use build::{write_quoted, write_token_or_quoted, LineBuilder, PacketBuilder, WireValue};
@@ -31,6 +34,7 @@ pub use control::{
 };
 pub use error::{ErrorKind, FieldError, FieldErrorKind, ParseError};
 pub use packet::{Field, Fields, Group, Line, Lines, Packet, Quoted, Subjects, Value};
+pub use split::split_packets;
 pub use subject::{Priority, Subject, SubjectError};
 
 /// The largest packet: the payload of one UDP datagram over IPv4.

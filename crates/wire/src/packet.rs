@@ -104,6 +104,7 @@ impl<'a> Packet<'a> {
         self.subjects().any(|s| s == subject)
     }
 
+    /// The priority from the header.
     pub fn priority(&self) -> Priority {
         Priority(self.layout.priority)
     }
@@ -237,6 +238,7 @@ pub struct Line<'a> {
 }
 
 impl<'a> Line<'a> {
+    /// The line's label: its first, bare token.
     pub fn label(&self) -> &'a str {
         self.label
     }
@@ -246,6 +248,7 @@ impl<'a> Line<'a> {
         self.number
     }
 
+    /// The line's fields after its label, in order.
     pub fn fields(&self) -> Fields<'a> {
         Fields {
             scan: Scanner::at(self.src, self.fields_at, self.number, self.line_start),
@@ -342,7 +345,9 @@ impl<'a> Context<'a> {
 /// One `name value` pair.
 #[derive(Debug, Clone, Copy)]
 pub struct Field<'a> {
+    /// The field's name.
     pub name: &'a str,
+    /// Its value.
     pub value: Value<'a>,
     /// Byte offset of the value in the packet.
     pub value_at: usize,
@@ -351,8 +356,11 @@ pub struct Field<'a> {
 /// A field's value: a bare token, a quoted string or a parenthesised group.
 #[derive(Debug, Clone, Copy)]
 pub enum Value<'a> {
+    /// A token without blanks or quotes, as written.
     Bare(&'a str),
+    /// A `"..."` string, still escaped.
     Quoted(Quoted<'a>),
+    /// A `( name value ... )` group of fields.
     Group(Group<'a>),
 }
 
@@ -382,6 +390,7 @@ impl<'a> Value<'a> {
         }
     }
 
+    /// The group, if the value is one.
     pub fn as_group(&self) -> Option<Group<'a>> {
         match self {
             Value::Group(g) => Some(*g),
@@ -447,6 +456,7 @@ pub struct Group<'a> {
 }
 
 impl<'a> Group<'a> {
+    /// The group's fields, in order.
     pub fn fields(&self) -> Fields<'a> {
         Fields {
             scan: Scanner::at(self.src, self.start, self.line, self.line_start),

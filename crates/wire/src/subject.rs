@@ -33,6 +33,7 @@ impl fmt::Display for SubjectError {
 impl std::error::Error for SubjectError {}
 
 impl Subject {
+    /// A subject from its name, with or without the `<...>` around it.
     pub fn new(name: &str) -> Result<Subject, SubjectError> {
         let name = name
             .strip_prefix('<')
@@ -45,6 +46,7 @@ impl Subject {
         }
     }
 
+    /// The name, without `<...>`.
     pub fn as_str(&self) -> &str {
         &self.0
     }

@@ -9,7 +9,7 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
-use colony_hub::{HubConfig, Server};
+use colony_hub::{HubSite, HubSpec, StartError};
 use colony_monitor::{Monitor, MonitorConfig};
 
 #[derive(clap::Args, Debug)]
@@ -56,23 +56,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             anyhow::bail!("--seconds must be a positive number of seconds");
         }
     }
-    let mut server = Server::bind(args.hub_bind.as_str(), HubConfig::default()).with_context(|| {
-        format!(
-            "cannot start the demo's hub on `{}` (is a hub already running there? choose another port with --hub-bind)",
-            args.hub_bind
-        )
-    })?;
-    let hub_addr = server.local_addr()?;
     let stop = super::stop_flag()?;
-    let hub_stop = stop.clone();
-    let hub = std::thread::Builder::new()
-        .name("demo-hub".into())
-        .spawn(move || server.run(&hub_stop))?;
-    let result = run_with_hub(&args, hub_addr, &stop);
-    stop.store(true, Ordering::Relaxed);
-    let hub_result = hub
-        .join()
-        .map_err(|_| anyhow::anyhow!("the hub thread panicked"))?;
+    let hub = HubSite::here_or_elsewhere(None, &HubSpec::new(args.hub_bind.as_str()), &stop)
+        .map_err(|e| match e {
+            StartError::Bind { addr, source } => anyhow::Error::new(source).context(format!(
+                "cannot start the demo's hub on `{addr}` (is a hub already running there? choose another port with --hub-bind)"
+            )),
+            e => e.into(),
+        })?;
+    let result = run_with_hub(&args, &hub.addr(), &stop);
+    let hub_result = hub.stop();
     result?;
     hub_result.context("the demo's hub failed")?;
     println!("colony demo: stopped");
@@ -81,7 +74,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
 fn run_with_hub(
     args: &Args,
-    hub_addr: std::net::SocketAddr,
+    hub_addr: &str,
     stop: &std::sync::atomic::AtomicBool,
 ) -> anyhow::Result<()> {
     let monitor = Monitor::start(&MonitorConfig {
@@ -104,7 +97,7 @@ fn run_with_hub(
             "--controllers",
             "thread",
             "--hub",
-            &hub_addr.to_string(),
+            hub_addr,
             "--speed",
             &args.speed.to_string(),
         ])

@@ -3,27 +3,15 @@
 //! players), live or fast-forwarded; `part` runs one part of a match on its
 //! own, so the parts can be separate processes that restart independently.
 
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::path::PathBuf;
 use std::time::{Duration, Instant, UNIX_EPOCH};
 
 use anyhow::Context as _;
-use colony_client::UdpClient;
-use colony_game::bot::Bot;
-use colony_game::live;
-use colony_game::logic::{roster, RobotEntry};
-use colony_game::map::Battlefield;
-use colony_game::matches::Match;
-use colony_game::protocol::{self, Event, GameState, Status};
-use colony_game::robot_node::RobotNode;
+use colony_game::live_match::{self, LiveMatch, MatchPlan};
 use colony_game::rules::{Mode, Rules, TeamSetup};
-use colony_game::server::Server as GameServer;
-use colony_game::world::GameWorld;
 use colony_hub::log::LogWriter;
-use colony_hub::{HubConfig, Server as HubServer};
+use colony_hub::{HubSite, HubSpec, StartError};
 use colony_monitor::{Monitor, MonitorConfig};
-use colony_sim::field::FieldConfig;
 
 /// The squads each team gets unless told otherwise: 19 of the 30 points.
 const DEFAULT_TEAM: &str = "alpha:tank,infantry,infantry bravo:scout,scout,amphibian";
@@ -133,162 +121,64 @@ pub fn run(cmd: GameCommand) -> anyhow::Result<()> {
     }
 }
 
-/// The map a mode plays on by default: the repository's, from wherever we run.
-fn default_map(mode: Mode) -> PathBuf {
-    let name = match mode {
-        Mode::CaptureTheFlag => "ctf.map",
-        Mode::DeathMatch => "dm.map",
-    };
-    let here = Path::new("maps").join(name);
-    if here.exists() {
-        return here;
-    }
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../maps")
-        .join(name)
+/// The teams as the flags give them.
+fn teams(setup: &Setup) -> anyhow::Result<Vec<TeamSetup>> {
+    Ok(vec![
+        TeamSetup::parse("red", &setup.red).context("--red")?,
+        TeamSetup::parse("blue", &setup.blue).context("--blue")?,
+    ])
 }
 
-/// Everything a part needs, checked.
-struct Game {
-    map: PathBuf,
-    field: Arc<Battlefield>,
-    rules: Rules,
-    roster: Vec<RobotEntry>,
-    teams: Vec<String>,
-}
-
-fn load(mode: Mode, setup: &Setup) -> anyhow::Result<Game> {
-    let path = setup.map.clone().unwrap_or_else(|| default_map(mode));
-    let field = Battlefield::from_file(&path)
-        .with_context(|| format!("cannot use the map `{}`", path.display()))?;
+fn load(mode: Mode, setup: &Setup) -> anyhow::Result<MatchPlan> {
+    let path = setup
+        .map
+        .clone()
+        .unwrap_or_else(|| live_match::default_map(mode));
     if !(setup.time_limit.is_finite() && setup.time_limit > 0.0) {
         anyhow::bail!("--time-limit must be a positive number of seconds");
     }
     let mut rules = Rules::new(mode);
     rules.budget = setup.budget;
     rules.time_limit_s = setup.time_limit;
-    let teams = vec![
-        TeamSetup::parse("red", &setup.red).context("--red")?,
-        TeamSetup::parse("blue", &setup.blue).context("--blue")?,
-    ];
-    let roster = roster(&field, &rules, &teams)?;
-    Ok(Game {
-        map: path,
-        field: Arc::new(field),
-        rules,
-        roster,
-        teams: teams.into_iter().map(|t| t.name).collect(),
-    })
+    Ok(MatchPlan::new(&path, rules, &teams(setup)?)?)
 }
 
 fn play(mode: Mode, args: MatchArgs) -> anyhow::Result<()> {
-    let game = load(mode, &args.setup)?;
+    let plan = load(mode, &args.setup)?;
     let p = &args.player;
-    if p != "none" && !game.teams.contains(p) {
+    if p != "none" && !plan.teams.contains(p) {
         anyhow::bail!(
             "--player {p}: no such team (teams: {}, or none)",
-            game.teams.join(", ")
+            plan.teams.join(", ")
         );
     }
     if args.fast {
-        return fast(game, &args);
+        return fast(&plan, &args);
     }
     if !(args.speed.is_finite() && args.speed > 0.0) {
         anyhow::bail!("--speed must be a positive number, not {}", args.speed);
     }
     let stop = super::stop_flag()?;
-    let mut hub_thread = None;
-    let hub_addr = match &args.hub {
-        Some(a) => a.clone(),
-        None => {
-            let mut server = HubServer::bind(args.hub_bind.as_str(), HubConfig::default())
-                .with_context(|| {
-                    format!(
-                        "cannot start the match's hub on `{}` (is one running there? choose another port with --hub-bind, or join it with --hub)",
-                        args.hub_bind
-                    )
-                })?;
-            if let Some(path) = &args.record {
-                let (log, _) = LogWriter::open(path)?;
-                server = server.with_log(log);
-            }
-            let addr = server.local_addr()?.to_string();
-            let s = stop.clone();
-            hub_thread = Some(
-                std::thread::Builder::new()
-                    .name("game-hub".into())
-                    .spawn(move || server.run(&s))?,
-            );
-            addr
-        }
+    let spec = HubSpec {
+        log: args.record.clone(),
+        ..HubSpec::new(args.hub_bind.as_str())
     };
-    let result = live_match(&game, &args, &hub_addr, &stop);
-    stop.store(true, Ordering::Relaxed);
-    if let Some(h) = hub_thread {
-        h.join()
-            .map_err(|_| anyhow::anyhow!("the hub thread panicked"))?
-            .context("the match's hub failed")?;
-    }
+    let hub = HubSite::here_or_elsewhere(args.hub.as_deref(), &spec, &stop).map_err(|e| match e {
+        StartError::Bind { addr, source } => anyhow::Error::new(source).context(format!(
+            "cannot start the match's hub on `{addr}` (is one running there? choose another port with --hub-bind, or join it with --hub)"
+        )),
+        e => e.into(),
+    })?;
+    let result = live(&plan, &args, &hub.addr(), &stop);
+    hub.stop().context("the match's hub failed")?;
     result
 }
 
-fn connect(hub: &str) -> anyhow::Result<UdpClient> {
-    UdpClient::connect(hub).with_context(|| format!("cannot reach a hub at `{hub}`"))
-}
-
-type Parts = Vec<std::thread::JoinHandle<anyhow::Result<()>>>;
-/// A part's loop, given its own hub client and the stop flag.
-type PartLoop = Box<dyn FnOnce(&mut UdpClient, &AtomicBool) -> anyhow::Result<()> + Send>;
-
-/// Starts the parts of a match as threads, each with its own hub client.
-fn spawn_parts(
-    game: &Game,
-    bots: &[String],
-    hub: &str,
-    speed: f64,
-    stop: &Arc<AtomicBool>,
-) -> anyhow::Result<Parts> {
-    let mut parts: Parts = Vec::new();
-    let spawn = |name: String, parts: &mut Parts, f: PartLoop| -> anyhow::Result<()> {
-        let mut client = connect(hub)?;
-        let stop = stop.clone();
-        parts.push(
-            std::thread::Builder::new()
-                .name(name)
-                .spawn(move || f(&mut client, &stop))?,
-        );
-        Ok(())
-    };
-    let mut world = GameWorld::new(&game.field, &game.roster)?;
-    let step = FieldConfig::default().control_step;
-    spawn(
-        "game-world".into(),
-        &mut parts,
-        Box::new(move |c, s| Ok(live::run_world(&mut world, c, step, speed, None, s)?)),
-    )?;
-    let mut server = GameServer::new(game.field.clone(), game.rules.clone(), game.roster.clone());
-    spawn(
-        "game-server".into(),
-        &mut parts,
-        Box::new(move |c, s| Ok(live::run_node(&mut server, c, s)?)),
-    )?;
-    parts.extend(spawn_robots(game, hub, stop)?);
-    for team in bots {
-        let mut bot = Bot::new(team);
-        spawn(
-            format!("bot-{team}"),
-            &mut parts,
-            Box::new(move |c, s| Ok(live::run_node(&mut bot, c, s)?)),
-        )?;
-    }
-    Ok(parts)
-}
-
-fn live_match(
-    game: &Game,
+fn live(
+    plan: &MatchPlan,
     args: &MatchArgs,
     hub: &str,
-    stop: &Arc<AtomicBool>,
+    stop: &std::sync::Arc<std::sync::atomic::AtomicBool>,
 ) -> anyhow::Result<()> {
     let monitor = if args.no_monitor {
         None
@@ -306,20 +196,20 @@ fn live_match(
             })?,
         )
     };
-    let bots: Vec<String> = game
+    let bots: Vec<String> = plan
         .teams
         .iter()
         .filter(|t| **t != args.player)
         .cloned()
         .collect();
-    let parts = spawn_parts(game, &bots, hub, args.speed, stop)?;
+    let running = LiveMatch::start(plan, hub, args.speed, &bots, stop)?;
     match &monitor {
         Some(m) => println!(
             "colony game: {} on {} ({} x {} cells); open {}/game{} (hub {hub}); Ctrl-C stops",
-            game.rules.mode,
-            game.map.display(),
-            game.field.grid.width(),
-            game.field.grid.height(),
+            plan.rules.mode,
+            plan.map.display(),
+            plan.field.grid.width(),
+            plan.field.grid.height(),
             m.url().trim_end_matches('/'),
             if args.player == "none" {
                 String::new()
@@ -329,89 +219,26 @@ fn live_match(
         ),
         None => println!(
             "colony game: {} running (hub {hub}); Ctrl-C stops",
-            game.rules.mode
+            plan.rules.mode
         ),
     }
-    let mut watcher = connect(hub)?;
-    watcher.subscribe(protocol::STATE)?;
-    watcher.subscribe(protocol::EVENT)?;
     let deadline = args
         .seconds
         .map(|s| Instant::now() + Duration::from_secs_f64(s.max(0.0)));
-    let mut over = false;
-    let mut outcome = Ok(());
-    while !stop.load(Ordering::Relaxed) && deadline.is_none_or(|d| Instant::now() < d) {
-        watcher.wait(Some(Instant::now() + Duration::from_millis(100)))?;
-        watcher.poll(Instant::now())?;
-        while let Some(packet) = watcher.recv()? {
-            if let Ok(e) = Event::decode(&packet) {
-                if worth_printing(&e) {
-                    println!("{:>7.1} s  {}: {}", e.time, e.kind, e.text);
-                }
-            } else if let Ok(s) = GameState::decode(&packet) {
-                if s.status == Status::Over && !over {
-                    over = true;
-                    println!("{}", result_line(&s));
-                }
-            }
-        }
-        if let Some(i) = parts.iter().position(|p| p.is_finished()) {
-            outcome = Err(anyhow::anyhow!("a part of the match (thread {i}) stopped"));
-            break;
-        }
-        if monitor.as_ref().is_some_and(|m| !m.is_running()) {
-            outcome = Err(anyhow::anyhow!("the monitor stopped"));
-            break;
-        }
-    }
-    stop.store(true, Ordering::Relaxed);
-    for p in parts {
-        match p.join() {
-            Ok(Err(e)) if outcome.is_ok() => outcome = Err(e),
-            Err(_) if outcome.is_ok() => outcome = Err(anyhow::anyhow!("a part panicked")),
-            _ => {}
-        }
-    }
+    let monitor_gone = || {
+        monitor
+            .as_ref()
+            .is_some_and(|m| !m.is_running())
+            .then(|| "the monitor".to_string())
+    };
+    let outcome = running.supervise(stop, deadline, monitor_gone, |l| println!("{l}"));
     if let Some(m) = monitor {
         m.shutdown()?;
     }
-    outcome
+    Ok(outcome?)
 }
 
-/// Whether an event is worth a line on the terminal: not every hit, and not
-/// the shots robots fire in the moment before they learn their target is gone.
-fn worth_printing(e: &Event) -> bool {
-    match e.kind.as_str() {
-        "hit" | "beep" => false,
-        "refused" => !e.text.contains(" fires at "),
-        _ => true,
-    }
-}
-
-fn result_line(s: &GameState) -> String {
-    let score: Vec<String> = s
-        .teams
-        .iter()
-        .map(|t| format!("{} {} (kills {})", t.name, t.score, t.kills))
-        .collect();
-    format!(
-        "result: {} ({}) after {:.1} s of game time; score {}",
-        s.winner
-            .as_ref()
-            .map_or("a draw".to_string(), |w| format!("{w} wins")),
-        s.reason,
-        s.time,
-        score.join(", ")
-    )
-}
-
-fn fast(game: Game, args: &MatchArgs) -> anyhow::Result<()> {
-    let bots: Vec<&str> = game.teams.iter().map(String::as_str).collect();
-    let teams: Vec<TeamSetup> = vec![
-        TeamSetup::parse("red", &args.setup.red)?,
-        TeamSetup::parse("blue", &args.setup.blue)?,
-    ];
-    let mut m = Match::new(game.field.clone(), game.rules.clone(), &teams, &bots)?;
+fn fast(plan: &MatchPlan, args: &MatchArgs) -> anyhow::Result<()> {
     let mut log = match &args.record {
         Some(path) => Some(LogWriter::open(path)?.0),
         None => None,
@@ -426,19 +253,10 @@ fn fast(game: Game, args: &MatchArgs) -> anyhow::Result<()> {
             }
         }
     };
-    let steps = (game.rules.time_limit_s / FieldConfig::default().control_step).ceil() as u64 + 1;
     let t0 = Instant::now();
-    let mut shown = 0;
-    while !m.is_over() && m.world().field().step_count() < steps {
-        m.step(&mut tap);
-        for e in &m.events()[shown..] {
-            if worth_printing(e) {
-                println!("{:>7.1} s  {}: {}", e.time, e.kind, e.text);
-            }
-        }
-        shown = m.events().len();
-    }
-    m.step(&mut tap);
+    let outcome = live_match::fast_forward(plan, &teams(&args.setup)?, &mut tap, &mut |l| {
+        println!("{l}")
+    });
     let wall = t0.elapsed().as_secs_f64();
     if let Some(e) = log_error {
         return Err(e).context("cannot write the traffic log");
@@ -446,67 +264,37 @@ fn fast(game: Game, args: &MatchArgs) -> anyhow::Result<()> {
     if let Some(w) = &mut log {
         w.flush().context("cannot write the traffic log")?;
     }
-    let state = m.state().context("the match published no state")?;
-    println!("{}", result_line(state));
-    let game_time = m.world().time();
+    let outcome = outcome?;
+    println!("{}", outcome.result);
     println!(
         "{} steps, {:.1} s of game time in {:.2} s ({:.0}x real time); {} packets",
-        m.world().field().step_count(),
-        game_time,
+        outcome.steps,
+        outcome.game_time,
         wall,
-        game_time / wall.max(1e-9),
-        m.traffic().0
+        outcome.game_time / wall.max(1e-9),
+        outcome.packets
     );
     Ok(())
 }
 
 fn part(args: PartArgs) -> anyhow::Result<()> {
     let mode: Mode = args.mode.parse()?;
-    let game = load(mode, &args.setup)?;
-    let stop = super::stop_flag()?;
-    let mut client = args.hub.connect()?;
-    match args.part {
-        PartKind::World => {
-            let mut world = GameWorld::new(&game.field, &game.roster)?;
-            let step = FieldConfig::default().control_step;
-            live::run_world(&mut world, &mut client, step, args.speed, None, &stop)?;
-        }
-        PartKind::Server => {
-            let mut server = GameServer::new(game.field.clone(), game.rules, game.roster);
-            live::run_node(&mut server, &mut client, &stop)?;
-        }
-        PartKind::Robots => {
-            drop(client);
-            let parts = spawn_robots(&game, &args.hub.addr, &stop)?;
-            for p in parts {
-                p.join()
-                    .map_err(|_| anyhow::anyhow!("a robot thread panicked"))??;
-            }
-        }
+    let plan = load(mode, &args.setup)?;
+    let part = match args.part {
+        PartKind::World => live_match::PartKind::World,
+        PartKind::Server => live_match::PartKind::Server,
+        PartKind::Robots => live_match::PartKind::Robots,
         PartKind::Bot => {
             let team = args
                 .team
                 .context("the bot needs --team (which team it plays)")?;
-            if !game.teams.contains(&team) {
+            if !plan.teams.contains(&team) {
                 anyhow::bail!("--team {team}: no such team");
             }
-            live::run_node(&mut Bot::new(&team), &mut client, &stop)?;
+            live_match::PartKind::Bot(team)
         }
-    }
+    };
+    let stop = super::stop_flag()?;
+    live_match::run_part(&plan, &part, &args.hub.addr, args.speed, &stop)?;
     Ok(())
-}
-
-fn spawn_robots(game: &Game, hub: &str, stop: &Arc<AtomicBool>) -> anyhow::Result<Parts> {
-    let mut parts: Parts = Vec::new();
-    for e in &game.roster {
-        let mut client = connect(hub)?;
-        let mut node = RobotNode::new(e.id, e.kind);
-        let stop = stop.clone();
-        parts.push(
-            std::thread::Builder::new()
-                .name(format!("robot-{}", e.id))
-                .spawn(move || Ok(live::run_node(&mut node, &mut client, &stop)?))?,
-        );
-    }
-    Ok(parts)
 }

@@ -3,9 +3,7 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use anyhow::Context as _;
-use colony_hub::log::LogWriter;
-use colony_hub::{HubConfig, Server};
+use colony_hub::{HubConfig, HubSpec, Server, StartError};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -45,27 +43,18 @@ pub fn config(args: &Args) -> anyhow::Result<HubConfig> {
     })
 }
 
-/// Binds the hub (and opens its log) as `args` say.
-pub fn server(args: &Args) -> anyhow::Result<Server> {
-    let config = config(args)?;
-    let mut server = Server::bind(args.bind.as_str(), config).with_context(|| {
-        format!(
-            "cannot listen on `{}` (is another hub running there?)",
-            args.bind
-        )
-    })?;
-    if let Some(path) = &args.log {
-        let (log, torn) = LogWriter::open(path)?;
-        if let Some(t) = torn {
-            tracing::warn!(path = %path.display(), offset = t.offset, bytes = t.bytes, "cut a torn record from the end of the log");
-        }
-        server = server.with_log(log);
-    }
-    Ok(server)
-}
-
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut server = server(&args)?;
+    let spec = HubSpec {
+        bind: args.bind.clone(),
+        config: config(&args)?,
+        log: args.log.clone(),
+    };
+    let mut server = Server::start(&spec).map_err(|e| match e {
+        StartError::Bind { addr, source } => anyhow::Error::new(source).context(format!(
+            "cannot listen on `{addr}` (is another hub running there?)"
+        )),
+        e => e.into(),
+    })?;
     let stop = super::stop_flag()?;
     tracing::info!(addr = %server.local_addr()?, log = ?args.log, "hub listening");
     server.run(&stop)?;

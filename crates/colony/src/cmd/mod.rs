@@ -33,8 +33,7 @@ pub struct HubAddr {
 
 impl HubAddr {
     pub fn connect(&self) -> anyhow::Result<UdpClient> {
-        UdpClient::connect(self.addr.as_str())
-            .with_context(|| format!("cannot reach a hub at `{}`", self.addr))
+        Ok(UdpClient::connect_to(&self.addr)?)
     }
 }
 

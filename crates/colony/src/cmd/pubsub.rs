@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use colony_client::HubState;
-use colony_wire::{Packet, PacketBuilder, Priority, Subject};
+use colony_wire::{split_packets, Packet, PacketBuilder, Priority, Subject};
 
 use super::HubAddr;
 
@@ -94,23 +94,6 @@ pub fn publish(args: PubArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Cuts text holding several packets at each header line.
-fn split_packets(text: &str) -> Vec<&str> {
-    let mut starts: Vec<usize> = Vec::new();
-    let mut offset = 0;
-    for line in text.split_inclusive('\n') {
-        if line.starts_with('@') {
-            starts.push(offset);
-        }
-        offset += line.len();
-    }
-    starts
-        .iter()
-        .enumerate()
-        .map(|(i, &s)| &text[s..starts.get(i + 1).copied().unwrap_or(text.len())])
-        .collect()
-}
-
 pub fn subscribe(args: SubArgs) -> anyhow::Result<()> {
     let mut client = args.hub.connect()?;
     for s in &args.subjects {
@@ -180,15 +163,6 @@ mod tests {
         let words = vec!["bad!subject".to_string()];
         let e = split_words(&words).unwrap_err().to_string();
         assert!(e.contains("bad!subject"), "{e}");
-    }
-
-    #[test]
-    fn stdin_packets_split_at_headers() {
-        let text = "@ <a> 0\nx y 1\n@ <b> 1\nz w 2\n";
-        assert_eq!(
-            split_packets(text),
-            ["@ <a> 0\nx y 1\n", "@ <b> 1\nz w 2\n"]
-        );
     }
 
     #[test]

@@ -1,13 +1,14 @@
 //! `colony sort`: swarm-sorting experiments, the paper's reproduction, and live mode.
 
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::sync::atomic::Ordering;
 
 use anyhow::Context as _;
 use colony_sim::SceneConfig;
 use colony_sort::experiment::{run_trials, write_csv, Disturbance, StepCounter, TrialSpec};
-use colony_sort::methods::{build, Method};
+use colony_sort::live::launch::{self, Swarm, SwarmSpec};
+use colony_sort::methods::Method;
 use colony_sort::params::SortParams;
 use colony_sort::report;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -279,18 +280,6 @@ fn reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Child processes that are killed when this value drops, however we leave.
-struct Children(Vec<Child>);
-
-impl Drop for Children {
-    fn drop(&mut self) {
-        for c in &mut self.0 {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
-}
-
 fn setup_args(setup: &Setup) -> Vec<String> {
     let mut v = Vec::new();
     if let Some(p) = &setup.scene {
@@ -305,90 +294,69 @@ fn setup_args(setup: &Setup) -> Vec<String> {
     v
 }
 
+fn swarm_spec(hub: &HubAddr, setup: &Setup, method: &str, seed: u64) -> anyhow::Result<SwarmSpec> {
+    let method = self::method(method)?;
+    let (scene, params) = setup.load()?;
+    Ok(SwarmSpec {
+        hub: hub.addr.clone(),
+        scene,
+        params,
+        method,
+        seed,
+    })
+}
+
 fn live(a: LiveArgs) -> anyhow::Result<()> {
-    let method = method(&a.method)?;
-    let (scene, params) = a.setup.load()?;
-    let mut world = colony_sim::World::new(&scene, a.seed)?;
+    let spec = swarm_spec(&a.hub, &a.setup, &a.method, a.seed)?;
     let stop = super::stop_flag()?;
-    let n = world.robot_count();
-    let mut children = Children(Vec::new());
-    let mut threads = Vec::new();
-    if a.controllers == Controllers::Thread {
-        for id in 0..n {
-            let mut controller = build(method, &params, scene.pucks.kinds, scene.arena.width);
-            let mut client = a.hub.connect()?;
-            let (stop, seed) = (stop.clone(), a.seed);
-            threads.push(std::thread::spawn(move || {
-                colony_sort::live::robot::run(id, controller.as_mut(), &mut client, seed, &stop)
-            }));
-        }
-    } else if a.controllers == Controllers::Process {
-        let exe = std::env::current_exe()
-            .context("cannot find the colony executable to start robot processes")?;
-        for id in 0..n {
-            let child = Command::new(&exe)
-                .args([
+    let controllers = match a.controllers {
+        Controllers::Thread => launch::Controllers::Threads,
+        Controllers::External => launch::Controllers::External,
+        Controllers::Process => {
+            let exe = std::env::current_exe()
+                .context("cannot find the colony executable to start robot processes")?;
+            let (hub, method, seed) = (a.hub.addr.clone(), a.method.clone(), a.seed);
+            let setup = setup_args(&a.setup);
+            launch::Controllers::Processes(Box::new(move |id| {
+                let mut c = Command::new(&exe);
+                c.args([
                     "sort",
                     "robot",
                     "--hub",
-                    &a.hub.addr,
+                    &hub,
                     "--id",
                     &id.to_string(),
                     "--method",
-                    &a.method,
+                    &method,
                     "--seed",
-                    &a.seed.to_string(),
+                    &seed.to_string(),
                 ])
-                .args(setup_args(&a.setup))
-                .stdin(Stdio::null())
-                .spawn()
-                .with_context(|| format!("cannot start the controller of robot {id}"))?;
-            children.0.push(child);
+                .args(&setup);
+                c
+            }))
         }
-    }
-    let mut client = a.hub.connect()?;
-    let options = colony_sort::live::world::WorldOptions {
-        step_seconds: scene.physics.dt * scene.physics.substeps as f64,
-        speed: a.speed,
-        command_timeout_steps: 10,
-        max_steps: a.steps,
-        metrics_every: 10,
-        cluster_threshold: params.perception.cluster_threshold_cm,
     };
+    let swarm = Swarm::launch(&spec, controllers, &stop)?;
     eprintln!(
-        "colony: live {} with {n} robots on the hub at {} ({}x real time)",
-        method, a.hub.addr, a.speed
+        "colony: live {} with {} robots on the hub at {} ({}x real time)",
+        spec.method,
+        swarm.robot_count(),
+        a.hub.addr,
+        a.speed
     );
-    let threshold = params.perception.cluster_threshold_cm;
-    let result = colony_sort::live::world::run(&mut world, &mut client, &options, &stop, |w| {
+    let threshold = spec.params.perception.cluster_threshold_cm;
+    swarm.run(a.speed, a.steps, |w| {
         if w.step_count() % 500 == 0 {
             let pc = colony_sort::metrics::percentage_completion(&w.pucks(), threshold);
             eprintln!("colony: step {} PC {pc:.1} %", w.step_count());
         }
-    });
-    stop.store(true, Ordering::Relaxed);
-    for t in threads {
-        let _ = t.join();
-    }
-    drop(children);
-    result?;
+    })?;
     Ok(())
 }
 
 fn robot(a: RobotArgs) -> anyhow::Result<()> {
-    let method = method(&a.method)?;
-    let (scene, params) = a.setup.load()?;
-    if a.id >= scene.robots.count {
-        anyhow::bail!(
-            "--id {} is out of range: the scene has {} robots (0 to {})",
-            a.id,
-            scene.robots.count,
-            scene.robots.count.saturating_sub(1)
-        );
-    }
-    let mut controller = build(method, &params, scene.pucks.kinds, scene.arena.width);
-    let mut client = a.hub.connect()?;
+    let spec = swarm_spec(&a.hub, &a.setup, &a.method, a.seed)?;
     let stop = super::stop_flag()?;
-    colony_sort::live::robot::run(a.id, controller.as_mut(), &mut client, a.seed, &stop)?;
+    launch::run_controller(&spec, a.id, &stop)?;
     Ok(())
 }

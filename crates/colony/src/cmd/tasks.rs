@@ -3,11 +3,10 @@
 //! `compare` sets its greedy auctions against the optimal assignment.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use anyhow::Context as _;
-use colony_hub::{HubConfig, Server};
+use colony_hub::{HubSite, HubSpec};
 use colony_tasks::experiment::{boxpush, longterm, optimal};
 
 #[derive(clap::Subcommand, Debug)]
@@ -97,17 +96,13 @@ fn demo(args: DemoArgs) -> anyhow::Result<()> {
         );
     }
     let stop = super::stop_flag()?;
-    let mut own_hub = None;
-    let addr = match &args.hub {
-        Some(a) => super::HubAddr { addr: a.clone() }.connect()?.hub_addr(),
-        None => {
-            let mut server = Server::bind("127.0.0.1:0", HubConfig::default())
-                .context("cannot start a hub on loopback")?;
-            let addr = server.local_addr()?;
-            let s = stop.clone();
-            own_hub = Some(std::thread::spawn(move || server.run(&s)));
-            println!("hub on {addr}");
-            addr
+    let site = HubSite::here_or_elsewhere(args.hub.as_deref(), &HubSpec::new("127.0.0.1:0"), &stop)
+        .context("cannot start a hub on loopback")?;
+    let addr = match &site {
+        HubSite::Elsewhere(a) => super::HubAddr { addr: a.clone() }.connect()?.hub_addr(),
+        HubSite::Here(h) => {
+            println!("hub on {}", h.addr());
+            h.addr()
         }
     };
     let config = colony_tasks::demo::DemoConfig {
@@ -125,10 +120,7 @@ fn demo(args: DemoArgs) -> anyhow::Result<()> {
         summary.unachievable,
         summary.recharges
     );
-    stop.store(true, Ordering::Relaxed);
-    if let Some(h) = own_hub {
-        let _ = h.join();
-    }
+    let _ = site.stop();
     Ok(())
 }
 

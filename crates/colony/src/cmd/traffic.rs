@@ -1,12 +1,11 @@
 //! `colony log` and `colony replay`: reading traffic logs.
 
-use std::path::PathBuf;
-use std::sync::atomic::Ordering;
-use std::time::{Duration, Instant};
+use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-use colony_hub::log::{LogReader, Record};
-use colony_wire::{Packet, HUB_SUBJECT};
+use colony_hub::log::TornTail;
+use colony_hub::replay::{for_each_timed, on_channels, ReplayOptions};
+use colony_wire::Packet;
 
 use super::HubAddr;
 
@@ -39,46 +38,23 @@ pub struct ReplayArgs {
     pub channels: Vec<String>,
 }
 
-fn wanted(packet: &Packet<'_>, channels: &[String]) -> bool {
-    channels.is_empty() || packet.subjects().any(|s| channels.iter().any(|c| c == s))
-}
-
-/// Reads every whole record, calling `each` with the time since the first;
-/// reports a torn tail on standard error, as the loss it is not.
-fn each_record(
-    file: &PathBuf,
-    mut each: impl FnMut(Duration, &Record) -> anyhow::Result<bool>,
-) -> anyhow::Result<u64> {
-    let mut reader = LogReader::open(file)?;
-    let mut first: Option<u64> = None;
-    let mut count = 0;
-    for record in reader.by_ref() {
-        let record = record?;
-        let t0 = *first.get_or_insert(record.time_us);
-        count += 1;
-        if !each(
-            Duration::from_micros(record.time_us.saturating_sub(t0)),
-            &record,
-        )? {
-            return Ok(count);
-        }
-    }
-    if let Some(t) = reader.torn_tail() {
+/// Says on standard error that the log ends in a torn record, as the loss it is not.
+fn report_torn(file: &Path, pass_records: u64, torn: Option<&TornTail>) {
+    if let Some(t) = torn {
         eprintln!(
-            "colony: {} ends in a torn record at byte {} ({} bytes, a write cut short); all {count} records before it were read",
+            "colony: {} ends in a torn record at byte {} ({} bytes, a write cut short); all {pass_records} records before it were read",
             file.display(),
             t.offset,
             t.bytes
         );
     }
-    Ok(count)
 }
 
 pub fn list(args: LogArgs) -> anyhow::Result<()> {
     use std::io::Write as _;
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
-    each_record(&args.file, |since, record| {
+    let pass = for_each_timed(&args.file, |since, record| -> anyhow::Result<bool> {
         let s = since.as_secs_f64();
         if args.from.is_some_and(|f| s < f) {
             return Ok(true);
@@ -87,7 +63,7 @@ pub fn list(args: LogArgs) -> anyhow::Result<()> {
             return Ok(false);
         }
         match Packet::parse(&record.payload) {
-            Ok(p) if wanted(&p, &args.channels) => {
+            Ok(p) if on_channels(&p, &args.channels) => {
                 writeln!(out, "# +{s:.6} s from {}", record.source)?;
                 write!(out, "{p}")?;
             }
@@ -100,6 +76,7 @@ pub fn list(args: LogArgs) -> anyhow::Result<()> {
         }
         Ok(true)
     })?;
+    report_torn(&args.file, pass.records, pass.torn.as_ref());
     out.flush()?;
     Ok(())
 }
@@ -110,32 +87,18 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
     }
     let mut client = args.hub.connect()?;
     let stop = super::stop_flag()?;
-    let start = Instant::now();
-    let mut first_sent: Option<Duration> = None;
-    let mut sent = 0u64;
-    each_record(&args.file, |since, record| {
-        if stop.load(Ordering::Relaxed) {
-            return Ok(false);
-        }
-        let Ok(packet) = Packet::parse(&record.payload) else {
-            return Ok(true);
-        };
-        // Control requests belonged to their senders; only published traffic is replayed.
-        if packet.has_subject(HUB_SUBJECT) || !wanted(&packet, &args.channels) {
-            return Ok(true);
-        }
-        let offset = since - *first_sent.get_or_insert(since);
-        let due = start + offset.div_f64(args.speed);
-        let now = Instant::now();
-        if due > now {
-            std::thread::sleep(due - now);
-        }
-        client
-            .publish(&record.payload)
-            .context("cannot publish a logged packet")?;
-        sent += 1;
-        Ok(true)
+    let options = ReplayOptions {
+        speed: args.speed,
+        channels: args.channels.clone(),
+    };
+    let replayed = colony_hub::replay::replay(&args.file, &options, &stop, |p| {
+        client.publish(p).context("cannot publish a logged packet")
     })?;
-    eprintln!("colony: replayed {sent} packets to {}", client.hub_addr());
+    report_torn(&args.file, replayed.records, replayed.torn.as_ref());
+    eprintln!(
+        "colony: replayed {} packets to {}",
+        replayed.sent,
+        client.hub_addr()
+    );
     Ok(())
 }

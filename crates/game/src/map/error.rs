@@ -6,7 +6,7 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum MapError {
     /// The file could not be read.
-    #[error("cannot read map {path}: {source}", path = .path.display())]
+    #[error("cannot read map {path}", path = .path.display())]
     Read {
         /// The file that could not be read.
         path: PathBuf,

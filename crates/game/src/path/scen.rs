@@ -42,7 +42,7 @@ pub struct Query {
 #[derive(Debug, thiserror::Error)]
 pub enum ScenError {
     /// The file could not be read.
-    #[error("cannot read scenario {path}: {source}", path = .path.display())]
+    #[error("cannot read scenario {path}", path = .path.display())]
     Read {
         /// The file.
         path: PathBuf,

@@ -10,6 +10,7 @@
 //! Every packet is one of [`colony_proto`]'s messages: [`colony_proto::swarm`] for
 //! `camera.N`, `vision`, `debug` and `metrics`, [`colony_proto::radio`] for the commands.
 
+pub mod launch;
 pub mod robot;
 pub mod world;
 

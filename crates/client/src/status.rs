@@ -1,0 +1,172 @@
+//! Asking a hub what it knows (`colony status`): its clients, channels and
+//! drops, and that report written out for people.
+
+use std::fmt::Write as _;
+use std::io;
+use std::time::{Duration, Instant};
+
+use colony_wire::{Reply, Request, StatusReport};
+
+use crate::{ClientError, ConnectError, UdpClient};
+
+/// The channel a status request subscribes to, for the lease the hub wants
+/// to see before it sends a status report.
+pub const STATUS_CHANNEL: &str = "colony-status";
+
+/// Why no status report came back.
+#[derive(Debug, thiserror::Error)]
+pub enum StatusError {
+    /// The address is not a hub's (it does not resolve, or cannot be reached).
+    #[error(transparent)]
+    Connect(#[from] ConnectError),
+    /// Nothing answered in time.
+    #[error("no answer from a hub at {addr} within {:.1} s (is `colony hub` running there?)", timeout.as_secs_f64())]
+    NoAnswer {
+        /// The hub's address, resolved.
+        addr: std::net::SocketAddr,
+        /// How long we waited.
+        timeout: Duration,
+    },
+    /// The client failed while asking.
+    #[error(transparent)]
+    Client(#[from] ClientError),
+    /// The socket failed while waiting.
+    #[error(transparent)]
+    Io(#[from] io::Error),
+}
+
+/// Takes a lease on [`STATUS_CHANNEL`], asks the hub at `hub` for its
+/// status, and waits up to `timeout` for the answer. Leaves no lease behind.
+pub fn fetch_status(hub: &str, timeout: Duration) -> Result<StatusReport, StatusError> {
+    let mut client = UdpClient::connect_to(hub)?;
+    client.subscribe(STATUS_CHANNEL)?;
+    let deadline = Instant::now() + timeout;
+    let mut leased = false;
+    let mut next_ask = Instant::now();
+    while Instant::now() < deadline {
+        if Instant::now() >= next_ask {
+            // Ask again every 300 ms: either datagram may be lost, and the
+            // hub answers status only once our lease is in place.
+            if leased {
+                client.request(&[Request::Status])?;
+            } else {
+                client.poll(Instant::now())?;
+            }
+            next_ask = Instant::now() + Duration::from_millis(300);
+        }
+        client.wait(Some(next_ask.min(deadline)))?;
+        while let Some(reply) = client.recv_reply()? {
+            match reply {
+                Reply::Lease { .. } if !leased => {
+                    leased = true;
+                    client.request(&[Request::Status])?;
+                }
+                Reply::Status(report) => {
+                    // Leave nothing behind: the lease was only for asking.
+                    client.unsubscribe_all()?;
+                    return Ok(report);
+                }
+                Reply::Lease { .. } => {}
+            }
+        }
+    }
+    Err(StatusError::NoAnswer {
+        addr: client.hub_addr(),
+        timeout,
+    })
+}
+
+/// The report as `colony status` prints it: a summary line, then channels,
+/// clients and drops, one per line.
+pub fn format_report(r: &StatusReport) -> String {
+    let mut out = String::new();
+    let min = if r.min_priority.0 == i32::MIN {
+        "none".to_string()
+    } else {
+        r.min_priority.to_string()
+    };
+    let _ = writeln!(
+        out,
+        "hub up {:.1} s, lease {:.1} s, minimum priority {min}, {} client(s){}",
+        r.uptime_ms as f64 / 1000.0,
+        r.lease_ms as f64 / 1000.0,
+        r.client_count,
+        if r.truncated {
+            " (report cut to fit one datagram)"
+        } else {
+            ""
+        }
+    );
+    let _ = writeln!(out, "\nchannels:");
+    if r.channels.is_empty() {
+        let _ = writeln!(out, "  (no packets yet)");
+    }
+    for c in &r.channels {
+        let _ = writeln!(
+            out,
+            "  {:<24} {:>10} packets {:>12} bytes",
+            c.subjects, c.packets, c.bytes
+        );
+    }
+    let _ = writeln!(out, "\nclients:");
+    for c in &r.clients {
+        let subs: Vec<String> = c
+            .subscriptions
+            .iter()
+            .map(|(s, left)| format!("{s} ({:.1} s)", *left as f64 / 1000.0))
+            .collect();
+        let _ = writeln!(
+            out,
+            "  {:<22} idle {:>6.1} s  {}",
+            c.addr,
+            c.idle_ms as f64 / 1000.0,
+            subs.join(", ")
+        );
+    }
+    let _ = writeln!(out, "\ndrops:");
+    if r.drops.is_empty() {
+        let _ = writeln!(out, "  none");
+    }
+    for (reason, n) in &r.drops {
+        let _ = writeln!(out, "  {reason:<24} {n:>10}");
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use colony_wire::{ChannelInfo, Priority};
+
+    #[test]
+    fn a_report_lists_channels_and_says_when_nothing_was_dropped() {
+        let r = StatusReport {
+            uptime_ms: 1500,
+            lease_ms: 10_000,
+            min_priority: Priority(i32::MIN),
+            client_count: 0,
+            channels: vec![ChannelInfo {
+                subjects: "vision".into(),
+                packets: 1,
+                bytes: 20,
+            }],
+            ..StatusReport::default()
+        };
+        let text = format_report(&r);
+        assert!(
+            text.starts_with("hub up 1.5 s, lease 10.0 s, minimum priority none, 0 client(s)\n")
+        );
+        assert!(text.contains("vision") && text.contains("1 packets"));
+        assert!(text.ends_with("drops:\n  none\n"));
+    }
+
+    #[test]
+    fn a_silent_address_is_no_answer() {
+        let quiet = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        let addr = quiet.local_addr().unwrap().to_string();
+        match fetch_status(&addr, Duration::from_millis(50)) {
+            Err(StatusError::NoAnswer { .. }) => {}
+            other => panic!("{other:?}"),
+        }
+    }
+}

@@ -1,0 +1,200 @@
+//! Reading a traffic log in time: each record with its time since the first,
+//! and publishing a log again with its original timing (`colony log` and
+//! `colony replay`).
+
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use colony_wire::{Packet, HUB_SUBJECT};
+
+use crate::log::{LogError, LogReader, Record, TornTail};
+
+/// Whether `packet` is on one of `channels` (any subject of its header
+/// counts); every packet is when `channels` is empty.
+pub fn on_channels(packet: &Packet<'_>, channels: &[String]) -> bool {
+    channels.is_empty() || packet.subjects().any(|s| channels.iter().any(|c| c == s))
+}
+
+/// What a pass over a log found.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Pass {
+    /// Records handed to the caller.
+    pub records: u64,
+    /// The torn record the log ends in, if a crash cut its last write short
+    /// (everything before it was read; it is no loss of a whole record).
+    pub torn: Option<TornTail>,
+}
+
+/// Calls `each` with every whole record of the log at `path` and its time
+/// since the log's first record, until `each` returns false.
+pub fn for_each_timed<E: From<LogError>>(
+    path: impl AsRef<Path>,
+    mut each: impl FnMut(Duration, &Record) -> Result<bool, E>,
+) -> Result<Pass, E> {
+    let mut reader = LogReader::open(path)?;
+    let mut first: Option<u64> = None;
+    let mut records = 0;
+    for record in reader.by_ref() {
+        let record = record?;
+        let t0 = *first.get_or_insert(record.time_us);
+        records += 1;
+        if !each(
+            Duration::from_micros(record.time_us.saturating_sub(t0)),
+            &record,
+        )? {
+            return Ok(Pass {
+                records,
+                torn: None,
+            });
+        }
+    }
+    Ok(Pass {
+        records,
+        torn: reader.torn_tail().cloned(),
+    })
+}
+
+/// When each packet of a replay is due: the first at once, every later one
+/// as long after it as in the log, divided by the speed.
+#[derive(Debug, Clone)]
+pub struct Pacer {
+    start: Instant,
+    speed: f64,
+    first: Option<Duration>,
+}
+
+impl Pacer {
+    /// A replay starting at `start`, `speed` times faster than the log (2: twice as fast).
+    ///
+    /// # Panics
+    ///
+    /// If `speed` is not a positive, finite number.
+    pub fn new(start: Instant, speed: f64) -> Pacer {
+        assert!(speed.is_finite() && speed > 0.0, "speed {speed}");
+        Pacer {
+            start,
+            speed,
+            first: None,
+        }
+    }
+
+    /// When the packet logged `since` after the log's first record is due.
+    pub fn due(&mut self, since: Duration) -> Instant {
+        let offset = since.saturating_sub(*self.first.get_or_insert(since));
+        self.start + offset.div_f64(self.speed)
+    }
+}
+
+/// What to publish again, and how fast.
+#[derive(Debug, Clone)]
+pub struct ReplayOptions {
+    /// How many times faster than real time (2 is twice as fast).
+    pub speed: f64,
+    /// Only packets on these channels (all when empty).
+    pub channels: Vec<String>,
+}
+
+/// What a replay did.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Replayed {
+    /// Packets published.
+    pub sent: u64,
+    /// Records read, published or not.
+    pub records: u64,
+    /// The log's torn tail, if it has one.
+    pub torn: Option<TornTail>,
+}
+
+/// Publishes the log at `path` again through `publish`, each packet when its
+/// time comes (sleeping in between), until the log ends or `stop` is set.
+/// Control requests belonged to their senders and are left out, as are
+/// records that are not packets.
+pub fn replay<E: From<LogError>>(
+    path: impl AsRef<Path>,
+    options: &ReplayOptions,
+    stop: &AtomicBool,
+    mut publish: impl FnMut(&[u8]) -> Result<(), E>,
+) -> Result<Replayed, E> {
+    let mut pacer = Pacer::new(Instant::now(), options.speed);
+    let mut sent = 0;
+    let pass = for_each_timed::<E>(path, |since, record| {
+        if stop.load(Ordering::Relaxed) {
+            return Ok(false);
+        }
+        let Ok(packet) = Packet::parse(&record.payload) else {
+            return Ok(true);
+        };
+        if packet.has_subject(HUB_SUBJECT) || !on_channels(&packet, &options.channels) {
+            return Ok(true);
+        }
+        let due = pacer.due(since);
+        let now = Instant::now();
+        if due > now {
+            std::thread::sleep(due - now);
+        }
+        publish(&record.payload)?;
+        sent += 1;
+        Ok(true)
+    })?;
+    Ok(Replayed {
+        sent,
+        records: pass.records,
+        torn: pass.torn,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_first_packet_is_due_at_once_and_the_rest_at_their_spacing_over_the_speed() {
+        let start = Instant::now();
+        let mut p = Pacer::new(start, 2.0);
+        assert_eq!(p.due(Duration::from_secs(5)), start);
+        assert_eq!(
+            p.due(Duration::from_secs(7)),
+            start + Duration::from_secs(1)
+        );
+        assert_eq!(
+            p.due(Duration::from_secs(11)),
+            start + Duration::from_secs(3)
+        );
+    }
+
+    #[test]
+    fn channels_filter_by_any_subject() {
+        let p = Packet::parse(b"@ <a> <b> 0\nx y 1\n").unwrap();
+        assert!(on_channels(&p, &[]));
+        assert!(on_channels(&p, &["b".to_string()]));
+        assert!(!on_channels(&p, &["c".to_string()]));
+    }
+
+    #[test]
+    fn a_replay_publishes_the_logged_traffic_but_not_control_requests() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.log");
+        let (mut w, _) = crate::log::LogWriter::open(&path).unwrap();
+        let src = "127.0.0.1:5".parse().unwrap();
+        let t0 = std::time::UNIX_EPOCH + Duration::from_secs(100);
+        w.append(t0, src, b"@ <a> 0\nx y 1\n").unwrap();
+        w.append(t0, src, b"@ <hub> 0\nstatus\n").unwrap();
+        w.append(t0 + Duration::from_millis(10), src, b"@ <b> 0\nx y 2\n")
+            .unwrap();
+        w.flush().unwrap();
+        let mut got = Vec::new();
+        let stop = AtomicBool::new(false);
+        let options = ReplayOptions {
+            speed: 100.0,
+            channels: Vec::new(),
+        };
+        let r = replay(&path, &options, &stop, |p| {
+            got.push(p.to_vec());
+            Ok::<(), LogError>(())
+        })
+        .unwrap();
+        assert_eq!(r.sent, 2);
+        assert_eq!(got[1], b"@ <b> 0\nx y 2\n");
+    }
+}
