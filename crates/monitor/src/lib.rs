@@ -41,8 +41,6 @@
 #![warn(missing_docs)]
 
 mod bridge;
-// The game view's items are documented where it moves onto proto's game messages (its own change).
-#[allow(missing_docs)]
 pub mod game;
 pub mod protocol;
 mod server;

@@ -209,7 +209,7 @@ pub fn parse_message(text: &str) -> Result<Command, Refusal> {
             x: coord("x", x)?,
             y: coord("y", y)?,
         },
-        ClientMsg::Squad(m) => Command::Squad(m.check().map_err(Refusal::new)?),
+        ClientMsg::Squad(m) => Command::Squad(m.check().map_err(|e| Refusal::new(e.to_string()))?),
     })
 }
 

@@ -64,7 +64,9 @@ impl Default for MonitorConfig {
 #[derive(Debug, thiserror::Error)]
 pub enum MonitorError {
     /// The web server's address could not be bound.
-    #[error("cannot listen on `{addr}`: {source} (is something else using that port? choose another with --bind)")]
+    #[error(
+        "cannot listen on `{addr}` (is something else using that port? choose another with --bind)"
+    )]
     Bind {
         /// The address asked for.
         addr: String,
@@ -72,7 +74,7 @@ pub enum MonitorError {
         source: std::io::Error,
     },
     /// The hub's address does not resolve.
-    #[error("hub address `{addr}`: {source}")]
+    #[error("hub address `{addr}`")]
     Hub {
         /// The address given.
         addr: String,

@@ -111,13 +111,7 @@ impl Planner {
         let k = self.grid.class[s];
         let open = self.begin(s, t);
         let closed = open + 1;
-        while let Some(node) = self.heap.pop() {
-            let u = node.index as usize;
-            if self.state[u] == closed || node.g > self.g[u].value() {
-                continue;
-            }
-            self.state[u] = closed;
-            self.expanded += 1;
+        while let Some(u) = self.expand_next(closed) {
             if u == t {
                 return Some(self.trace(s, t));
             }

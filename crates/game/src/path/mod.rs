@@ -21,6 +21,7 @@
 //! - [`turn_points`] and [`line_of_sight`]: from cells to a drivable route.
 //! - [`scen`]: Moving AI benchmark scenario files.
 
+pub mod check;
 mod grid;
 mod jps;
 mod planner;

@@ -113,13 +113,7 @@ impl Planner {
         }
         let open = self.begin(s, t);
         let closed = open + 1;
-        while let Some(node) = self.heap.pop() {
-            let u = node.index as usize;
-            if self.state[u] == closed || node.g > self.g[u].value() {
-                continue;
-            }
-            self.state[u] = closed;
-            self.expanded += 1;
+        while let Some(u) = self.expand_next(closed) {
             if u == t {
                 return Some(self.trace(s, t));
             }
@@ -147,6 +141,21 @@ impl Planner {
         let t = self.grid.index(goal)?;
         let k = self.grid.class[s];
         (k != 0 && self.grid.class[t] == k).then_some((s, t))
+    }
+
+    /// The next cell to expand, closed and counted: the open list's best entry that is not
+    /// stale (closed already, or superseded by a cheaper one pushed later).
+    pub(crate) fn expand_next(&mut self, closed: u32) -> Option<usize> {
+        while let Some(node) = self.heap.pop() {
+            let u = node.index as usize;
+            if self.state[u] == closed || node.g > self.g[u].value() {
+                continue;
+            }
+            self.state[u] = closed;
+            self.expanded += 1;
+            return Some(u);
+        }
+        None
     }
 
     /// Starts a query at `s`: a fresh query number, the start on the open

@@ -47,6 +47,11 @@ pub struct SquadMsg {
     formation: Option<String>,
 }
 
+/// Why the page's squad order was refused: a sentence for the player.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct OrderRefused(String);
+
 fn token(what: &str, s: &str) -> Result<String, String> {
     if valid_name(s) {
         Ok(s.to_owned())
@@ -128,8 +133,12 @@ impl SquadMsg {
         Ok(())
     }
 
-    /// Checks every field; the error is a sentence for the player.
-    pub fn check(&self) -> Result<SquadOrder, String> {
+    /// Checks every field.
+    pub fn check(&self) -> Result<SquadOrder, OrderRefused> {
+        self.checked().map_err(OrderRefused)
+    }
+
+    fn checked(&self) -> Result<SquadOrder, String> {
         let team = token("team", &self.team)?;
         let squad = token("squad", &self.squad)?;
         let verb = match self.verb.as_str() {
@@ -236,6 +245,7 @@ mod tests {
         serde_json::from_str::<SquadMsg>(json)
             .map_err(|e| e.to_string())?
             .check()
+            .map_err(|e| e.to_string())
     }
 
     fn packet(json: &str) -> String {
