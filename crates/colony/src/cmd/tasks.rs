@@ -251,20 +251,15 @@ fn compare(args: CompareArgs) -> anyhow::Result<()> {
         "seed  metrics           greedy tasks  greedy cost  optimal tasks  optimal cost  ratio"
     );
     for resources_term in [false, true] {
-        let mut ratios = Vec::new();
-        let (mut g_done, mut o_done) = (0, 0);
+        let mut summary = optimal::CompareSummary::default();
         for seed in 0..args.seeds {
             let c = optimal::compare(&optimal::CompareConfig {
                 seed,
                 robots: args.robots,
                 tasks: args.tasks,
                 resources_term,
-            })
-            .map_err(anyhow::Error::msg)?;
-            g_done += c.greedy_allocated;
-            o_done += c.optimal_allocated;
-            let ratio = c.cost_ratio();
-            ratios.extend(ratio);
+            })?;
+            summary.add(&c);
             println!(
                 "{seed:>4}  {:<16}  {:>12}  {:>11.0}  {:>13}  {:>12.0}  {}",
                 if resources_term {
@@ -276,17 +271,19 @@ fn compare(args: CompareArgs) -> anyhow::Result<()> {
                 c.greedy_cost,
                 c.optimal_allocated,
                 c.optimal_cost,
-                ratio.map_or("-".to_string(), |r| format!("{r:.3}"))
+                c.cost_ratio()
+                    .map_or("-".to_string(), |r| format!("{r:.3}"))
             );
         }
-        ratios.sort_by(f64::total_cmp);
-        let mean = ratios.iter().sum::<f64>() / ratios.len().max(1) as f64;
-        let median = ratios.get(ratios.len() / 2).copied().unwrap_or(f64::NAN);
         println!(
-            "{}: tasks allocated greedy {g_done} / optimal {o_done}; cost ratio greedy/optimal mean {mean:.3}, median {median:.3}, worst {:.3} (over {} seeds where both allocated as many)",
+            "{}: tasks allocated greedy {} / optimal {}; cost ratio greedy/optimal mean {:.3}, median {:.3}, worst {:.3} (over {} seeds where both allocated as many)",
             if resources_term { "distance + battery + resources" } else { "distance + battery" },
-            ratios.last().copied().unwrap_or(f64::NAN),
-            ratios.len()
+            summary.greedy_allocated,
+            summary.optimal_allocated,
+            summary.mean_ratio(),
+            summary.median_ratio(),
+            summary.worst_ratio(),
+            summary.seeds_compared()
         );
     }
     Ok(())

@@ -70,6 +70,52 @@ impl Comparison {
     }
 }
 
+/// What comparisons over many seeds add up to, for one setting of the metrics.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CompareSummary {
+    /// Tasks MURDOCH allocated, over every seed.
+    pub greedy_allocated: usize,
+    /// Tasks the optimal assignment allocated, over every seed.
+    pub optimal_allocated: usize,
+    /// The cost ratios of the seeds where both allocated as many tasks, sorted.
+    ratios: Vec<f64>,
+}
+
+impl CompareSummary {
+    /// Adds one seed's comparison.
+    pub fn add(&mut self, c: &Comparison) {
+        self.greedy_allocated += c.greedy_allocated;
+        self.optimal_allocated += c.optimal_allocated;
+        if let Some(r) = c.cost_ratio() {
+            let at = self.ratios.partition_point(|x| x.total_cmp(&r).is_le());
+            self.ratios.insert(at, r);
+        }
+    }
+
+    /// Seeds where both allocated as many tasks (those the ratios are over).
+    pub fn seeds_compared(&self) -> usize {
+        self.ratios.len()
+    }
+
+    /// The mean cost ratio greedy/optimal; 0 over no seeds.
+    pub fn mean_ratio(&self) -> f64 {
+        self.ratios.iter().sum::<f64>() / self.ratios.len().max(1) as f64
+    }
+
+    /// The median cost ratio (the upper one of an even count); NaN over no seeds.
+    pub fn median_ratio(&self) -> f64 {
+        self.ratios
+            .get(self.ratios.len() / 2)
+            .copied()
+            .unwrap_or(f64::NAN)
+    }
+
+    /// The worst (largest) cost ratio; NaN over no seeds.
+    pub fn worst_ratio(&self) -> f64 {
+        self.ratios.last().copied().unwrap_or(f64::NAN)
+    }
+}
+
 struct Robot {
     name: String,
     resources: ResourceSet,
@@ -221,4 +267,37 @@ pub fn compare(cfg: &CompareConfig) -> Result<Comparison, CompareError> {
         optimal_cost,
         messages: bus.stats().sent,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn comparison(greedy: (usize, f64), optimal: (usize, f64)) -> Comparison {
+        Comparison {
+            seed: 0,
+            robots: 4,
+            tasks: 4,
+            greedy_allocated: greedy.0,
+            greedy_cost: greedy.1,
+            optimal_allocated: optimal.0,
+            optimal_cost: optimal.1,
+            messages: 0,
+        }
+    }
+
+    #[test]
+    fn a_summary_counts_every_seed_but_takes_ratios_only_where_both_allocated_as_many() {
+        let mut s = CompareSummary::default();
+        assert_eq!(s.mean_ratio(), 0.0);
+        assert!(s.median_ratio().is_nan() && s.worst_ratio().is_nan());
+        s.add(&comparison((3, 30.0), (3, 20.0)));
+        s.add(&comparison((2, 10.0), (3, 20.0)));
+        s.add(&comparison((3, 22.0), (3, 20.0)));
+        assert_eq!((s.greedy_allocated, s.optimal_allocated), (8, 9));
+        assert_eq!(s.seeds_compared(), 2);
+        assert!((s.mean_ratio() - 1.3).abs() < 1e-12);
+        assert_eq!(s.median_ratio(), 1.5, "the upper of two");
+        assert_eq!(s.worst_ratio(), 1.5);
+    }
 }
