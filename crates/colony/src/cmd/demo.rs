@@ -1,16 +1,19 @@
 //! `colony demo`: the whole system on one machine. A hub (in this
 //! process), the simulated swarm sorting pucks with CACHECONS in the
-//! standard configuration in live mode (a `colony sort live` child process,
-//! each robot's controller a hub client of its own), and the monitor in the
-//! browser. Ctrl-C, or `--seconds`, stops all three.
+//! standard configuration in live mode (the world and each robot's controller
+//! a hub client of its own, on threads of this process), and the monitor in
+//! the browser. Ctrl-C, or `--seconds`, stops all three.
 
-use std::process::{Child, Command, Stdio};
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use colony_hub::{HubSite, HubSpec, StartError};
 use colony_monitor::{Monitor, MonitorConfig};
+use colony_sim::SceneConfig;
+use colony_sort::live::launch::{Controllers, Swarm, SwarmSpec};
+use colony_sort::{Method, SortParams};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -35,16 +38,6 @@ pub struct Args {
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long)]
     pub seconds: Option<f64>,
-}
-
-/// The live simulator, killed (and waited for) however the demo ends.
-struct Simulator(Child);
-
-impl Drop for Simulator {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -72,11 +65,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn run_with_hub(
-    args: &Args,
-    hub_addr: &str,
-    stop: &std::sync::atomic::AtomicBool,
-) -> anyhow::Result<()> {
+fn run_with_hub(args: &Args, hub_addr: &str, stop: &Arc<AtomicBool>) -> anyhow::Result<()> {
     let monitor = Monitor::start(&MonitorConfig {
         hub: hub_addr.to_string(),
         bind: args.monitor_bind.clone(),
@@ -87,25 +76,17 @@ fn run_with_hub(
         ),
         e => e.into(),
     })?;
-    let exe = std::env::current_exe().context("cannot find the colony executable")?;
-    let child = Command::new(exe)
-        .args([
-            "sort",
-            "live",
-            "--method",
-            "cachecons",
-            "--controllers",
-            "thread",
-            "--hub",
-            hub_addr,
-            "--speed",
-            &args.speed.to_string(),
-        ])
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .spawn()
-        .context("cannot start the live simulator (`colony sort live`)")?;
-    let mut simulator = Simulator(child);
+    let spec = SwarmSpec {
+        hub: hub_addr.to_string(),
+        scene: SceneConfig::default(),
+        params: SortParams::default(),
+        method: Method::CacheCons,
+        seed: 1,
+    };
+    let swarm = Swarm::launch(&spec, Controllers::Threads, stop)
+        .context("cannot start the live simulator")?;
+    let speed = args.speed;
+    let simulator = std::thread::spawn(move || swarm.run(speed, None, |_| {}));
     println!(
         "colony demo: open {} (hub on {hub_addr}; CACHECONS, 4 robots and 40 pucks, {}x real time); Ctrl-C stops",
         monitor.url(),
@@ -116,11 +97,8 @@ fn run_with_hub(
         .map(|s| Instant::now() + Duration::from_secs_f64(s));
     let mut outcome = Ok(());
     while !stop.load(Ordering::Relaxed) && deadline.is_none_or(|d| Instant::now() < d) {
-        if let Some(status) = simulator.0.try_wait()? {
-            // Ctrl-C reaches the child too; only an exit of its own is an error.
-            if !stop.load(Ordering::Relaxed) {
-                outcome = Err(anyhow::anyhow!("the live simulator stopped: {status}"));
-            }
+        if simulator.is_finished() {
+            outcome = Err(anyhow::anyhow!("the live simulator stopped"));
             break;
         }
         if !monitor.is_running() {
@@ -129,7 +107,13 @@ fn run_with_hub(
         }
         std::thread::sleep(Duration::from_millis(100));
     }
-    drop(simulator);
+    // The world and its controllers stop on the flag, at the deadline as on Ctrl-C.
+    stop.store(true, Ordering::Relaxed);
+    match simulator.join() {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => outcome = outcome.and(Err(e).context("the live simulator failed")),
+        Err(_) => outcome = outcome.and(Err(anyhow::anyhow!("the live simulator panicked"))),
+    }
     monitor.shutdown()?;
     outcome
 }
