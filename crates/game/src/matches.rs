@@ -233,3 +233,58 @@ impl Match {
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::map::Battlefield;
+    use crate::rules::Mode;
+
+    fn small_match() -> Match {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/ctf.map");
+        let field = Arc::new(Battlefield::from_file(&path).unwrap());
+        let teams = [
+            TeamSetup::parse("red", "alpha:tank").unwrap(),
+            TeamSetup::parse("blue", "alpha:scout").unwrap(),
+        ];
+        Match::new(field, Rules::new(Mode::CaptureTheFlag), &teams, &[]).unwrap()
+    }
+
+    fn first_subject(p: &[u8]) -> String {
+        Packet::parse(p)
+            .unwrap()
+            .subjects()
+            .next()
+            .unwrap()
+            .to_string()
+    }
+
+    #[test]
+    fn a_step_delivers_all_it_sets_off_and_an_outside_packet_goes_out_with_it_first() {
+        let mut m = small_match();
+        let mut shown: Vec<String> = Vec::new();
+        m.step(&mut |_, p| shown.push(first_subject(p)));
+        m.send(b"@ <game.player.red> 0\nsquad name alpha do dance\n".to_vec());
+        m.send(b"not a packet".to_vec());
+        let mut seen: Vec<(f64, Vec<u8>)> = Vec::new();
+        m.step(&mut |t, p| seen.push((t, p.to_vec())));
+        assert_eq!(m.world().field().step_count(), 2, "one step per call");
+        let order: Vec<String> = seen.iter().map(|(_, p)| first_subject(p)).collect();
+        assert_eq!(order[0], "game.player.red", "the player's command first");
+        assert!(
+            order[1].starts_with("game.sense."),
+            "then the world's step: {order:?}"
+        );
+        assert!(seen.iter().all(|(t, _)| *t == m.world().time()));
+        // The refusal, and the state the second frame called for, reached the
+        // recorder within the step: the cascade ran until nothing was left.
+        assert!(m.events().iter().any(|e| e.kind == "refused"));
+        assert!(m.state().is_some());
+        // The malformed packet is counted, not shown; every other packet was
+        // shown once, and all but the map (no part here reads it) reached a part.
+        shown.extend(order);
+        let maps = shown.iter().filter(|s| s.as_str() == protocol::MAP).count() as u64;
+        assert!(maps > 0);
+        assert_eq!(m.traffic(), (shown.len() as u64 - maps, 1));
+    }
+}

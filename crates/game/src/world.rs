@@ -384,4 +384,44 @@ mod tests {
         );
         assert!((pose(&w, 0).x - 200.0).abs() < 1.0);
     }
+
+    fn steps_sent(w: &mut GameWorld) -> usize {
+        std::iter::from_fn(|| w.poll_transmit())
+            .filter(|p| Packet::parse(p).unwrap().has_subject(protocol::WORLD))
+            .count()
+    }
+
+    #[test]
+    fn the_control_step_is_the_worlds_timer() {
+        let (mut w, _) = world();
+        assert_eq!(
+            w.poll_timeout(),
+            Some(Time::ZERO),
+            "the first step is at once"
+        );
+        w.handle_timeout(Time::ZERO);
+        assert_eq!((w.field().step_count(), steps_sent(&mut w)), (1, 1));
+        // Fast-forwarded, the node's clock is simulated time: one control period later.
+        let next = Time::from_secs_f64(w.field().config().control_step);
+        assert_eq!(w.poll_timeout(), Some(next));
+        w.handle_timeout(Time::from_micros(next.as_micros() - 1));
+        assert_eq!(w.field().step_count(), 1, "not yet due");
+    }
+
+    #[test]
+    fn a_paced_world_that_fell_behind_catches_up_one_step_a_call_on_its_grid() {
+        let (mut w, _) = world();
+        // Live at 4x: a 25 ms period, from 1 s on the node's clock.
+        w.set_pace(Duration::from_millis(25), Time::from_secs_f64(1.0));
+        assert_eq!(w.poll_timeout(), Some(Time::from_secs_f64(1.0)));
+        let late = Time::from_secs_f64(1.06);
+        for (steps, next) in [(1, 1.025), (2, 1.05), (3, 1.075)] {
+            w.handle_timeout(late);
+            assert_eq!(w.field().step_count(), steps);
+            assert_eq!(w.poll_timeout(), Some(Time::from_secs_f64(next)));
+        }
+        w.handle_timeout(late);
+        assert_eq!(w.field().step_count(), 3, "caught up: the next is not due");
+        assert_eq!(steps_sent(&mut w), 3);
+    }
 }
