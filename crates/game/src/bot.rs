@@ -7,9 +7,11 @@
 //! standing attacks the carrier. Death Match: every squad attacks the
 //! nearest enemy robot.
 
-use colony_wire::Packet;
+use std::collections::{BTreeSet, VecDeque};
 
-use crate::node::Node;
+use colony_node::{Node, Time};
+use colony_wire::{Packet, Subject};
+
 use crate::protocol::{self, GameState, SquadCommand, Status, Target, Verb};
 
 /// Seconds of game time between two looks at the game.
@@ -21,6 +23,8 @@ pub struct Bot {
     last: f64,
     /// What each squad was last told, to send only changes.
     told: Vec<(String, Verb)>,
+    subs: BTreeSet<Subject>,
+    outbox: VecDeque<Vec<u8>>,
 }
 
 impl Bot {
@@ -30,6 +34,8 @@ impl Bot {
             team: team.to_string(),
             last: f64::NEG_INFINITY,
             told: Vec::new(),
+            subs: protocol::subjects([protocol::STATE]),
+            outbox: VecDeque::new(),
         }
     }
 
@@ -91,11 +97,8 @@ impl Bot {
     }
 }
 
-impl Node for Bot {
-    fn subscriptions(&self) -> Vec<String> {
-        vec![protocol::STATE.to_string()]
-    }
-
+impl Bot {
+    /// Takes in one game state; pushes the commands it calls for.
     fn handle(&mut self, packet: &Packet<'_>, out: &mut Vec<Vec<u8>>) {
         let Ok(state) = GameState::decode(packet) else {
             return;
@@ -114,6 +117,29 @@ impl Node for Bot {
                 out.push(p);
             }
         }
+    }
+}
+
+impl Node for Bot {
+    fn subscriptions(&self) -> &BTreeSet<Subject> {
+        &self.subs
+    }
+
+    fn handle_packet(&mut self, _now: Time, packet: &Packet<'_>) {
+        let mut out = Vec::new();
+        self.handle(packet, &mut out);
+        self.outbox.extend(out);
+    }
+
+    /// No timer: the game state's time is its clock.
+    fn handle_timeout(&mut self, _now: Time) {}
+
+    fn poll_timeout(&self) -> Option<Time> {
+        None
+    }
+
+    fn poll_transmit(&mut self) -> Option<Vec<u8>> {
+        self.outbox.pop_front()
     }
 }
 
@@ -202,19 +228,22 @@ mod tests {
     #[test]
     fn the_bot_repeats_nothing_and_stops_when_the_game_is_over() {
         let mut bot = Bot::new("red");
-        let mut out = Vec::new();
-        let packet = state("ctf", None).encode().unwrap();
-        bot.handle(&Packet::parse(&packet).unwrap(), &mut out);
-        assert_eq!(out.len(), 2);
+        let hear = |bot: &mut Bot, s: &GameState| {
+            bot.handle_packet(Time::ZERO, &Packet::parse(&s.encode().unwrap()).unwrap());
+            std::iter::from_fn(|| bot.poll_transmit()).count()
+        };
+        assert_eq!(hear(&mut bot, &state("ctf", None)), 2);
         let mut later = state("ctf", None);
         later.time = 20.0;
-        out.clear();
-        bot.handle(&Packet::parse(&later.encode().unwrap()).unwrap(), &mut out);
-        assert!(out.is_empty(), "the same orders are not sent again");
+        assert_eq!(
+            hear(&mut bot, &later),
+            0,
+            "the same orders are not sent again"
+        );
         later.status = Status::Over;
         later.time = 30.0;
         later.flags[0].carrier = Some(3);
-        bot.handle(&Packet::parse(&later.encode().unwrap()).unwrap(), &mut out);
-        assert!(out.is_empty(), "no orders after the end");
+        assert_eq!(hear(&mut bot, &later), 0, "no orders after the end");
+        assert_eq!(bot.poll_timeout(), None);
     }
 }

@@ -12,14 +12,21 @@
 //! - [`rules`]: the data model: robot types, budgets, squads.
 //! - [`protocol`]: the game's messages (their home is `colony_proto::game`, one module per
 //!   channel) and the map message built from a [`map::Battlefield`].
-//! - [`robot`]: robot intelligence, reflexes over commands ([`robot_node`] on the bus).
+//! - [`robot`]: robot intelligence, reflexes over commands ([`robot_node`], its part of the game).
 //! - [`squad`]: server-side swarm intelligence, one squad arbitrator per squad.
 //! - [`logic`]: the referee: health, shots, flags, score, the end.
 //! - [`server`]: game logic and swarm intelligence as one part of the game.
 //! - [`world`]: the battlefield in the simulator.
 //! - [`bot`]: the built-in scripted player.
-//! - [`node`] and [`matches`]: the parts wired together in memory, fast-forwarded;
+//! - [`matches`]: the parts wired together in memory, fast-forwarded;
 //!   [`live`] runs them over the hub, and [`live_match`] runs and watches a whole match.
+//!
+//! Every part of a match (the [`world::GameWorld`], the [`server::Server`],
+//! each [`robot_node::RobotNode`], the [`bot::Bot`]) is a
+//! [`colony_node::Node`]: packets and time in, packets and its next deadline
+//! out. The same values run on colony-node's in-memory bus on simulated time
+//! ([`matches`]) and over a real hub with its runtime ([`live`]); only the
+//! world has a timer, its control step.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -32,7 +39,6 @@ pub mod logic;
 pub mod map;
 pub mod matches;
 pub mod nav;
-pub mod node;
 pub mod path;
 pub mod protocol;
 pub mod robot;

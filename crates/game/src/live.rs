@@ -1,13 +1,15 @@
 //! The parts of the game over the real hub, each behind a hub client of its
 //! own, so they can run as separate processes and any of them can restart.
-//! The caller owns the loop's thread; `stop` ends it.
+//! They run on colony-node's runtime ([`colony_node::run`] over a
+//! [`Link`]); the world's real-time pace is its timer. The caller owns the
+//! loop's thread; `stop` ends it.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use colony_client::{ClientError, UdpClient};
+use colony_node::{Link, Node, Time};
 
-use crate::node::Node;
 use crate::world::GameWorld;
 
 /// What can stop a live part.
@@ -24,47 +26,42 @@ pub enum LiveError {
     Options(String),
 }
 
-/// The longest a loop sleeps before looking at `stop` again.
-const TICK: Duration = Duration::from_millis(50);
+impl From<colony_node::LiveError> for LiveError {
+    fn from(e: colony_node::LiveError) -> LiveError {
+        match e {
+            colony_node::LiveError::Client(e) => LiveError::Client(e),
+            colony_node::LiveError::Io(e) => LiveError::Io(e),
+        }
+    }
+}
 
-/// Runs a part that only answers packets until `stop`.
+/// Runs `f` with a [`Link`] over the caller's `client`, whose clock starts
+/// now. A link owns its client, so the caller's is lent to it for the run
+/// (a stand-in, a socket that sends nothing, takes its place meanwhile) and
+/// handed back after, whatever `f` returned.
+fn with_link<R>(client: &mut UdpClient, f: impl FnOnce(&mut Link) -> R) -> Result<R, LiveError> {
+    let stand_in = UdpClient::connect(client.hub_addr())?;
+    let mut link = Link::new(std::mem::replace(client, stand_in), Instant::now());
+    let result = f(&mut link);
+    std::mem::swap(client, link.client_mut());
+    Ok(result)
+}
+
+/// Runs a part until `stop`.
 pub fn run_node(
     node: &mut dyn Node,
     client: &mut UdpClient,
     stop: &AtomicBool,
 ) -> Result<(), LiveError> {
-    for s in node.subscriptions() {
-        client.subscribe(&s)?;
-    }
-    let mut out = Vec::new();
-    while !stop.load(Ordering::Relaxed) {
-        let now = Instant::now();
-        let wake = client
-            .next_deadline()
-            .map_or(now + TICK, |d| d.min(now + TICK));
-        client.wait(Some(wake))?;
-        client.poll(Instant::now())?;
-        pump(node, client, &mut out)?;
-    }
+    with_link(client, |link| {
+        colony_node::run(&mut &mut *node, link, stop, |_, _| {})
+    })??;
     Ok(())
 }
 
-/// Hands every packet waiting to `node`, then sends what it answered.
-fn pump(
-    node: &mut dyn Node,
-    client: &mut UdpClient,
-    out: &mut Vec<Vec<u8>>,
-) -> Result<(), LiveError> {
-    while let Some(packet) = client.recv()? {
-        node.handle(&packet, out);
-    }
-    for p in out.drain(..) {
-        client.publish(&p)?;
-    }
-    Ok(())
-}
-
-/// Runs the world in real time times `speed` until `stop` or `max_steps`.
+/// Runs the world in real time times `speed` until `stop` or `max_steps`:
+/// one control step of `step_seconds` of game time every
+/// `step_seconds / speed` seconds, the first at once.
 pub fn run_world(
     world: &mut GameWorld,
     client: &mut UdpClient,
@@ -73,35 +70,30 @@ pub fn run_world(
     max_steps: Option<u64>,
     stop: &AtomicBool,
 ) -> Result<(), LiveError> {
-    if !(speed.is_finite() && speed > 0.0) {
-        return Err(LiveError::Options(format!(
-            "speed must be a positive number, not {speed}"
-        )));
+    let period = (speed.is_finite() && speed > 0.0)
+        .then(|| Duration::try_from_secs_f64(step_seconds / speed).ok())
+        .flatten()
+        .ok_or_else(|| {
+            LiveError::Options(format!("speed must be a positive number, not {speed}"))
+        })?;
+    world.set_pace(period, Time::ZERO);
+    let start = world.field().step_count();
+    // The runtime looks at one flag: it is raised by the caller's, or once
+    // the world has taken its steps.
+    let done = AtomicBool::new(false);
+    let finished = |w: &GameWorld| {
+        stop.load(Ordering::Relaxed)
+            || max_steps.is_some_and(|m| w.field().step_count() - start >= m)
+    };
+    if finished(world) {
+        return Ok(());
     }
-    for s in Node::subscriptions(world) {
-        client.subscribe(&s)?;
-    }
-    let period = Duration::from_secs_f64(step_seconds / speed);
-    let start = Instant::now();
-    let mut done = 0u64;
-    let mut out = Vec::new();
-    while !stop.load(Ordering::Relaxed) && max_steps.is_none_or(|m| done < m) {
-        let due = start + period.mul_f64(done as f64);
-        loop {
-            let now = Instant::now();
-            client.poll(now)?;
-            pump(world, client, &mut out)?;
-            if now >= due || stop.load(Ordering::Relaxed) {
-                break;
+    with_link(client, |link| {
+        colony_node::run(world, link, &done, |w, _| {
+            if finished(w) {
+                done.store(true, Ordering::Relaxed);
             }
-            let wake = client.next_deadline().map_or(due, |d| d.min(due));
-            client.wait(Some(wake))?;
-        }
-        world.step(&mut out);
-        for p in out.drain(..) {
-            client.publish(&p)?;
-        }
-        done += 1;
-    }
+        })
+    })??;
     Ok(())
 }

@@ -6,7 +6,27 @@ pub use colony_proto::game::*;
 pub use colony_proto::radio::{self, RadioCommand, RADIO};
 pub use colony_proto::DecodeError;
 
+use std::collections::BTreeSet;
+
+use colony_wire::Subject;
+
 use crate::map::Battlefield;
+
+/// The subjects a part of the game listens to, from their names. A name that
+/// is no subject (a team named with a space in a hand-written map, say) is
+/// left out with a warning: nothing can be published on it either.
+pub fn subjects<S: AsRef<str>>(names: impl IntoIterator<Item = S>) -> BTreeSet<Subject> {
+    names
+        .into_iter()
+        .filter_map(|n| match Subject::new(n.as_ref()) {
+            Ok(s) => Some(s),
+            Err(e) => {
+                tracing::warn!(error = %e, "cannot listen to a channel with this name");
+                None
+            }
+        })
+        .collect()
+}
 
 /// The battlefield as the `game.map` packets carry it: the grid's rows in the Moving AI
 /// characters (row 0 on top), and each team's base and flag at their cells' centres.

@@ -2,9 +2,11 @@
 //! its orders, and answers each sensor reading with wheels, actions and,
 //! when it changes, its active behaviour.
 
-use colony_wire::{Packet, Priority};
+use std::collections::{BTreeSet, VecDeque};
 
-use crate::node::Node;
+use colony_node::{Node, Time};
+use colony_wire::{Packet, Priority, Subject};
+
 use crate::protocol::{self, radio, Order, RadioCommand, Sense};
 use crate::robot::Brain;
 use crate::rules::RobotKind;
@@ -13,6 +15,8 @@ use crate::rules::RobotKind;
 pub struct RobotNode {
     id: u32,
     brain: Brain,
+    subs: BTreeSet<Subject>,
+    outbox: VecDeque<Vec<u8>>,
 }
 
 impl RobotNode {
@@ -21,6 +25,8 @@ impl RobotNode {
         RobotNode {
             id,
             brain: Brain::new(id, kind),
+            subs: protocol::subjects([protocol::sense_channel(id), protocol::robot_channel(id)]),
+            outbox: VecDeque::new(),
         }
     }
 
@@ -30,15 +36,13 @@ impl RobotNode {
     }
 }
 
+/// It has no timer: its brain ticks on its sensor packets.
 impl Node for RobotNode {
-    fn subscriptions(&self) -> Vec<String> {
-        vec![
-            protocol::sense_channel(self.id),
-            protocol::robot_channel(self.id),
-        ]
+    fn subscriptions(&self) -> &BTreeSet<Subject> {
+        &self.subs
     }
 
-    fn handle(&mut self, packet: &Packet<'_>, out: &mut Vec<Vec<u8>>) {
+    fn handle_packet(&mut self, _now: Time, packet: &Packet<'_>) {
         if packet.has_subject(&protocol::robot_channel(self.id)) {
             match Order::decode(packet) {
                 Ok(order) => {
@@ -62,9 +66,19 @@ impl Node for RobotNode {
             .chain(tick.debug.iter().map(|d| d.encode()));
         for p in packets {
             match p {
-                Ok(p) => out.push(p),
+                Ok(p) => self.outbox.push_back(p),
                 Err(e) => tracing::warn!(robot = self.id, error = %e, "could not write a packet"),
             }
         }
+    }
+
+    fn handle_timeout(&mut self, _now: Time) {}
+
+    fn poll_timeout(&self) -> Option<Time> {
+        None
+    }
+
+    fn poll_transmit(&mut self) -> Option<Vec<u8>> {
+        self.outbox.pop_front()
     }
 }

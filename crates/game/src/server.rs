@@ -3,17 +3,17 @@
 //! behaviours and the players' squad commands; it publishes each robot's
 //! sequence command, the game state and events.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
 use std::time::Duration;
 
+use colony_node::{Node, Time};
 use colony_sim::Vec2;
-use colony_wire::Packet;
+use colony_wire::{Packet, Subject};
 
 use crate::logic::{Referee, RobotEntry};
 use crate::map::Battlefield;
 use crate::nav::Nav;
-use crate::node::Node;
 use crate::protocol::{
     self, Action, Command, Event, Order, RobotDebug, SquadCommand, Target, Verb, WorldFrame,
 };
@@ -48,6 +48,8 @@ pub struct Server {
     /// How long each squad command took to turn into robot commands.
     pub command_times: Vec<Duration>,
     pending: Vec<usize>,
+    subs: BTreeSet<Subject>,
+    outbox: VecDeque<Vec<u8>>,
 }
 
 impl Server {
@@ -77,7 +79,23 @@ impl Server {
                 }
             }
         }
+        let subs = protocol::subjects(
+            [
+                protocol::WORLD.to_string(),
+                protocol::ACTION.to_string(),
+                protocol::DEBUG.to_string(),
+            ]
+            .into_iter()
+            .chain(
+                field
+                    .teams
+                    .iter()
+                    .map(|t| protocol::player_channel(&t.name)),
+            ),
+        );
         Server {
+            subs,
+            outbox: VecDeque::new(),
             seq: vec![0; roster.len()],
             last_orders: vec![None; roster.len()],
             field,
@@ -299,19 +317,8 @@ impl Server {
     }
 }
 
-impl Node for Server {
-    fn subscriptions(&self) -> Vec<String> {
-        let mut subs = vec![
-            protocol::WORLD.to_string(),
-            protocol::ACTION.to_string(),
-            protocol::DEBUG.to_string(),
-        ];
-        for t in &self.field.teams {
-            subs.push(protocol::player_channel(&t.name));
-        }
-        subs
-    }
-
+impl Server {
+    /// Takes in one packet; pushes what it answers.
     fn handle(&mut self, packet: &Packet<'_>, out: &mut Vec<Vec<u8>>) {
         if packet.has_subject(protocol::WORLD) {
             match WorldFrame::decode(packet) {
@@ -374,5 +381,28 @@ impl Node for Server {
                 Err(e) => self.refuse(format!("a bad command from {team}: {e}"), out),
             }
         }
+    }
+}
+
+impl Node for Server {
+    fn subscriptions(&self) -> &BTreeSet<Subject> {
+        &self.subs
+    }
+
+    fn handle_packet(&mut self, _now: Time, packet: &Packet<'_>) {
+        let mut out = Vec::new();
+        self.handle(packet, &mut out);
+        self.outbox.extend(out);
+    }
+
+    /// No timer: the world's frames are its clock.
+    fn handle_timeout(&mut self, _now: Time) {}
+
+    fn poll_timeout(&self) -> Option<Time> {
+        None
+    }
+
+    fn poll_transmit(&mut self) -> Option<Vec<u8>> {
+        self.outbox.pop_front()
     }
 }

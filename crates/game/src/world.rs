@@ -2,17 +2,24 @@
 //! physics, publishes every robot's sensors and pose, drives each robot by
 //! the newest wheel command for it, and takes destroyed robots out of play
 //! when the game logic's state says so.
+//!
+//! As a [`Node`] its control step is its timer: one step every pace period,
+//! which is the simulated control period in a fast-forwarded match and that
+//! period divided by the speed-up live.
 
+use std::collections::{BTreeSet, VecDeque};
+use std::time::Duration;
+
+use colony_node::{Node, Time};
 use colony_proto::{radio, CommandHold};
 use colony_sim::field::{
     Field, FieldConfig, FieldRobotId, RobotSpec, Terrain as SimTerrain, TileMap,
 };
 use colony_sim::SimError;
-use colony_wire::Packet;
+use colony_wire::{Packet, Subject};
 
 use crate::logic::RobotEntry;
 use crate::map::{Battlefield, Terrain};
-use crate::node::Node;
 use crate::protocol::{self, GameState, RobotPose, Sense, WorldFrame};
 use crate::rules::KindRules;
 
@@ -30,6 +37,15 @@ pub struct GameWorld {
     /// game's clock and poses from the first game state it hears.
     time_offset: f64,
     synced: bool,
+    subs: BTreeSet<Subject>,
+    outbox: VecDeque<Vec<u8>>,
+    /// Time between two steps on the node's clock.
+    period: Duration,
+    /// When pacing started, on the node's clock, and the steps taken since:
+    /// step `n` is due at `paced_from + n · period`, so a late step does not
+    /// push back the ones after it.
+    paced_from: Time,
+    paced_steps: u64,
 }
 
 /// The simulator's tile map for a battlefield: trees and out-of-bounds are
@@ -64,12 +80,33 @@ impl GameWorld {
                 e.spawn,
             )?;
         }
+        let period = Duration::from_secs_f64(sim.config().control_step);
         Ok(GameWorld {
             commands: CommandHold::new(roster.len(), HOLD_STEPS),
             field: sim,
             time_offset: 0.0,
             synced: false,
+            subs: protocol::subjects([protocol::RADIO, protocol::STATE]),
+            outbox: VecDeque::new(),
+            period,
+            paced_from: Time::ZERO,
+            paced_steps: 0,
         })
+    }
+
+    /// Steps every `period` from `from` on, on the node's clock. A new world
+    /// steps every simulated control period from [`Time::ZERO`]: fast-forwarded,
+    /// simulated time is the node's clock. Live, the period is the control
+    /// period divided by the speed-up.
+    pub fn set_pace(&mut self, period: Duration, from: Time) {
+        self.period = period;
+        self.paced_from = from;
+        self.paced_steps = 0;
+    }
+
+    /// When the next control step is due.
+    fn next_step(&self) -> Time {
+        self.paced_from + self.period.mul_f64(self.paced_steps as f64)
     }
 
     /// The simulator.
@@ -150,12 +187,9 @@ impl GameWorld {
     }
 }
 
-impl Node for GameWorld {
-    fn subscriptions(&self) -> Vec<String> {
-        vec![protocol::RADIO.to_string(), protocol::STATE.to_string()]
-    }
-
-    fn handle(&mut self, packet: &Packet<'_>, _out: &mut Vec<Vec<u8>>) {
+impl GameWorld {
+    /// Takes in one packet: a wheel command or the game's state.
+    fn handle(&mut self, packet: &Packet<'_>) {
         if packet.has_subject(protocol::RADIO) {
             match radio::decode(packet) {
                 Ok(cmds) => {
@@ -183,6 +217,35 @@ impl Node for GameWorld {
                 Err(e) => tracing::debug!(error = %e, "ignored a bad game state"),
             }
         }
+    }
+}
+
+impl Node for GameWorld {
+    fn subscriptions(&self) -> &BTreeSet<Subject> {
+        &self.subs
+    }
+
+    fn handle_packet(&mut self, _now: Time, packet: &Packet<'_>) {
+        self.handle(packet);
+    }
+
+    /// One control step if it is due; a world that fell behind catches up
+    /// one step per call, taking in what arrived in between.
+    fn handle_timeout(&mut self, now: Time) {
+        if self.next_step() <= now {
+            let mut out = Vec::new();
+            self.step(&mut out);
+            self.outbox.extend(out);
+            self.paced_steps += 1;
+        }
+    }
+
+    fn poll_timeout(&self) -> Option<Time> {
+        Some(self.next_step())
+    }
+
+    fn poll_transmit(&mut self) -> Option<Vec<u8>> {
+        self.outbox.pop_front()
     }
 }
 
@@ -214,7 +277,7 @@ mod tests {
     }
 
     fn feed(w: &mut GameWorld, bytes: &[u8]) {
-        w.handle(&Packet::parse(bytes).unwrap(), &mut Vec::new());
+        w.handle_packet(Time::ZERO, &Packet::parse(bytes).unwrap());
     }
 
     fn pose(w: &GameWorld, id: usize) -> colony_sim::Pose {
@@ -320,5 +383,45 @@ mod tests {
             &state(200.0, &entries, &[], Some((0, 300.0, 100.0))),
         );
         assert!((pose(&w, 0).x - 200.0).abs() < 1.0);
+    }
+
+    fn steps_sent(w: &mut GameWorld) -> usize {
+        std::iter::from_fn(|| w.poll_transmit())
+            .filter(|p| Packet::parse(p).unwrap().has_subject(protocol::WORLD))
+            .count()
+    }
+
+    #[test]
+    fn the_control_step_is_the_worlds_timer() {
+        let (mut w, _) = world();
+        assert_eq!(
+            w.poll_timeout(),
+            Some(Time::ZERO),
+            "the first step is at once"
+        );
+        w.handle_timeout(Time::ZERO);
+        assert_eq!((w.field().step_count(), steps_sent(&mut w)), (1, 1));
+        // Fast-forwarded, the node's clock is simulated time: one control period later.
+        let next = Time::from_secs_f64(w.field().config().control_step);
+        assert_eq!(w.poll_timeout(), Some(next));
+        w.handle_timeout(Time::from_micros(next.as_micros() - 1));
+        assert_eq!(w.field().step_count(), 1, "not yet due");
+    }
+
+    #[test]
+    fn a_paced_world_that_fell_behind_catches_up_one_step_a_call_on_its_grid() {
+        let (mut w, _) = world();
+        // Live at 4x: a 25 ms period, from 1 s on the node's clock.
+        w.set_pace(Duration::from_millis(25), Time::from_secs_f64(1.0));
+        assert_eq!(w.poll_timeout(), Some(Time::from_secs_f64(1.0)));
+        let late = Time::from_secs_f64(1.06);
+        for (steps, next) in [(1, 1.025), (2, 1.05), (3, 1.075)] {
+            w.handle_timeout(late);
+            assert_eq!(w.field().step_count(), steps);
+            assert_eq!(w.poll_timeout(), Some(Time::from_secs_f64(next)));
+        }
+        w.handle_timeout(late);
+        assert_eq!(w.field().step_count(), 3, "caught up: the next is not due");
+        assert_eq!(steps_sent(&mut w), 3);
     }
 }
