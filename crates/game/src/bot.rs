@@ -131,13 +131,6 @@ impl Node for Bot {
         self.outbox.extend(out);
     }
 
-    /// No timer: the game state's time is its clock.
-    fn handle_timeout(&mut self, _now: Time) {}
-
-    fn poll_timeout(&self) -> Option<Time> {
-        None
-    }
-
     fn poll_transmit(&mut self) -> Option<Vec<u8>> {
         self.outbox.pop_front()
     }

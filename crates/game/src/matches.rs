@@ -67,10 +67,6 @@ impl Node for Recorder {
             self.events.push(e);
         }
     }
-    fn handle_timeout(&mut self, _now: Time) {}
-    fn poll_timeout(&self) -> Option<Time> {
-        None
-    }
     fn poll_transmit(&mut self) -> Option<Vec<u8>> {
         None
     }

@@ -395,13 +395,6 @@ impl Node for Server {
         self.outbox.extend(out);
     }
 
-    /// No timer: the world's frames are its clock.
-    fn handle_timeout(&mut self, _now: Time) {}
-
-    fn poll_timeout(&self) -> Option<Time> {
-        None
-    }
-
     fn poll_transmit(&mut self) -> Option<Vec<u8>> {
         self.outbox.pop_front()
     }

@@ -40,11 +40,16 @@ pub trait Node {
     fn subscriptions(&self) -> &BTreeSet<Subject>;
     /// A packet the hub forwarded, arriving at `now`.
     fn handle_packet(&mut self, now: Time, packet: &Packet<'_>);
-    /// Time has come to `now`: run every timer due by then.
-    fn handle_timeout(&mut self, now: Time);
+    /// Time has come to `now`: run every timer due by then. A node with no
+    /// timer (one that only answers packets) keeps the default, which does nothing.
+    fn handle_timeout(&mut self, now: Time) {
+        let _ = now;
+    }
     /// When [`handle_timeout`](Node::handle_timeout) is next needed; `None`
-    /// while no timer runs.
-    fn poll_timeout(&self) -> Option<Time>;
+    /// while no timer runs (the default).
+    fn poll_timeout(&self) -> Option<Time> {
+        None
+    }
     /// The next packet to publish, whole and well formed; `None` when there
     /// is nothing more to send now.
     fn poll_transmit(&mut self) -> Option<Vec<u8>>;
@@ -66,43 +71,36 @@ pub fn receives<'a>(subs: &BTreeSet<Subject>, mut subjects: impl Iterator<Item =
     subjects.all(|s| subs.contains(s))
 }
 
-impl<T: Node + ?Sized> Node for Box<T> {
-    fn subscriptions(&self) -> &BTreeSet<Subject> {
-        (**self).subscriptions()
-    }
-    fn handle_packet(&mut self, now: Time, packet: &Packet<'_>) {
-        (**self).handle_packet(now, packet)
-    }
-    fn handle_timeout(&mut self, now: Time) {
-        (**self).handle_timeout(now)
-    }
-    fn poll_timeout(&self) -> Option<Time> {
-        (**self).poll_timeout()
-    }
-    fn poll_transmit(&mut self) -> Option<Vec<u8>> {
-        (**self).poll_transmit()
-    }
+/// Implements [`Node`] for a pointer to a node by handing every call through.
+macro_rules! delegate_node {
+    ($(#[$doc:meta])* $pointer:ty) => {
+        $(#[$doc])*
+        impl<T: Node + ?Sized> Node for $pointer {
+            fn subscriptions(&self) -> &BTreeSet<Subject> {
+                (**self).subscriptions()
+            }
+            fn handle_packet(&mut self, now: Time, packet: &Packet<'_>) {
+                (**self).handle_packet(now, packet)
+            }
+            fn handle_timeout(&mut self, now: Time) {
+                (**self).handle_timeout(now)
+            }
+            fn poll_timeout(&self) -> Option<Time> {
+                (**self).poll_timeout()
+            }
+            fn poll_transmit(&mut self) -> Option<Vec<u8>> {
+                (**self).poll_transmit()
+            }
+        }
+    };
 }
 
-/// A borrowed node is a node: a [`Mux`](crate::Mux) can serve nodes its
-/// caller keeps.
-impl<T: Node + ?Sized> Node for &mut T {
-    fn subscriptions(&self) -> &BTreeSet<Subject> {
-        (**self).subscriptions()
-    }
-    fn handle_packet(&mut self, now: Time, packet: &Packet<'_>) {
-        (**self).handle_packet(now, packet)
-    }
-    fn handle_timeout(&mut self, now: Time) {
-        (**self).handle_timeout(now)
-    }
-    fn poll_timeout(&self) -> Option<Time> {
-        (**self).poll_timeout()
-    }
-    fn poll_transmit(&mut self) -> Option<Vec<u8>> {
-        (**self).poll_transmit()
-    }
-}
+delegate_node!(Box<T>);
+delegate_node!(
+    /// A borrowed node is a node: a [`Mux`](crate::Mux) can serve nodes its
+    /// caller keeps.
+    &mut T
+);
 
 #[cfg(test)]
 mod tests {
