@@ -7,12 +7,24 @@
 //! killed and restarted: a robot with no fresh command stops, and a
 //! restarted controller picks up from the next observation.
 //!
+//! Both sides are sans-IO [`colony_node::Node`]s ([`WorldNode`],
+//! [`RobotNode`]): [`world::run`] and [`robot::run`] drive them over a real
+//! hub with colony-node's runtime, and a test or an experiment runs the same
+//! values on colony-node's in-memory [`Bus`](colony_node::Bus) on simulated
+//! time, with no socket.
+//!
 //! Every packet is one of [`colony_proto`]'s messages: [`colony_proto::swarm`] for
 //! `camera.N`, `vision`, `debug` and `metrics`, [`colony_proto::radio`] for the commands.
 
 pub mod launch;
 pub mod robot;
+mod robot_node;
+mod serve;
 pub mod world;
+mod world_node;
+
+pub use robot_node::RobotNode;
+pub use world_node::WorldNode;
 
 /// What can stop a live world or robot.
 #[derive(Debug, thiserror::Error)]
@@ -32,6 +44,16 @@ pub enum LiveError {
     /// A robot id does not fit the `u32` every message writes ids as.
     #[error("robot {0} has no id on the wire: ids go up to {max}", max = u32::MAX)]
     RobotId(usize),
+}
+
+/// colony-node's runtime fails as the hub client underneath it does.
+impl From<colony_node::LiveError> for LiveError {
+    fn from(e: colony_node::LiveError) -> LiveError {
+        match e {
+            colony_node::LiveError::Client(e) => LiveError::Client(e),
+            colony_node::LiveError::Io(e) => LiveError::Io(e),
+        }
+    }
 }
 
 /// `robot` as the `u32` every message writes robot ids as.
