@@ -35,16 +35,13 @@ impl From<colony_node::LiveError> for LiveError {
     }
 }
 
-/// Runs `f` with a [`Link`] over the caller's `client`, whose clock starts
-/// now. A link owns its client, so the caller's is lent to it for the run
-/// (a stand-in, a socket that sends nothing, takes its place meanwhile) and
-/// handed back after, whatever `f` returned.
-fn with_link<R>(client: &mut UdpClient, f: impl FnOnce(&mut Link) -> R) -> Result<R, LiveError> {
-    let stand_in = UdpClient::connect(client.hub_addr())?;
-    let mut link = Link::new(std::mem::replace(client, stand_in), Instant::now());
-    let result = f(&mut link);
-    std::mem::swap(client, link.client_mut());
-    Ok(result)
+/// Runs `f` with a [`Link`] that borrows the caller's `client`, its clock
+/// starting now.
+fn with_link<R>(
+    client: &mut UdpClient,
+    f: impl FnOnce(&mut Link<&mut UdpClient>) -> R,
+) -> Result<R, LiveError> {
+    Ok(f(&mut Link::new(client, Instant::now())))
 }
 
 /// Runs a part until `stop`.

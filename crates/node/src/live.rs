@@ -3,6 +3,7 @@
 //! [`Mux`] serves many links from one mio loop. The caller owns the loop (and
 //! the thread); nothing here starts one.
 
+use std::borrow::BorrowMut;
 use std::collections::BTreeSet;
 use std::net::ToSocketAddrs;
 use std::os::fd::AsRawFd;
@@ -32,6 +33,10 @@ const TICK: Duration = Duration::from_millis(50);
 /// One node's connection to the hub: its client, the subscriptions the hub
 /// holds for it, and the epoch its [`Time`] counts from.
 ///
+/// A link owns its client (`Link<UdpClient>`, the default) or borrows one its
+/// caller keeps (`Link<&mut UdpClient>`), so a caller can lend its client to a
+/// node for a while and go on with it afterwards.
+///
 /// ```no_run
 /// use std::time::Instant;
 /// use colony_client::UdpClient;
@@ -45,22 +50,13 @@ const TICK: Duration = Duration::from_millis(50);
 /// }
 /// # let _ = serve;
 /// ```
-pub struct Link {
-    client: UdpClient,
+pub struct Link<C = UdpClient> {
+    client: C,
     applied: BTreeSet<Subject>,
     epoch: Instant,
 }
 
 impl Link {
-    /// A link over `client`, its clock counting from `epoch`.
-    pub fn new(client: UdpClient, epoch: Instant) -> Link {
-        Link {
-            client,
-            applied: BTreeSet::new(),
-            epoch,
-        }
-    }
-
     /// A link over a new client of the hub at `hub`, its clock counting from `epoch`.
     pub fn connect(
         hub: impl ToSocketAddrs + std::fmt::Debug,
@@ -68,15 +64,26 @@ impl Link {
     ) -> Result<Link, LiveError> {
         Ok(Link::new(UdpClient::connect(hub)?, epoch))
     }
+}
+
+impl<C: BorrowMut<UdpClient>> Link<C> {
+    /// A link over `client`, its clock counting from `epoch`.
+    pub fn new(client: C, epoch: Instant) -> Link<C> {
+        Link {
+            client,
+            applied: BTreeSet::new(),
+            epoch,
+        }
+    }
 
     /// The client underneath.
     pub fn client(&self) -> &UdpClient {
-        &self.client
+        self.client.borrow()
     }
 
     /// The client underneath, to publish or subscribe outside the protocol.
     pub fn client_mut(&mut self) -> &mut UdpClient {
-        &mut self.client
+        self.client.borrow_mut()
     }
 
     /// Now, on this link's clock.
@@ -101,18 +108,18 @@ impl Link {
             return Ok(());
         }
         if want.is_empty() {
-            self.client.unsubscribe_all()?;
+            self.client_mut().unsubscribe_all()?;
             self.applied.clear();
             return Ok(());
         }
         let gone: Vec<Subject> = self.applied.difference(want).cloned().collect();
         for s in gone {
-            self.client.unsubscribe(s.as_str())?;
+            self.client_mut().unsubscribe(s.as_str())?;
             self.applied.remove(&s);
         }
         let new: Vec<Subject> = want.difference(&self.applied).cloned().collect();
         for s in new {
-            self.client.subscribe(s.as_str())?;
+            self.client_mut().subscribe(s.as_str())?;
             self.applied.insert(s);
         }
         Ok(())
@@ -123,7 +130,7 @@ impl Link {
     pub fn flush(&mut self, node: &mut dyn Node) -> Result<(), LiveError> {
         self.sync(node)?;
         while let Some(p) = node.poll_transmit() {
-            self.client.publish(&p)?;
+            self.client_mut().publish(&p)?;
         }
         Ok(())
     }
@@ -133,9 +140,9 @@ impl Link {
     pub fn pump(&mut self, node: &mut dyn Node) -> Result<(), LiveError> {
         self.flush(node)?;
         let now = Instant::now();
-        self.client.poll(now)?;
+        self.client_mut().poll(now)?;
         let epoch = self.epoch;
-        while let Some(packet) = self.client.recv()? {
+        while let Some(packet) = self.client.borrow_mut().recv()? {
             let t = Time::from_micros(epoch.elapsed().as_micros() as u64);
             node.handle_packet(t, &packet);
         }
@@ -149,7 +156,7 @@ impl Link {
     /// When the link next has work: the node's timer or the client's.
     pub fn next_deadline(&self, node: &dyn Node) -> Option<Instant> {
         let node_due = node.poll_timeout().map(|t| self.instant_of(t));
-        match (node_due, self.client.next_deadline()) {
+        match (node_due, self.client().next_deadline()) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),
         }
@@ -162,7 +169,7 @@ impl Link {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),
         };
-        self.client.wait(until)?;
+        self.client().wait(until)?;
         Ok(())
     }
 }
@@ -170,9 +177,9 @@ impl Link {
 /// Runs `node` over `link` until `stop` is set, calling `each` after every
 /// round (to read the node's events or feed it from its owner): one node on
 /// one thread.
-pub fn run<N: Node>(
+pub fn run<N: Node, C: BorrowMut<UdpClient>>(
     node: &mut N,
-    link: &mut Link,
+    link: &mut Link<C>,
     stop: &AtomicBool,
     mut each: impl FnMut(&mut N, Time),
 ) -> Result<(), LiveError> {

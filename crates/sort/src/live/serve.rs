@@ -10,26 +10,20 @@ use super::LiveError;
 
 /// Runs `node` over `client` with [`colony_node::run`] until `stop` is set
 /// or `go_on` (called after every round) says no. The link's clock starts now.
-///
-/// A [`Link`] owns its client while the callers of [`super::world::run`] and
-/// [`super::robot::run`] lend theirs, so the client is moved into the link
-/// for the run, a placeholder (a bound socket that sends nothing) standing in
-/// for it, and swapped back afterwards: the caller gets its own client back
-/// with the subscriptions the node made.
+/// The link borrows the caller's client, which keeps the subscriptions the node
+/// made.
 pub(super) fn serve<N: Node>(
     node: &mut N,
     client: &mut UdpClient,
     stop: &AtomicBool,
     mut go_on: impl FnMut(&mut N, Time) -> bool,
 ) -> Result<(), LiveError> {
-    let placeholder = UdpClient::connect(client.hub_addr())?;
-    let mut link = Link::new(std::mem::replace(client, placeholder), Instant::now());
+    let mut link = Link::new(client, Instant::now());
     let halt = AtomicBool::new(stop.load(Ordering::Relaxed));
     let result = colony_node::run(node, &mut link, &halt, |node, now| {
         if stop.load(Ordering::Relaxed) || !go_on(node, now) {
             halt.store(true, Ordering::Relaxed);
         }
     });
-    std::mem::swap(client, link.client_mut());
     Ok(result?)
 }
