@@ -40,7 +40,10 @@ pub enum StatusError {
 pub fn fetch_status(hub: &str, timeout: Duration) -> Result<StatusReport, StatusError> {
     let mut client = UdpClient::connect_to(hub)?;
     client.subscribe(STATUS_CHANNEL)?;
-    let deadline = Instant::now() + timeout;
+    // A timeout beyond what the clock can hold waits as long as it can.
+    let deadline = Instant::now()
+        .checked_add(timeout)
+        .unwrap_or_else(|| Instant::now() + Duration::from_secs(100 * 365 * 24 * 3600));
     let mut leased = false;
     let mut next_ask = Instant::now();
     while Instant::now() < deadline {

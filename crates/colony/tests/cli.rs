@@ -339,3 +339,48 @@ fn demo_runs_a_live_swarm_serves_the_monitor_and_stops_by_itself() {
     let rest: Vec<String> = rx.iter().collect();
     assert!(rest.iter().any(|l| l.contains("stopped")), "{rest:?}");
 }
+
+#[test]
+fn extreme_seconds_and_speeds_get_an_answer_or_a_clear_error_never_a_panic() {
+    let hub = HubProcess::start(&[]);
+    let addr = hub.addr.to_string();
+    // A timeout past what a clock holds: the hub answers long before it.
+    let o = run(&["status", "--hub", &addr, "--timeout", "1e300"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // A speed so small that one control step outlasts any clock.
+    let o = run(&[
+        "sort",
+        "live",
+        "--hub",
+        &addr,
+        "--speed",
+        "1e-310",
+        "--controllers",
+        "external",
+    ]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(err.contains("speed") && !err.contains("panicked"), "{err}");
+    // A run limit past what a clock holds runs until told to stop: here, until killed.
+    let mut game = colony()
+        .args([
+            "game",
+            "ctf",
+            "--seconds",
+            "1e300",
+            "--no-monitor",
+            "--hub",
+            &addr,
+        ])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_secs(2));
+    let still_running = game.try_wait().unwrap().is_none();
+    let _ = game.kill();
+    let out = game.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(still_running && !err.contains("panicked"), "{err}");
+}

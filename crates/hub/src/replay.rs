@@ -82,9 +82,17 @@ impl Pacer {
     /// When the packet logged `since` after the log's first record is due.
     pub fn due(&mut self, since: Duration) -> Instant {
         let offset = since.saturating_sub(*self.first.get_or_insert(since));
-        self.start + offset.div_f64(self.speed)
+        // A tiny speed stretches the log past what an Instant can hold: such a packet
+        // is due so far ahead that a century will do.
+        Duration::try_from_secs_f64(offset.as_secs_f64() / self.speed)
+            .ok()
+            .and_then(|d| self.start.checked_add(d))
+            .unwrap_or_else(|| self.start + FAR)
     }
 }
+
+/// Later than any replay will run.
+const FAR: Duration = Duration::from_secs(100 * 365 * 24 * 3600);
 
 /// What to publish again, and how fast.
 #[derive(Debug, Clone)]
@@ -147,6 +155,14 @@ pub fn replay<E: From<LogError>>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_tiny_speed_puts_later_packets_far_ahead_without_overflowing() {
+        let start = Instant::now();
+        let mut p = Pacer::new(start, 1e-310);
+        assert_eq!(p.due(Duration::from_secs(5)), start);
+        assert_eq!(p.due(Duration::from_secs(6)), start + FAR);
+    }
 
     #[test]
     fn the_first_packet_is_due_at_once_and_the_rest_at_their_spacing_over_the_speed() {

@@ -44,11 +44,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !(args.speed.is_finite() && args.speed > 0.0) {
         anyhow::bail!("--speed must be a positive number, not {}", args.speed);
     }
-    if let Some(s) = args.seconds {
-        if !(s.is_finite() && s > 0.0) {
-            anyhow::bail!("--seconds must be a positive number of seconds");
-        }
-    }
+    let deadline = super::deadline("--seconds", args.seconds)?;
     let stop = super::stop_flag()?;
     let hub = HubSite::here_or_elsewhere(None, &HubSpec::new(args.hub_bind.as_str()), &stop)
         .map_err(|e| match e {
@@ -57,7 +53,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             )),
             e => e.into(),
         })?;
-    let result = run_with_hub(&args, &hub.addr(), &stop);
+    let result = run_with_hub(&args, &hub.addr(), &stop, deadline);
     let hub_result = hub.stop();
     result?;
     hub_result.context("the demo's hub failed")?;
@@ -65,7 +61,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn run_with_hub(args: &Args, hub_addr: &str, stop: &Arc<AtomicBool>) -> anyhow::Result<()> {
+fn run_with_hub(
+    args: &Args,
+    hub_addr: &str,
+    stop: &Arc<AtomicBool>,
+    deadline: Option<Instant>,
+) -> anyhow::Result<()> {
     let monitor = Monitor::start(&MonitorConfig {
         hub: hub_addr.to_string(),
         bind: args.monitor_bind.clone(),
@@ -92,9 +93,6 @@ fn run_with_hub(args: &Args, hub_addr: &str, stop: &Arc<AtomicBool>) -> anyhow::
         monitor.url(),
         args.speed
     );
-    let deadline = args
-        .seconds
-        .map(|s| Instant::now() + Duration::from_secs_f64(s));
     let mut outcome = Ok(());
     while !stop.load(Ordering::Relaxed) && deadline.is_none_or(|d| Instant::now() < d) {
         if simulator.is_finished() {

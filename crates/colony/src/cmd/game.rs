@@ -222,9 +222,7 @@ fn live(
             plan.rules.mode
         ),
     }
-    let deadline = args
-        .seconds
-        .map(|s| Instant::now() + Duration::from_secs_f64(s.max(0.0)));
+    let deadline = super::deadline("--seconds", args.seconds)?;
     let monitor_gone = || {
         monitor
             .as_ref()

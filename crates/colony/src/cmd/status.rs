@@ -19,7 +19,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !(args.timeout.is_finite() && args.timeout > 0.0) {
         anyhow::bail!("--timeout must be a positive number of seconds");
     }
-    let report = fetch_status(&args.hub.addr, Duration::from_secs_f64(args.timeout))?;
+    // Past what a Duration holds, wait as long as one can.
+    let timeout = Duration::try_from_secs_f64(args.timeout).unwrap_or(Duration::MAX);
+    let report = fetch_status(&args.hub.addr, timeout)?;
     print!("{}", format_report(&report));
     Ok(())
 }

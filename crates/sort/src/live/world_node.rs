@@ -54,12 +54,19 @@ impl<W: BorrowMut<World>> WorldNode<W> {
                 options.speed
             )));
         }
+        let period =
+            Duration::try_from_secs_f64(options.step_seconds / options.speed).map_err(|_| {
+                LiveError::Options(format!(
+                    "speed {} makes a control step of {} s last longer than colony can wait",
+                    options.speed, options.step_seconds
+                ))
+            })?;
         let n = world.borrow().robots().len();
         // As the hub client's subscribe would refuse it.
         let subs = [Subject::new(RADIO).map_err(ClientError::from)?].into();
         Ok(WorldNode {
             world,
-            period: Duration::from_secs_f64(options.step_seconds / options.speed),
+            period,
             commands: command_hold(n, options.command_timeout_steps),
             applied: vec![WheelCommand::STOP; n],
             done: 0,
@@ -248,7 +255,7 @@ mod tests {
     #[test]
     fn a_speed_that_is_not_positive_is_refused() {
         let mut world = World::new(&SceneConfig::default(), 3).unwrap();
-        for speed in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        for speed in [0.0, -1.0, f64::NAN, f64::INFINITY, 1e-310] {
             let o = WorldOptions {
                 speed,
                 ..options(None)

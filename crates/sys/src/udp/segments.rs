@@ -104,7 +104,9 @@ impl Repeater {
                 let h = &mut self.hdrs[count].msg_hdr;
                 h.msg_name = (name as *mut libc::sockaddr_in).cast();
                 h.msg_namelen = size_of::<libc::sockaddr_in>() as libc::socklen_t;
-                h.msg_iov = &mut self.iovs[first];
+                // Derived from the whole array, not one element: the kernel reads
+                // `segments` iovecs from here.
+                h.msg_iov = self.iovs[first..end].as_mut_ptr();
                 h.msg_iovlen = segments;
                 if segments > 1 {
                     h.msg_control = self.cmsgs[u].as_mut_ptr().cast();
