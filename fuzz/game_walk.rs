@@ -43,9 +43,9 @@ pub fn walk_messages(data: &[u8]) {
         assert_eq!(again.robots.len(), s.robots.len());
     }
     if let Ok(lenient) = GameState::decode_lenient(&p) {
-        let b = lenient.value.encode().unwrap();
+        let b = lenient.message.encode().unwrap();
         let again = GameState::decode(&Packet::parse(&b).unwrap()).unwrap();
-        assert_eq!(again.robots.len(), lenient.value.robots.len());
+        assert_eq!(again.robots.len(), lenient.message.robots.len());
     }
 }
 

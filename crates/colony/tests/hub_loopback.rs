@@ -32,7 +32,7 @@ fn fan_out_to_50_subscribers_loses_nothing_at_a_moderate_rate() {
             }
         }
     }
-    let deadline = Instant::now() + Duration::from_secs(3);
+    let deadline = Instant::now() + Duration::from_secs(30);
     while counts.iter().any(|&n| n < total) && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(10));
         for (c, n) in subs.iter_mut().zip(&mut counts) {
@@ -62,7 +62,7 @@ fn the_minimum_priority_filters_low_priority_packets_until_restored() {
     operator
         .publish(b"@ <radio> 10\ncmd from \"operator\"\n")
         .unwrap();
-    let got = drain_until(&mut sub, Instant::now() + Duration::from_secs(2), |g| {
+    let got = drain_until(&mut sub, Instant::now() + Duration::from_secs(30), |g| {
         !g.is_empty()
     });
     std::thread::sleep(Duration::from_millis(100));
@@ -80,7 +80,7 @@ fn the_minimum_priority_filters_low_priority_packets_until_restored() {
         .unwrap();
     std::thread::sleep(Duration::from_millis(50));
     ai.publish(b"@ <radio> 0\ncmd from \"ai\"\n").unwrap();
-    let got = drain_until(&mut sub, Instant::now() + Duration::from_secs(2), |g| {
+    let got = drain_until(&mut sub, Instant::now() + Duration::from_secs(30), |g| {
         !g.is_empty()
     });
     assert_eq!(got, ["@ <radio> 0\ncmd from \"ai\"\n"]);
@@ -98,7 +98,7 @@ fn a_subject_set_packet_reaches_only_clients_with_every_subject() {
     publisher
         .publish(b"@ <mobile> 0\ntask name \"drive\"\n")
         .unwrap();
-    let got_both = drain_until(&mut both, Instant::now() + Duration::from_secs(2), |g| {
+    let got_both = drain_until(&mut both, Instant::now() + Duration::from_secs(30), |g| {
         g.len() >= 2
     });
     let got_one = drain_until(&mut one, Instant::now() + Duration::from_millis(500), |g| {
@@ -129,7 +129,7 @@ fn every_client_receives_again_after_a_hub_restart_without_being_restarted() {
     };
     for s in &mut subs {
         assert!(
-            !drain_until(s, Instant::now() + Duration::from_secs(2), |g| !g
+            !drain_until(s, Instant::now() + Duration::from_secs(30), |g| !g
                 .is_empty())
             .is_empty()
         );
@@ -201,7 +201,7 @@ fn a_killed_client_does_not_disturb_the_others_and_its_lease_expires() {
     }
     let got = drain_until(
         &mut survivor,
-        Instant::now() + Duration::from_secs(2),
+        Instant::now() + Duration::from_secs(30),
         |g| g.len() >= 20,
     );
     assert_eq!(got.len(), 20);
@@ -219,9 +219,10 @@ fn a_killed_client_does_not_disturb_the_others_and_its_lease_expires() {
     assert!(report.clients.iter().any(|c| c.addr == me), "{report:?}");
 }
 
+/// The hub's status; waits (generously) for the answer, since a busy machine may be slow to give it.
 fn colony_status(hub: std::net::SocketAddr) -> colony_wire::StatusReport {
     let mut c = subscribed(hub, &["test-status"]);
-    let deadline = Instant::now() + Duration::from_secs(3);
+    let deadline = Instant::now() + Duration::from_secs(30);
     loop {
         c.request(&[Request::Status]).unwrap();
         let until = Instant::now() + Duration::from_millis(200);
@@ -265,7 +266,7 @@ fn a_flood_of_malformed_packets_does_not_stop_valid_traffic() {
             received += 1;
         }
     }
-    let rest = drain_until(&mut sub, Instant::now() + Duration::from_secs(3), |g| {
+    let rest = drain_until(&mut sub, Instant::now() + Duration::from_secs(30), |g| {
         received + g.len() >= 200
     });
     assert_eq!(

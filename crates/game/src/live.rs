@@ -35,24 +35,14 @@ impl From<colony_node::LiveError> for LiveError {
     }
 }
 
-/// Runs `f` with a [`Link`] that borrows the caller's `client`, its clock
-/// starting now.
-fn with_link<R>(
-    client: &mut UdpClient,
-    f: impl FnOnce(&mut Link<&mut UdpClient>) -> R,
-) -> Result<R, LiveError> {
-    Ok(f(&mut Link::new(client, Instant::now())))
-}
-
 /// Runs a part until `stop`.
 pub fn run_node(
     node: &mut dyn Node,
     client: &mut UdpClient,
     stop: &AtomicBool,
 ) -> Result<(), LiveError> {
-    with_link(client, |link| {
-        colony_node::run(&mut &mut *node, link, stop, |_, _| {})
-    })??;
+    let mut link = Link::new(client, Instant::now());
+    colony_node::run(&mut &mut *node, &mut link, stop, |_, _| {})?;
     Ok(())
 }
 
@@ -85,12 +75,11 @@ pub fn run_world(
     if finished(world) {
         return Ok(());
     }
-    with_link(client, |link| {
-        colony_node::run(world, link, &done, |w, _| {
-            if finished(w) {
-                done.store(true, Ordering::Relaxed);
-            }
-        })
-    })??;
+    let mut link = Link::new(client, Instant::now());
+    colony_node::run(world, &mut link, &done, |w, _| {
+        if finished(w) {
+            done.store(true, Ordering::Relaxed);
+        }
+    })?;
     Ok(())
 }

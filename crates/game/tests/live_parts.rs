@@ -57,7 +57,8 @@ impl Hub {
         }
     }
 
-    /// Every packet `c` receives in the next `d`, by first line.
+    /// Every packet `c` receives in the next `d`, by first line, leaving out the probes
+    /// [`Hub::ear`] sent (on a loaded machine some arrive after the first).
     fn hear(c: &mut UdpClient, d: Duration) -> Vec<String> {
         let until = Instant::now() + d;
         let mut got = Vec::new();
@@ -65,7 +66,10 @@ impl Hub {
             c.wait(Some(until)).unwrap();
             c.poll(Instant::now()).unwrap();
             while let Some(p) = c.recv().unwrap() {
-                got.push(p.lines().next().map_or("", |l| l.label()).to_string());
+                let label = p.lines().next().map_or("", |l| l.label());
+                if label != "probe" {
+                    got.push(label.to_string());
+                }
             }
         }
         got
@@ -114,7 +118,13 @@ fn a_live_world_takes_its_steps_at_its_pace_and_hands_its_client_back() {
         local,
         "the caller's client back"
     );
-    let frames = Hub::hear(&mut ear, Duration::from_millis(300));
+    // Wait (generously) for the five frames, then a little longer for any sixth.
+    let mut frames = Vec::new();
+    let give_up = Instant::now() + Duration::from_secs(30);
+    while frames.len() < 5 && Instant::now() < give_up {
+        frames.extend(Hub::hear(&mut ear, Duration::from_millis(100)));
+    }
+    frames.extend(Hub::hear(&mut ear, Duration::from_millis(300)));
     assert_eq!(frames.len(), 5, "{frames:?}");
 }
 

@@ -37,17 +37,17 @@ fn everything_a_real_match_publishes_reads_for_a_viewer_with_no_skipped_line() {
             states += 1;
             let strict = GameState::decode(&packet).expect("game.state decodes");
             let lenient = GameState::decode_lenient(&packet).expect("game.state has its head");
-            skipped += lenient.skipped;
-            assert_eq!(lenient.value, strict);
+            skipped += lenient.bad_lines;
+            assert_eq!(lenient.message, strict);
             last_state = Some(strict);
         } else if packet.has_subject(MAP) {
             maps += 1;
             map.on_packet(&packet);
         } else if packet.has_subject(EVENT) {
             let read = Event::decode_lenient(&packet);
-            skipped += read.skipped;
-            events += read.value.len();
-            assert_eq!(read.value[0], Event::decode(&packet).unwrap());
+            skipped += read.bad_lines;
+            events += read.message.len();
+            assert_eq!(read.message[0], Event::decode(&packet).unwrap());
         }
     });
     assert!(

@@ -338,8 +338,8 @@ impl GameView {
             self.bad_lines += 1;
             return;
         };
-        self.bad_lines += read.skipped;
-        let s = state_view(read.value);
+        self.bad_lines += read.bad_lines;
+        let s = state_view(read.message);
         // Game time going back is a new game: the old one's log is history.
         if self
             .state
@@ -356,8 +356,8 @@ impl GameView {
 
     fn on_event(&mut self, packet: &Packet<'_>) {
         let read = Event::decode_lenient(packet);
-        self.bad_lines += read.skipped;
-        for e in read.value {
+        self.bad_lines += read.bad_lines;
+        for e in read.message {
             let mut e = EventView {
                 seq: 0,
                 kind: e.kind,

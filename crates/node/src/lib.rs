@@ -65,5 +65,5 @@ mod time;
 
 pub use bus::{Bus, BusStats};
 pub use live::{run, Link, LiveError, Mux};
-pub use node::{receives, Node};
+pub use node::Node;
 pub use time::Time;

@@ -36,7 +36,7 @@ use crate::time::Time;
 pub trait Node {
     /// The subjects this participant should be subscribed to now. A packet
     /// reaches it only if every one of the packet's subjects is among them
-    /// (the hub's subject-set addressing; see [`receives`]).
+    /// (the hub's subject-set addressing).
     fn subscriptions(&self) -> &BTreeSet<Subject>;
     /// A packet the hub forwarded, arriving at `now`.
     fn handle_packet(&mut self, now: Time, packet: &Packet<'_>);
@@ -53,22 +53,6 @@ pub trait Node {
     /// The next packet to publish, whole and well formed; `None` when there
     /// is nothing more to send now.
     fn poll_transmit(&mut self) -> Option<Vec<u8>>;
-}
-
-/// Whether a subscriber holding `subs` receives a packet addressed to
-/// `subjects`: it must hold every one of them (subject-set addressing, as the
-/// hub routes).
-///
-/// ```
-/// use std::collections::BTreeSet;
-/// use colony_node::receives;
-/// use colony_wire::Subject;
-/// let subs: BTreeSet<Subject> = ["camera", "idle"].map(|s| Subject::new(s).unwrap()).into();
-/// assert!(receives(&subs, ["camera", "idle"].into_iter()));
-/// assert!(!receives(&subs, ["camera", "laser"].into_iter()));
-/// ```
-pub fn receives<'a>(subs: &BTreeSet<Subject>, mut subjects: impl Iterator<Item = &'a str>) -> bool {
-    subjects.all(|s| subs.contains(s))
 }
 
 /// Implements [`Node`] for a pointer to a node by handing every call through.
@@ -110,15 +94,6 @@ mod tests {
         s.split_whitespace()
             .map(|s| Subject::new(s).unwrap())
             .collect()
-    }
-
-    #[test]
-    fn a_subscriber_receives_only_when_it_holds_every_subject() {
-        let subs = set("camera laser idle");
-        assert!(receives(&subs, ["camera"].into_iter()));
-        assert!(receives(&subs, ["camera", "laser", "idle"].into_iter()));
-        assert!(!receives(&subs, ["camera", "mobile"].into_iter()));
-        assert!(!receives(&set(""), ["camera"].into_iter()));
     }
 
     struct Counter {

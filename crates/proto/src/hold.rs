@@ -2,7 +2,8 @@
 //!
 //! The hub's minimum priority is global (the Broker paper), so raising it to take one robot would
 //! silence every controller. A world therefore keeps, per robot, the command in force: a command
-//! holds its robot for `hold` control steps after the step it arrived at, and while it holds, a
+//! holds its robot for `hold` control steps, the step it arrived at counted (with `hold` 10, one
+//! arriving at step 1 holds through step 10), and while it holds, a
 //! command of lower priority for that robot is ignored. Equal or higher priority always replaces
 //! it, so a controller's stream of commands at one priority simply follows the newest.
 

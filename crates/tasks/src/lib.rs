@@ -43,8 +43,8 @@
 //!
 //! MURDOCH's messages, its resource sets and tokens live in
 //! [`colony_proto::murdoch`] (re-exported here as [`protocol`]), with the
-//! packets they travel as: one home, used by this crate, the monitor and the
-//! fuzz targets alike.
+//! packets they travel as: one home, used by this crate and the fuzz targets
+//! alike.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -58,7 +58,7 @@ mod user;
 
 pub use agent::{Agent, AgentConfig, AgentEvent, AgentMode, AgentStats, StopReason};
 pub use announcer::{Announcer, AnnouncerEvent, AnnouncerStats, AuctionConfig, TaskPhase};
-pub use colony_node::{receives, Bus, BusStats, Link, LiveError, Mux, Node, Time};
+pub use colony_node::{Bus, BusStats, Link, LiveError, Mux, Node, Time};
 pub use colony_proto::murdoch as protocol;
 pub use colony_proto::DecodeError;
 pub use metric::{MetricError, Metrics, RobotView};

@@ -8,9 +8,10 @@
 use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
 
 use super::read::{name, text};
-use super::{Lenient, EVENT};
+use super::EVENT;
 use crate::fields::{finite, r};
 use crate::DecodeError;
+use crate::Skimmed;
 
 /// Something that happened, for players and the log.
 #[derive(Debug, Clone, PartialEq)]
@@ -43,7 +44,7 @@ impl Event {
 
     /// Reads every `event` line of a packet for a viewer: a line that does not read is skipped
     /// and counted.
-    pub fn decode_lenient(packet: &Packet<'_>) -> Lenient<Vec<Event>> {
+    pub fn decode_lenient(packet: &Packet<'_>) -> Skimmed<Vec<Event>> {
         let mut events = Vec::new();
         let mut skipped = 0;
         for l in packet.lines_labelled("event") {
@@ -52,9 +53,9 @@ impl Event {
                 Err(_) => skipped += 1,
             }
         }
-        Lenient {
-            value: events,
-            skipped,
+        Skimmed {
+            message: events,
+            bad_lines: skipped,
         }
     }
 
@@ -86,15 +87,15 @@ mod tests {
         )
         .unwrap();
         let read = Event::decode_lenient(&p);
-        assert_eq!(read.skipped, 2);
+        assert_eq!(read.bad_lines, 2);
         assert_eq!(
-            read.value
+            read.message
                 .iter()
                 .map(|e| e.kind.as_str())
                 .collect::<Vec<_>>(),
             ["hit", "over"]
         );
-        assert_eq!(read.value[1].text, "", "a missing text reads as empty");
+        assert_eq!(read.message[1].text, "", "a missing text reads as empty");
     }
 
     proptest! {

@@ -68,12 +68,3 @@ pub fn robot_channel(id: u32) -> String {
 pub fn player_channel(team: &str) -> String {
     format!("game.player.{team}")
 }
-
-/// What a lenient decoder read, and how many lines it skipped because they did not read.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Lenient<T> {
-    /// What did read.
-    pub value: T,
-    /// Lines skipped.
-    pub skipped: u64,
-}

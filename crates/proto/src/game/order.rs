@@ -12,8 +12,9 @@ use std::fmt;
 
 use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
 
-use super::read::{count, name};
+use super::read::name;
 use super::robot_channel;
+use crate::fields::count;
 use crate::fields::{bad, coord, finite, r, robot_id};
 use crate::{DecodeError, Vec2};
 

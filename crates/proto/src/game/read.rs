@@ -6,15 +6,6 @@ use super::names::valid_name;
 use crate::fields::bad;
 use crate::DecodeError;
 
-/// A 0/1 flag.
-pub(crate) fn flag(line: &Line<'_>, name: &str) -> Result<bool, DecodeError> {
-    match line.i64(name)? {
-        0 => Ok(false),
-        1 => Ok(true),
-        v => Err(bad(line, format!("{name} must be 0 or 1, not {v}"))),
-    }
-}
-
 /// A name usable as a packet token ([`valid_name`]).
 pub(crate) fn name(line: &Line<'_>, field: &str) -> Result<String, DecodeError> {
     let s = line.str(field)?;
@@ -31,12 +22,6 @@ pub(crate) fn text(line: &Line<'_>, field: &str) -> Result<String, DecodeError> 
         None => Ok(String::new()),
         Some(_) => Ok(line.str(field)?.into_owned()),
     }
-}
-
-/// A count or step: a whole number, not negative.
-pub(crate) fn count(line: &Line<'_>, field: &str) -> Result<u64, DecodeError> {
-    let v = line.i64(field)?;
-    u64::try_from(v).map_err(|_| bad(line, format!("{field} must not be negative, not {v}")))
 }
 
 /// A score or tally that fits a `u32`.

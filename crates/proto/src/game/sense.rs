@@ -7,9 +7,10 @@
 
 use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 
-use super::read::{b, count, flag};
+use super::read::b;
 use super::sense_channel;
 use crate::fields::{coord, finite, r};
+use crate::fields::{count, flag};
 use crate::{DecodeError, Pose};
 
 /// What a robot's sensors report (the paper's touch sensors, sonar and

@@ -16,9 +16,11 @@
 
 use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
 
-use super::read::{b, flag, name, tally, text};
-use super::{Formation, Lenient, RobotKind, STATE};
+use super::read::{b, name, tally, text};
+use super::{Formation, RobotKind, STATE};
+use crate::fields::flag;
 use crate::fields::{bad, coord, finite, r, robot_id, MAX_COORD};
+use crate::Skimmed;
 use crate::{DecodeError, Pose, Vec2};
 
 /// Where a game stands.
@@ -294,7 +296,7 @@ impl GameState {
 
     /// Reads a game state for a viewer: a `team`, `flag`, `robot` or `squad` line that does not
     /// read is skipped and counted. Without a readable `game` line there is no state.
-    pub fn decode_lenient(packet: &Packet<'_>) -> Result<Lenient<GameState>, DecodeError> {
+    pub fn decode_lenient(packet: &Packet<'_>) -> Result<Skimmed<GameState>, DecodeError> {
         let g = packet.line("game").ok_or(DecodeError::Missing("game"))?;
         let mut state = head(&g)?;
         let mut skipped = 0;
@@ -303,9 +305,9 @@ impl GameState {
                 skipped += 1;
             }
         }
-        Ok(Lenient {
-            value: state,
-            skipped,
+        Ok(Skimmed {
+            message: state,
+            bad_lines: skipped,
         })
     }
 }

@@ -8,9 +8,10 @@
 
 use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 
-use super::read::{b, count, flag};
+use super::read::b;
 use super::WORLD;
 use crate::fields::{coord, finite, r, robot_id};
+use crate::fields::{count, flag};
 use crate::{DecodeError, Pose};
 
 /// One robot in a world frame.

@@ -9,7 +9,7 @@ use super::SpecError;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum EncodeError {
     /// The builder's own check failed (a bug in this crate, or a packet too large).
-    #[error("cannot write the packet: {0}")]
+    #[error("cannot write the packet")]
     Packet(#[from] ParseError),
     /// The task itself is invalid.
     #[error(transparent)]

@@ -44,6 +44,9 @@ pub enum LaunchError {
     /// The world or a controller failed.
     #[error(transparent)]
     Live(#[from] LiveError),
+    /// A controller's thread panicked (which robot's).
+    #[error("the controller of robot {0} panicked")]
+    ControllerPanicked(usize),
 }
 
 /// What every part of a live swarm must agree on.
@@ -184,11 +187,19 @@ impl Swarm {
             each_step,
         );
         self.stop.store(true, Ordering::Relaxed);
-        for t in self.threads.drain(..) {
-            let _ = t.join();
+        // Every controller is waited for; the world's failure, else the first controller's,
+        // is the swarm's.
+        let mut controllers = Ok(());
+        for (robot, t) in self.threads.drain(..).enumerate() {
+            let ended = match t.join() {
+                Ok(r) => r.map_err(LaunchError::from),
+                Err(_) => Err(LaunchError::ControllerPanicked(robot)),
+            };
+            controllers = controllers.and(ended);
         }
         drop(self.children);
-        Ok(result?)
+        result?;
+        controllers
     }
 }
 

@@ -5,7 +5,6 @@ use std::time::Duration;
 use super::*;
 use crate::protocol::negotiation_subject;
 use crate::protocol::{TaskSpec, MAX_MAGNITUDE};
-use colony_node::receives;
 
 fn token(s: &str) -> Token {
     Token::new(s).unwrap()
@@ -45,7 +44,7 @@ fn task(id: u64, resources: &str) -> Announcement {
 /// Hands the packet over if the hub would: true if it did.
 fn hear(a: &mut Agent, now: Time, bytes: &[u8]) -> bool {
     let packet = Packet::parse(bytes).unwrap();
-    if !receives(a.subscriptions(), packet.subjects()) {
+    if !packet.subjects().all(|s| a.subscriptions().contains(s)) {
         return false;
     }
     a.handle_packet(now, &packet);

@@ -4,7 +4,6 @@ use std::time::Duration;
 
 use super::*;
 use crate::protocol::ResourceSet;
-use colony_node::receives;
 
 fn token(s: &str) -> Token {
     Token::new(s).unwrap()
@@ -30,7 +29,7 @@ fn subject(id: u64, attempt: u32) -> Subject {
 fn say(a: &mut Announcer, now: Time, on: &Subject, m: Negotiation) -> bool {
     let bytes = m.encode(on).unwrap();
     let packet = Packet::parse(&bytes).unwrap();
-    if !receives(a.subscriptions(), packet.subjects()) {
+    if !packet.subjects().all(|s| a.subscriptions().contains(s)) {
         return false;
     }
     a.handle_packet(now, &packet);

@@ -45,9 +45,9 @@ fn a_state_is_read_whole_and_reencodes_to_itself() {
     let lenient = GameState::decode_lenient(&Packet::parse(STATE_PACKET.as_bytes()).unwrap());
     assert_eq!(
         lenient,
-        Ok(Lenient {
-            value: s,
-            skipped: 0
+        Ok(Skimmed {
+            message: s,
+            bad_lines: 0
         })
     );
 }
@@ -69,8 +69,8 @@ ufo x 1\n";
     let p = Packet::parse(text.as_bytes()).unwrap();
     assert!(GameState::decode(&p).is_err());
     let read = GameState::decode_lenient(&p).unwrap();
-    assert_eq!(read.skipped, 5 + 1 + 1);
-    let s = read.value;
+    assert_eq!(read.bad_lines, 5 + 1 + 1);
+    let s = read.message;
     assert_eq!(s.winner.as_deref(), Some("red"));
     assert_eq!(s.robots.iter().map(|r| r.id).collect::<Vec<_>>(), [6]);
     assert_eq!(s.robots[0].behaviour, "", "a missing text reads as empty");
@@ -164,7 +164,7 @@ proptest! {
         let bytes = s.encode().unwrap();
         let p = Packet::parse(&bytes).unwrap();
         prop_assert_eq!(GameState::decode(&p).unwrap(), s.clone());
-        prop_assert_eq!(GameState::decode_lenient(&p).unwrap(), Lenient { value: s, skipped: 0 });
+        prop_assert_eq!(GameState::decode_lenient(&p).unwrap(), Skimmed { message: s, bad_lines: 0 });
     }
 
     #[test]
@@ -174,7 +174,7 @@ proptest! {
             let strict = GameState::decode(&p);
             let lenient = GameState::decode_lenient(&p);
             if let Ok(s) = strict {
-                prop_assert_eq!(lenient.unwrap(), Lenient { value: s, skipped: 0 });
+                prop_assert_eq!(lenient.unwrap(), Skimmed { message: s, bad_lines: 0 });
             }
         }
     }
