@@ -97,6 +97,22 @@ mod tests {
     }
 
     #[test]
+    fn out_of_range_values_in_a_packet_are_clamped_on_reading() {
+        let got = parse(b"@ <radio> 10\ncmd id 2 forward 3 turn -7\n").unwrap();
+        assert_eq!(got, [RadioCommand::new(2, 1.0, -1.0)]);
+    }
+
+    #[test]
+    fn a_refusal_names_the_field_and_its_value() {
+        let e = parse(b"@ <radio> 0\ncmd id -1 forward 0 turn 0\n").unwrap_err();
+        assert!(e.to_string().contains("id -1"), "{e}");
+        let e = parse(b"@ <radio> 0\ncmd id 1 forward 0\n").unwrap_err();
+        assert!(e.to_string().contains("`turn`"), "{e}");
+        let e = parse(b"@ <radio> 0\ncmd id 1 forward NaN turn 0\n").unwrap_err();
+        assert!(e.to_string().contains("forward"), "{e}");
+    }
+
+    #[test]
     fn a_non_finite_value_or_a_negative_id_is_refused_with_its_line() {
         let e = parse(b"@ <radio> 0\ncmd id 1 forward 0 turn 0\ncmd id 2 forward inf turn 0\n");
         assert!(matches!(e, Err(DecodeError::Bad { line: 3, .. })), "{e:?}");
