@@ -388,8 +388,8 @@ impl Replanner {
         }
     }
 
-    /// Walks back from the goal, each step to the neighbour that explains
-    /// its distance.
+    /// Walks back from the goal, each step to the settled neighbour that
+    /// explains its distance.
     fn extract(&self, t: usize) -> Option<Path> {
         let mut cells = vec![self.grid.cell(t)];
         let mut u = t;
@@ -407,7 +407,13 @@ impl Replanner {
             for (dir, &cost) in STEP.iter().enumerate() {
                 if moves & (1 << dir) != 0 {
                     let v = self.grid.step(u, dir);
-                    let d = self.node(v).g.plus(cost).length();
+                    let n = self.node(v);
+                    // A cell the search has not settled since the map changed (g != rhs) may
+                    // hold a stale, too small g: the path must not lead through it.
+                    if n.g != n.rhs {
+                        continue;
+                    }
+                    let d = n.g.plus(cost).length();
                     if d < best.0 {
                         best = (d, v);
                     }
