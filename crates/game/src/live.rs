@@ -4,6 +4,7 @@
 //! [`Link`]); the world's real-time pace is its timer. The caller owns the
 //! loop's thread; `stop` ends it.
 
+use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -42,7 +43,9 @@ pub fn run_node(
     stop: &AtomicBool,
 ) -> Result<(), LiveError> {
     let mut link = Link::new(client, Instant::now());
-    colony_node::run(&mut &mut *node, &mut link, stop, |_, _| {})?;
+    colony_node::run(&mut &mut *node, &mut link, stop, |_, _| {
+        ControlFlow::Continue(())
+    })?;
     Ok(())
 }
 
@@ -65,20 +68,16 @@ pub fn run_world(
         })?;
     world.set_pace(period, Time::ZERO);
     let start = world.field().step_count();
-    // The runtime looks at one flag: it is raised by the caller's, or once
-    // the world has taken its steps.
-    let done = AtomicBool::new(false);
-    let finished = |w: &GameWorld| {
-        stop.load(Ordering::Relaxed)
-            || max_steps.is_some_and(|m| w.field().step_count() - start >= m)
-    };
-    if finished(world) {
+    let finished = |w: &GameWorld| max_steps.is_some_and(|m| w.field().step_count() - start >= m);
+    if stop.load(Ordering::Relaxed) || finished(world) {
         return Ok(());
     }
     let mut link = Link::new(client, Instant::now());
-    colony_node::run(world, &mut link, &done, |w, _| {
+    colony_node::run(world, &mut link, stop, |w, _| {
         if finished(w) {
-            done.store(true, Ordering::Relaxed);
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
         }
     })?;
     Ok(())

@@ -6,6 +6,7 @@
 use std::borrow::BorrowMut;
 use std::collections::BTreeSet;
 use std::net::ToSocketAddrs;
+use std::ops::ControlFlow;
 use std::os::fd::AsRawFd;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -174,19 +175,22 @@ impl<C: BorrowMut<UdpClient>> Link<C> {
     }
 }
 
-/// Runs `node` over `link` until `stop` is set, calling `each` after every
-/// round (to read the node's events or feed it from its owner): one node on
-/// one thread.
+/// Runs `node` over `link` until `stop` is set or `each` breaks: one node on
+/// one thread. `each` is called after every round, to read the node's events,
+/// feed it from its owner, or end the run when the owner is done with it.
 pub fn run<N: Node, C: BorrowMut<UdpClient>>(
     node: &mut N,
     link: &mut Link<C>,
     stop: &AtomicBool,
-    mut each: impl FnMut(&mut N, Time),
+    mut each: impl FnMut(&mut N, Time) -> ControlFlow<()>,
 ) -> Result<(), LiveError> {
     while !stop.load(Ordering::Relaxed) {
         link.pump(node)?;
-        each(node, link.now());
+        let flow = each(node, link.now());
         link.flush(node)?;
+        if flow.is_break() {
+            break;
+        }
         link.wait(node, Some(TICK))?;
     }
     Ok(())

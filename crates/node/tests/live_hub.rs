@@ -10,6 +10,8 @@ use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
 use colony_hub::{HubConfig, Server};
+use std::ops::ControlFlow;
+
 use colony_node::{run, Link, Mux, Node, Time};
 use colony_wire::{Packet, Priority, Request, Subject};
 
@@ -133,7 +135,9 @@ fn two_nodes_on_threads_of_their_own_talk_through_the_hub() {
         let (stop, addr) = (stop.clone(), hub.addr);
         thread::spawn(move || {
             let mut link = Link::connect(addr, epoch).unwrap();
-            run(&mut Ponger::new(), &mut link, &stop, |_, _| {})
+            run(&mut Ponger::new(), &mut link, &stop, |_, _| {
+                ControlFlow::Continue(())
+            })
         })
     };
     let pinger = {
@@ -142,6 +146,7 @@ fn two_nodes_on_threads_of_their_own_talk_through_the_hub() {
             let mut link = Link::connect(addr, epoch).unwrap();
             run(&mut Pinger::new(), &mut link, &stop, |node, _| {
                 pongs.store(node.pongs, Ordering::Relaxed);
+                ControlFlow::Continue(())
             })
         })
     };

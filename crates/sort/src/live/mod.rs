@@ -19,7 +19,6 @@
 pub mod launch;
 pub mod robot;
 mod robot_node;
-mod serve;
 pub mod world;
 mod world_node;
 
@@ -53,6 +52,15 @@ impl From<colony_node::LiveError> for LiveError {
             colony_node::LiveError::Client(e) => LiveError::Client(e),
             colony_node::LiveError::Io(e) => LiveError::Io(e),
         }
+    }
+}
+
+/// Whether the runtime goes on with a node: on while `on`.
+pub(crate) fn go_on(on: bool) -> std::ops::ControlFlow<()> {
+    if on {
+        std::ops::ControlFlow::Continue(())
+    } else {
+        std::ops::ControlFlow::Break(())
     }
 }
 

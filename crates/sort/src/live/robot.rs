@@ -2,11 +2,12 @@
 //! The controller is a [`RobotNode`]; this runs it over a real hub.
 
 use std::sync::atomic::AtomicBool;
+use std::time::Instant;
 
 use colony_client::UdpClient;
+use colony_node::Link;
 
-use super::serve::serve;
-use super::{LiveError, RobotNode};
+use super::{go_on, LiveError, RobotNode};
 use crate::Controller;
 
 /// Runs one robot's controller until `stop`: each camera observation from
@@ -21,6 +22,7 @@ pub fn run(
     stop: &AtomicBool,
 ) -> Result<(), LiveError> {
     let mut node = RobotNode::new(robot, controller, seed)?;
-    serve(&mut node, client, stop, |node, _| !node.failed())?;
+    let mut link = Link::new(client, Instant::now());
+    colony_node::run(&mut node, &mut link, stop, |node, _| go_on(!node.failed()))?;
     node.take_error().map_or(Ok(()), Err)
 }

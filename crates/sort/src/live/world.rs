@@ -3,13 +3,14 @@
 //! world itself is a [`WorldNode`]; this runs it over a real hub.
 
 use std::sync::atomic::AtomicBool;
+use std::time::Instant;
 
 use colony_client::UdpClient;
+use colony_node::Link;
 use colony_proto::CommandHold;
 use colony_sim::World;
 
-use super::serve::serve;
-use super::{LiveError, WorldNode};
+use super::{go_on, LiveError, WorldNode};
 
 /// How the live world runs.
 #[derive(Debug, Clone)]
@@ -47,13 +48,14 @@ pub fn run(
 ) -> Result<(), LiveError> {
     let mut node = WorldNode::new(world, options)?;
     let mut seen = 0;
-    serve(&mut node, client, stop, |node, _| {
+    let mut link = Link::new(client, Instant::now());
+    colony_node::run(&mut node, &mut link, stop, |node, _| {
         // The runtime runs at most one timer, so one step, per round.
         if node.steps_done() > seen {
             seen = node.steps_done();
             each_step(node.world());
         }
-        !node.finished()
+        go_on(!node.finished())
     })?;
     node.take_error().map_or(Ok(()), Err)
 }
