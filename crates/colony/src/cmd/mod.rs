@@ -38,19 +38,23 @@ impl HubAddr {
     }
 }
 
-/// A flag set by Ctrl-C or SIGTERM, so loops can stop cleanly.
+/// A positive number of seconds given on the command line; one past what a `Duration` holds is
+/// the longest `Duration`.
+pub fn seconds(flag: &str, s: f64) -> anyhow::Result<Duration> {
+    if !(s.is_finite() && s > 0.0) {
+        anyhow::bail!("{flag} must be a positive number of seconds, not {s}");
+    }
+    Ok(Duration::try_from_secs_f64(s).unwrap_or(Duration::MAX))
+}
+
 /// When a run given `--seconds` on the command line should end: `None` for no limit, or for a
 /// limit beyond what the clock can hold (the run then lasts until Ctrl-C).
 pub fn deadline(flag: &str, seconds: Option<f64>) -> anyhow::Result<Option<Instant>> {
     let Some(s) = seconds else { return Ok(None) };
-    if !(s.is_finite() && s > 0.0) {
-        anyhow::bail!("{flag} must be a positive number of seconds, not {s}");
-    }
-    Ok(Duration::try_from_secs_f64(s)
-        .ok()
-        .and_then(|d| Instant::now().checked_add(d)))
+    Ok(Instant::now().checked_add(self::seconds(flag, s)?))
 }
 
+/// A flag set by Ctrl-C or SIGTERM, so loops can stop cleanly.
 pub fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();

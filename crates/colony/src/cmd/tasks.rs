@@ -3,7 +3,6 @@
 //! `compare` sets its greedy auctions against the optimal assignment.
 
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
 use anyhow::Context as _;
 use colony_hub::{HubSite, HubSpec};
@@ -89,11 +88,9 @@ pub fn run(cmd: TasksCommand) -> anyhow::Result<()> {
 }
 
 fn demo(args: DemoArgs) -> anyhow::Result<()> {
-    if !(args.seconds.is_finite() && args.seconds > 0.0 && args.seconds < 1e6) {
-        anyhow::bail!(
-            "--seconds must be a positive number of seconds, not {}",
-            args.seconds
-        );
+    let duration = super::seconds("--seconds", args.seconds)?;
+    if args.seconds >= 1e6 {
+        anyhow::bail!("--seconds must be under 1000000, not {}", args.seconds);
     }
     let stop = super::stop_flag()?;
     let site = HubSite::here_or_elsewhere(args.hub.as_deref(), &HubSpec::new("127.0.0.1:0"), &stop)
@@ -106,7 +103,7 @@ fn demo(args: DemoArgs) -> anyhow::Result<()> {
         }
     };
     let config = colony_tasks::demo::DemoConfig {
-        duration: Duration::from_secs_f64(args.seconds),
+        duration,
         seed: args.seed,
         ..Default::default()
     };
