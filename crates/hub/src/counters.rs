@@ -19,13 +19,35 @@ pub enum DropReason {
     TooManyClients,
     /// A subscription beyond the per-client maximum.
     TooManySubscriptions,
-    /// The socket would not take a datagram for one subscriber (its buffer was full).
+    /// The socket would not take a datagram for one subscriber (a send
+    /// buffer was full: the kernel said `EAGAIN` or `ENOBUFS`).
+    SendFull,
+    /// A send to one subscriber failed for another reason (its port was
+    /// closed, its network unreachable).
     SendFailed,
+    /// Datagrams the kernel dropped before the hub read them, because the
+    /// hub's receive buffer was full (`SO_RXQ_OVFL`).
+    ReceiveOverflow,
+    /// A source that can be no client: the hub's own address, port 0, a
+    /// broadcast, multicast or unspecified address. Never answered.
+    BadSource,
+    /// A source outside the hub's `--allow` ranges.
+    NotAllowed,
+    /// A request that acts on other clients (`min_priority`) from a source
+    /// that is no console.
+    NotConsole,
+    /// A packet whose authentication line was missing, wrong or replayed.
+    BadAuth,
+    /// A subscription whose cookie did not match its source (forged, or
+    /// from an earlier epoch); answered with a fresh cookie.
+    BadCookie,
+    /// More requests from one source than its rate allows.
+    RateLimited,
 }
 
 impl DropReason {
     /// Every reason, in the order status reports list them.
-    pub const ALL: [DropReason; 8] = [
+    pub const ALL: [DropReason; 16] = [
         DropReason::Malformed,
         DropReason::BelowMinPriority,
         DropReason::BadControl,
@@ -33,7 +55,15 @@ impl DropReason {
         DropReason::StatusRateLimited,
         DropReason::TooManyClients,
         DropReason::TooManySubscriptions,
+        DropReason::SendFull,
         DropReason::SendFailed,
+        DropReason::ReceiveOverflow,
+        DropReason::BadSource,
+        DropReason::NotAllowed,
+        DropReason::NotConsole,
+        DropReason::BadAuth,
+        DropReason::BadCookie,
+        DropReason::RateLimited,
     ];
 
     /// The reason's name in status reports.
@@ -46,7 +76,15 @@ impl DropReason {
             DropReason::StatusRateLimited => "status_rate_limited",
             DropReason::TooManyClients => "too_many_clients",
             DropReason::TooManySubscriptions => "too_many_subscriptions",
+            DropReason::SendFull => "send_full",
             DropReason::SendFailed => "send_failed",
+            DropReason::ReceiveOverflow => "receive_overflow",
+            DropReason::BadSource => "bad_source",
+            DropReason::NotAllowed => "not_allowed",
+            DropReason::NotConsole => "not_console",
+            DropReason::BadAuth => "bad_auth",
+            DropReason::BadCookie => "bad_cookie",
+            DropReason::RateLimited => "rate_limited",
         }
     }
 }

@@ -73,6 +73,8 @@ pub struct Hub {
     dests: Vec<SocketAddr>,
     replies: VecDeque<Transmit>,
     next_sweep: Instant,
+    /// The address the hub's socket is bound to; never a client.
+    local: Option<SocketAddr>,
 }
 
 impl Hub {
@@ -89,7 +91,14 @@ impl Hub {
             dests: Vec::new(),
             replies: VecDeque::new(),
             next_sweep,
+            local: None,
         }
+    }
+
+    /// Tells the hub the address its socket listens on, so that it never
+    /// takes that address (or its port on any local address) for a client.
+    pub fn set_local_addr(&mut self, addr: SocketAddr) {
+        self.local = Some(addr);
     }
 
     /// The limits it was made with.
