@@ -22,6 +22,7 @@ const LOOKUP_LINES: usize = 16;
 /// Parses `data` and walks whatever parses; returns the parse result so a
 /// caller can check it was accepted or rejected as expected.
 pub fn walk(data: &[u8]) -> Result<(), ParseError> {
+    walk_auth(data);
     let packet = match Packet::parse(data) {
         Ok(p) => p,
         Err(e) => {
@@ -31,6 +32,19 @@ pub fn walk(data: &[u8]) -> Result<(), ParseError> {
     };
     walk_packet(&packet);
     Ok(())
+}
+
+/// The hub checks a packet's `auth` line before it parses the packet: that
+/// must not panic on any bytes, and what it strips must be a prefix.
+fn walk_auth(data: &[u8]) {
+    let key = colony_wire::auth::Key::new(b"a key for the fuzzer, long enough").unwrap();
+    if let Some(body) = colony_wire::auth::strip_auth(data) {
+        assert!(data.starts_with(body));
+    }
+    let _ = colony_wire::auth::has_auth_label(data);
+    if let Ok(signed) = key.verify(data) {
+        assert!(data.starts_with(signed.body));
+    }
 }
 
 fn check_error(data: &[u8], e: &ParseError) {
@@ -302,6 +316,11 @@ fn walk_control(p: &Packet<'_>) {
                 assert_eq!(Reply::parse(&q), Some(Ok(Reply::Lease { ms })));
             }
             Some(Ok(Reply::Status(report))) => check_status_round_trip(&report),
+            Some(Ok(Reply::Cookie(c))) => {
+                let bytes = Reply::cookie_packet(c);
+                let q = Packet::parse(&bytes).expect("a cookie reply parses");
+                assert_eq!(Reply::parse(&q), Some(Ok(Reply::Cookie(c))));
+            }
             Some(Err(e)) => {
                 let _ = e.to_string();
             }

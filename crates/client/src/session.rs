@@ -1,8 +1,14 @@
 //! The client's side of the protocol, with no socket and no clock.
 
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime};
 
-use colony_wire::{Packet, Reply, Request, Subject, MAX_PACKET};
+use colony_wire::auth::{Key, Signer};
+use colony_wire::{Cookie, Packet, Reply, Request, Subject, MAX_PACKET};
+
+/// Requests sent this recently are sent again when the hub answers with a
+/// cookie instead: they were sent before the hub knew this address (or
+/// before it restarted), and it did not act on them.
+const RESEND_WITHIN: Duration = Duration::from_secs(2);
 
 /// How often a client talks to the hub to keep its subscriptions.
 #[derive(Debug, Clone)]
@@ -74,6 +80,13 @@ pub struct Session {
     started: Instant,
     last_from_hub: Option<Instant>,
     lease: Option<Duration>,
+    /// The hub's proof that it reaches us; sent with every request.
+    cookie: Cookie,
+    signer: Option<Signer>,
+    /// The latest time any call gave.
+    clock: Instant,
+    /// One-off requests lately sent, to send again with a fresh cookie.
+    recent: Vec<(Instant, Vec<Request>)>,
 }
 
 /// What a datagram from the hub was.
@@ -95,7 +108,57 @@ impl Session {
             started: now,
             last_from_hub: None,
             lease: None,
+            cookie: Cookie::NONE,
+            signer: None,
+            clock: now,
+            recent: Vec::new(),
         }
+    }
+
+    /// Signs every datagram this session sends with `key`, as a hub started
+    /// with `--key` asks of a console (and of everyone, with `--auth-all`).
+    pub fn set_key(&mut self, key: Key) {
+        self.signer = Some(Signer::new(key));
+    }
+
+    /// Signs a datagram the application publishes, when the session has a
+    /// key; leaves it as it is otherwise.
+    pub fn sign(&mut self, datagram: &mut Vec<u8>) {
+        if let Some(signer) = &mut self.signer {
+            signer.sign(datagram, SystemTime::now());
+        }
+    }
+
+    /// Whether this session signs what it sends.
+    pub fn signs(&self) -> bool {
+        self.signer.is_some()
+    }
+
+    /// The cookie the hub gave this address, once it has.
+    pub fn cookie(&self) -> Option<Cookie> {
+        (self.cookie != Cookie::NONE).then_some(self.cookie)
+    }
+
+    /// A control packet with this session's cookie in front.
+    fn control(&self, requests: &[Request]) -> Vec<u8> {
+        let mut all = Vec::with_capacity(requests.len() + 1);
+        all.push(Request::Cookie(self.cookie));
+        all.extend_from_slice(requests);
+        Request::to_packet(&all)
+    }
+
+    fn tick(&mut self, now: Instant) {
+        self.clock = self.clock.max(now);
+    }
+
+    /// Sends a one-off request now, and keeps it a while in case the hub
+    /// answers with a cookie instead.
+    fn send_once(&mut self, requests: Vec<Request>) {
+        self.outbox.push(self.control(&requests));
+        let clock = self.clock;
+        self.recent
+            .retain(|(at, _)| clock.saturating_duration_since(*at) < RESEND_WITHIN);
+        self.recent.push((clock, requests));
     }
 
     /// The timings it was made with.
@@ -105,6 +168,7 @@ impl Session {
 
     /// Subscribes to `subject`; the request goes out with the next transmit.
     pub fn subscribe(&mut self, now: Instant, subject: Subject) {
+        self.tick(now);
         if !self.subs.iter().any(|s| s.subject == subject) {
             self.subs.push(Subscription {
                 subject,
@@ -119,21 +183,19 @@ impl Session {
     pub fn unsubscribe(&mut self, subject: &Subject) {
         if let Some(i) = self.subs.iter().position(|s| &s.subject == subject) {
             self.subs.remove(i);
-            self.outbox
-                .push(Request::to_packet(&[Request::Unsubscribe(subject.clone())]));
+            self.send_once(vec![Request::Unsubscribe(subject.clone())]);
         }
     }
 
     /// Drops every subscription; the request goes out with the next transmit.
     pub fn unsubscribe_all(&mut self) {
         self.subs.clear();
-        self.outbox
-            .push(Request::to_packet(&[Request::UnsubscribeAll]));
+        self.send_once(vec![Request::UnsubscribeAll]);
     }
 
     /// Queues any control request (status, minimum priority, ...).
     pub fn request(&mut self, requests: &[Request]) {
-        self.outbox.push(Request::to_packet(requests));
+        self.send_once(requests.to_vec());
     }
 
     /// The subjects this session keeps subscribed.
@@ -153,16 +215,40 @@ impl Session {
         now: Instant,
         data: &'a [u8],
     ) -> Result<Incoming<'a>, colony_wire::ParseError> {
+        self.tick(now);
         self.last_from_hub = Some(now);
         let packet = Packet::parse(data)?;
         if let Some(Ok(reply)) = Reply::parse(&packet) {
-            if let Reply::Lease { ms } = reply {
-                self.lease = Some(Duration::from_millis(ms));
+            match reply {
+                Reply::Lease { ms } => self.lease = Some(Duration::from_millis(ms)),
+                Reply::Cookie(cookie) => self.take_cookie(now, cookie),
+                Reply::Status(_) => {}
             }
             return Ok(Incoming::Reply(reply));
         }
         self.note_data(now, &packet);
         Ok(Incoming::Packet(packet))
+    }
+
+    /// The hub did not know us (a new session, or a restarted hub): ask again,
+    /// now with its cookie, for everything it may not have acted on.
+    fn take_cookie(&mut self, now: Instant, cookie: Cookie) {
+        if cookie == self.cookie || cookie == Cookie::NONE {
+            // The same cookie again means the hub refused it for a reason of
+            // its own; asking again at once could only loop.
+            return;
+        }
+        self.cookie = cookie;
+        for s in &mut self.subs {
+            s.last_request = None;
+        }
+        self.handle_timeout(now);
+        let recent = std::mem::take(&mut self.recent);
+        for (at, requests) in recent {
+            if now.saturating_duration_since(at) < RESEND_WITHIN {
+                self.send_once(requests);
+            }
+        }
     }
 
     /// Notes that data arrived for the packet's subjects, and that the hub is alive.
@@ -192,6 +278,7 @@ impl Session {
 
     /// Queues a subscribe request for every subscription that is due by `now`.
     pub fn handle_timeout(&mut self, now: Instant) {
+        self.tick(now);
         let (config, refresh) = (&self.config, self.refresh_interval());
         let due: Vec<Subject> = self
             .subs
@@ -203,20 +290,21 @@ impl Session {
             })
             .collect();
         // One control packet carries many subscriptions; split only to fit a datagram.
-        let per_packet = MAX_PACKET / (16 + colony_wire::MAX_SUBJECT_LEN);
+        let per_packet = (MAX_PACKET - 256) / (16 + colony_wire::MAX_SUBJECT_LEN);
         for chunk in due.chunks(per_packet) {
             let requests: Vec<Request> = chunk.iter().cloned().map(Request::Subscribe).collect();
-            self.outbox.push(Request::to_packet(&requests));
+            self.outbox.push(self.control(&requests));
         }
     }
 
     /// The next datagram to send to the hub.
     pub fn poll_transmit(&mut self) -> Option<Vec<u8>> {
         if self.outbox.is_empty() {
-            None
-        } else {
-            Some(self.outbox.remove(0))
+            return None;
         }
+        let mut datagram = self.outbox.remove(0);
+        self.sign(&mut datagram);
+        Some(datagram)
     }
 
     /// Whether the hub has been heard from recently.

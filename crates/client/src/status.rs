@@ -9,10 +9,6 @@ use colony_wire::{Reply, Request, StatusReport};
 
 use crate::{ClientError, ConnectError, UdpClient};
 
-/// The channel a status request subscribes to, for the lease the hub wants
-/// to see before it sends a status report.
-pub const STATUS_CHANNEL: &str = "colony-status";
-
 /// Why no status report came back.
 #[derive(Debug, thiserror::Error)]
 pub enum StatusError {
@@ -35,41 +31,27 @@ pub enum StatusError {
     Io(#[from] io::Error),
 }
 
-/// Takes a lease on [`STATUS_CHANNEL`], asks the hub at `hub` for its
-/// status, and waits up to `timeout` for the answer. Leaves no lease behind.
+/// Asks the hub at `hub` for its status and waits up to `timeout` for the
+/// answer. The first request brings a cookie back rather than the report
+/// (the hub answers a large reply only to an address that proved it
+/// receives there); the session asks again with it by itself.
 pub fn fetch_status(hub: &str, timeout: Duration) -> Result<StatusReport, StatusError> {
     let mut client = UdpClient::connect_to(hub)?;
-    client.subscribe(STATUS_CHANNEL)?;
     // A timeout beyond what the clock can hold waits as long as it can.
     let deadline = Instant::now()
         .checked_add(timeout)
         .unwrap_or_else(|| Instant::now() + Duration::from_secs(100 * 365 * 24 * 3600));
-    let mut leased = false;
     let mut next_ask = Instant::now();
     while Instant::now() < deadline {
         if Instant::now() >= next_ask {
-            // Ask again every 300 ms: either datagram may be lost, and the
-            // hub answers status only once our lease is in place.
-            if leased {
-                client.request(&[Request::Status])?;
-            } else {
-                client.poll(Instant::now())?;
-            }
+            // Ask again every 300 ms: a request or its answer may be lost.
+            client.request(&[Request::Status])?;
             next_ask = Instant::now() + Duration::from_millis(300);
         }
         client.wait(Some(next_ask.min(deadline)))?;
         while let Some(reply) = client.recv_reply()? {
-            match reply {
-                Reply::Lease { .. } if !leased => {
-                    leased = true;
-                    client.request(&[Request::Status])?;
-                }
-                Reply::Status(report) => {
-                    // Leave nothing behind: the lease was only for asking.
-                    client.unsubscribe_all()?;
-                    return Ok(report);
-                }
-                Reply::Lease { .. } => {}
+            if let Reply::Status(report) = reply {
+                return Ok(report);
             }
         }
     }

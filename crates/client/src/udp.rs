@@ -164,8 +164,19 @@ impl UdpClient {
     /// its position rather than being dropped silently by the hub.
     pub fn publish(&mut self, packet: &[u8]) -> Result<(), ClientError> {
         Packet::parse(packet)?;
-        self.send(packet)?;
+        if self.session.signs() {
+            let mut signed = packet.to_vec();
+            self.session.sign(&mut signed);
+            self.send(&signed)?;
+        } else {
+            self.send(packet)?;
+        }
         Ok(())
+    }
+
+    /// Signs everything this client sends with `key` (see [`Session::set_key`]).
+    pub fn set_key(&mut self, key: colony_wire::auth::Key) {
+        self.session.set_key(key);
     }
 
     fn send(&self, datagram: &[u8]) -> io::Result<()> {
@@ -273,7 +284,11 @@ impl UdpClient {
                 return Ok(Some(Received::Data(len)));
             }
             match self.session.handle_datagram(now, data) {
-                Ok(Incoming::Reply(r)) => return Ok(Some(Received::Reply(r))),
+                Ok(Incoming::Reply(r)) => {
+                    // A cookie makes the session ask again: send that now.
+                    self.flush()?;
+                    return Ok(Some(Received::Reply(r)));
+                }
                 Ok(Incoming::Packet(_)) => continue,
                 Err(_) => self.malformed += 1,
             }

@@ -3,17 +3,24 @@
 use std::time::{Duration, Instant};
 
 use colony_client::{ClientConfig, HubState, Session};
-use colony_wire::{Packet, Reply, Request, Subject};
+use colony_wire::auth::Key;
+use colony_wire::{Cookie, Packet, Reply, Request, Subject};
 
 fn subject(s: &str) -> Subject {
     Subject::new(s).unwrap()
 }
 
-/// Every request the session sends by `now`, after running its timers.
+/// Every request the session sends by `now`, after running its timers
+/// (less the cookie line each of its packets carries).
 fn sent(session: &mut Session, now: Instant) -> Vec<Request> {
     session.handle_timeout(now);
+    drain(session)
+}
+
+fn drain(session: &mut Session) -> Vec<Request> {
     std::iter::from_fn(|| session.poll_transmit())
         .flat_map(|d| Request::parse_all(&Packet::parse(&d).unwrap()).unwrap())
+        .filter(|r| !matches!(r, Request::Cookie(_)))
         .collect()
 }
 
@@ -38,10 +45,64 @@ fn a_new_subscription_is_requested_at_once_in_one_packet() {
     assert_eq!(
         reqs,
         [
+            Request::Cookie(Cookie::NONE),
             Request::Subscribe(subject("vision")),
             Request::Subscribe(subject("radio"))
         ]
     );
+}
+
+#[test]
+fn a_cookie_from_the_hub_has_everything_asked_again_at_once_with_it() {
+    let t0 = Instant::now();
+    let mut s = Session::new(ClientConfig::default(), t0);
+    s.subscribe(t0, subject("vision"));
+    sent(&mut s, t0);
+    s.request(&[Request::Status]);
+    drain(&mut s);
+    let t1 = t0 + Duration::from_millis(5);
+    let cookie = Cookie(0xfeed_beef_0000_0001);
+    s.handle_datagram(t1, &Reply::cookie_packet(cookie)).unwrap();
+    assert_eq!(s.cookie(), Some(cookie));
+    let again: Vec<Vec<Request>> = std::iter::from_fn(|| s.poll_transmit())
+        .map(|d| Request::parse_all(&Packet::parse(&d).unwrap()).unwrap())
+        .collect();
+    assert_eq!(
+        again,
+        [
+            vec![Request::Cookie(cookie), Request::Subscribe(subject("vision"))],
+            vec![Request::Cookie(cookie), Request::Status],
+        ]
+    );
+    // The same cookie again (the hub refused it for a reason of its own) is no loop.
+    s.handle_datagram(t1, &Reply::cookie_packet(cookie)).unwrap();
+    assert!(s.poll_transmit().is_none());
+    // A request made long before a cookie arrives is not repeated.
+    s.request(&[Request::UnsubscribeAll]);
+    drain(&mut s);
+    let late = t1 + Duration::from_secs(10);
+    s.handle_datagram(late, &Reply::cookie_packet(Cookie(7))).unwrap();
+    assert!(drain(&mut s).iter().all(|r| *r != Request::UnsubscribeAll));
+}
+
+#[test]
+fn a_session_with_a_key_signs_every_datagram() {
+    let t0 = Instant::now();
+    let key = Key::new(b"a key for the session tests, 32b").unwrap();
+    let mut s = Session::new(ClientConfig::default(), t0);
+    s.set_key(key.clone());
+    s.subscribe(t0, subject("vision"));
+    s.request(&[Request::MinPriority(colony_wire::Priority(4))]);
+    s.handle_timeout(t0);
+    let mut last = 0;
+    let mut count = 0;
+    while let Some(d) = s.poll_transmit() {
+        let signed = key.verify(&d).expect("signed");
+        assert!(signed.n > last, "counters increase");
+        last = signed.n;
+        count += 1;
+    }
+    assert_eq!(count, 2);
 }
 
 #[test]

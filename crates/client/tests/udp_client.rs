@@ -17,11 +17,11 @@ fn fake_hub() -> (UdpSocket, UdpClient, std::net::SocketAddr) {
     (hub, client, from)
 }
 
-fn recv_all(client: &mut UdpClient) -> Vec<String> {
+fn recv_all(client: &mut UdpClient, want: usize) -> Vec<String> {
     let mut got = Vec::new();
-    // A generous wait for the two packets, not a deadline: it ends as soon as they are in.
+    // A generous wait for the packets, not a deadline: it ends as soon as they are in.
     let deadline = Instant::now() + Duration::from_secs(30);
-    while got.len() < 2 && Instant::now() < deadline {
+    while got.len() < want && Instant::now() < deadline {
         client
             .wait(Some(Instant::now() + Duration::from_millis(50)))
             .unwrap();
@@ -39,7 +39,7 @@ fn a_malformed_datagram_is_counted_and_skipped_not_an_error() {
     hub.send_to(b"@ <vision> 0\nball y 1 y 2\n", addr).unwrap();
     hub.send_to(b"\xff\xfe", addr).unwrap();
     hub.send_to(b"@ <vision> 0\nball x 2\n", addr).unwrap();
-    let got = recv_all(&mut client);
+    let got = recv_all(&mut client, 2);
     assert_eq!(
         got,
         ["@ <vision> 0\nball x 1\n", "@ <vision> 0\nball x 2\n"]
@@ -52,7 +52,22 @@ fn hub_replies_are_taken_in_and_not_returned_as_data() {
     let (hub, mut client, addr) = fake_hub();
     hub.send_to(b"@ <hub> 0\nlease ms 4000\n", addr).unwrap();
     hub.send_to(b"@ <vision> 0\nball x 1\n", addr).unwrap();
-    let got = recv_all(&mut client);
+    let got = recv_all(&mut client, 1);
     assert_eq!(got, ["@ <vision> 0\nball x 1\n"]);
     assert_eq!(client.session().lease(), Some(Duration::from_secs(4)));
+}
+
+#[test]
+fn a_cookie_from_the_hub_is_sent_back_with_the_subscription_at_once() {
+    let (hub, mut client, addr) = fake_hub();
+    hub.send_to(b"@ <hub> 0\ncookie v 00000000c00c1e5a\n", addr).unwrap();
+    hub.send_to(b"@ <vision> 0\nball x 1\n", addr).unwrap();
+    recv_all(&mut client, 1);
+    let mut buf = [0u8; 2048];
+    let (len, _) = hub.recv_from(&mut buf).unwrap();
+    let again = String::from_utf8_lossy(&buf[..len]).into_owned();
+    assert!(
+        again.contains("cookie v 00000000c00c1e5a\nsubscribe ch vision"),
+        "{again}"
+    );
 }

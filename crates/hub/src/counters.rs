@@ -11,10 +11,6 @@ pub enum DropReason {
     BelowMinPriority,
     /// A packet to `<hub>` that is no valid request.
     BadControl,
-    /// A status request from an address that held no lease before it asked.
-    NoLease,
-    /// A second status request from one client within the status interval.
-    StatusRateLimited,
     /// A subscription from a new address while the hub holds its maximum of clients.
     TooManyClients,
     /// A subscription beyond the per-client maximum.
@@ -47,12 +43,10 @@ pub enum DropReason {
 
 impl DropReason {
     /// Every reason, in the order status reports list them.
-    pub const ALL: [DropReason; 16] = [
+    pub const ALL: [DropReason; 14] = [
         DropReason::Malformed,
         DropReason::BelowMinPriority,
         DropReason::BadControl,
-        DropReason::NoLease,
-        DropReason::StatusRateLimited,
         DropReason::TooManyClients,
         DropReason::TooManySubscriptions,
         DropReason::SendFull,
@@ -72,8 +66,6 @@ impl DropReason {
             DropReason::Malformed => "malformed",
             DropReason::BelowMinPriority => "below_min_priority",
             DropReason::BadControl => "bad_control",
-            DropReason::NoLease => "no_lease",
-            DropReason::StatusRateLimited => "status_rate_limited",
             DropReason::TooManyClients => "too_many_clients",
             DropReason::TooManySubscriptions => "too_many_subscriptions",
             DropReason::SendFull => "send_full",

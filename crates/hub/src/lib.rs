@@ -14,15 +14,19 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+mod access;
 mod config;
+mod cookie;
 mod counters;
 mod local;
 pub mod log;
 pub mod replay;
+mod rate;
 mod routing;
 mod server;
 
-pub use config::HubConfig;
+pub use access::{is_bad_source, Cidr, CidrError};
+pub use config::{HubConfig, MIN_LEASE};
 pub use counters::DropReason;
 pub use local::{HubSite, HubSpec, HubThread, HubThreadError, StartError};
 pub use routing::{Hub, Outcome, Transmit};

@@ -2,14 +2,24 @@
 
 use std::collections::{HashMap, VecDeque};
 use std::net::SocketAddr;
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime};
 
+use colony_wire::auth::{self, ReplayWindow};
 use colony_wire::{
-    ChannelInfo, ClientInfo, Packet, Priority, Reply, Request, StatusReport, Subject, HUB_SUBJECT,
+    ChannelInfo, ClientInfo, Cookie, Packet, Priority, Reply, Request, StatusReport, Subject,
+    HUB_SUBJECT, MAX_PACKET,
 };
 
+use crate::access::is_bad_source;
 use crate::config::HubConfig;
+use crate::cookie::CookieJar;
 use crate::counters::{Counters, DropReason};
+use crate::rate::RateTable;
+
+/// A client silent this long may be displaced by a new one when the table is full.
+const IDLE_EVICT: Duration = Duration::from_secs(1);
+/// Senders whose replay windows the hub keeps.
+const MAX_SIGNERS: usize = 4096;
 
 /// A datagram the hub wants sent: a reply to a control request.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -23,8 +33,14 @@ pub struct Transmit {
 /// What became of a datagram handed to [`Hub::handle`].
 #[derive(Debug, PartialEq, Eq)]
 pub enum Outcome<'h> {
-    /// A published packet: send the same bytes, unchanged, to each of these.
-    Forward(&'h [SocketAddr]),
+    /// A published packet: send its first `len` bytes (the whole datagram,
+    /// less any authentication line) to each of `dests`.
+    Forward {
+        /// How many bytes of the datagram to send.
+        len: usize,
+        /// Who to send them to.
+        dests: &'h [SocketAddr],
+    },
     /// A control request, handled; any reply waits in [`Hub::poll_transmit`].
     Control,
     /// Dropped, and counted under this reason.
@@ -43,7 +59,15 @@ struct Client {
     /// Each subscription and when its lease runs out.
     subs: HashMap<Subject, Instant>,
     last_heard: Instant,
-    last_status: Option<Instant>,
+}
+
+/// How a datagram proved where it came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Proof {
+    /// Nothing: its source may be forged.
+    None,
+    /// Signed with the hub's key.
+    Key,
 }
 
 /// The broker's whole state. Feed it datagrams and time; it never does I/O.
@@ -55,9 +79,14 @@ struct Client {
 /// let now = Instant::now();
 /// let sub = "127.0.0.1:5001".parse().unwrap();
 /// let publisher = "127.0.0.1:5002".parse().unwrap();
-/// hub.handle(now, sub, b"@ <hub> 0\nsubscribe ch vision\n");
+/// // A new address gets a cookie first, and a lease when it sends it back.
+/// hub.handle(now, sub, b"@ <hub> 0\ncookie v 0000000000000000\nsubscribe ch vision\n");
+/// let cookie = hub.poll_transmit().unwrap().payload;
+/// let cookie = std::str::from_utf8(&cookie).unwrap().split_whitespace().last().unwrap().to_owned();
+/// let again = format!("@ <hub> 0\ncookie v {cookie}\nsubscribe ch vision\n");
+/// hub.handle(now, sub, again.as_bytes());
 /// match hub.handle(now, publisher, b"@ <vision> 0\nball x 1 y 2\n") {
-///     Outcome::Forward(dests) => assert_eq!(dests, &[sub]),
+///     Outcome::Forward { dests, .. } => assert_eq!(dests, &[sub]),
 ///     other => panic!("{other:?}"),
 /// }
 /// ```
@@ -68,7 +97,20 @@ pub struct Hub {
     clients: HashMap<SocketAddr, Client>,
     subscribers: HashMap<Subject, Vec<SocketAddr>>,
     min_priority: Priority,
+    /// When a raised minimum priority lapses unless its console renews it.
+    min_priority_until: Option<Instant>,
     counters: Counters,
+    cookies: CookieJar,
+    rates: RateTable,
+    signers: HashMap<SocketAddr, ReplayWindow>,
+    /// The wall clock at `started`: signed packets carry wall-clock counters.
+    wall_at_start: SystemTime,
+    /// The status report last built, and when: served again until it is
+    /// `status_interval` old.
+    status_cache: Option<(Instant, Vec<u8>)>,
+    /// Operator actions are logged at most once a second; these were not.
+    quiet_logs: u64,
+    last_log: Option<Instant>,
     /// Reused for every forward, so routing allocates nothing in steady state.
     dests: Vec<SocketAddr>,
     replies: VecDeque<Transmit>,
@@ -81,13 +123,22 @@ impl Hub {
     /// A hub with no clients, started at `now`.
     pub fn new(config: HubConfig, now: Instant) -> Hub {
         let next_sweep = now + sweep_interval(&config);
+        let rates = RateTable::new(config.control_rate, config.control_burst);
         Hub {
-            config,
             started: now,
             clients: HashMap::new(),
             subscribers: HashMap::new(),
             min_priority: Priority(i32::MIN),
+            min_priority_until: None,
             counters: Counters::default(),
+            cookies: CookieJar::new(now),
+            rates,
+            config,
+            signers: HashMap::new(),
+            wall_at_start: SystemTime::now(),
+            status_cache: None,
+            quiet_logs: 0,
+            last_log: None,
             dests: Vec::new(),
             replies: VecDeque::new(),
             next_sweep,
@@ -128,6 +179,16 @@ impl Hub {
 
     /// Handles one datagram from `src` that arrived at `now`.
     pub fn handle(&mut self, now: Instant, src: SocketAddr, data: &[u8]) -> Outcome<'_> {
+        if is_bad_source(&src, self.local.as_ref()) {
+            return self.dropped(DropReason::BadSource);
+        }
+        if !self.config.allow.is_empty() && !self.config.allow.iter().any(|c| c.contains(&src)) {
+            return self.dropped(DropReason::NotAllowed);
+        }
+        let (data, proof) = match self.authenticate(now, src, data) {
+            Ok(checked) => checked,
+            Err(reason) => return self.dropped(reason),
+        };
         let packet = match Packet::parse(data) {
             Ok(p) => p,
             Err(e) => {
@@ -139,8 +200,9 @@ impl Hub {
             client.last_heard = now;
         }
         if packet.has_subject(HUB_SUBJECT) {
-            return self.control(now, src, &packet, data.len());
+            return self.control(now, src, &packet, data.len(), proof);
         }
+        self.lapse_min_priority(now);
         if packet.priority() < self.min_priority {
             return self.dropped(DropReason::BelowMinPriority);
         }
@@ -148,7 +210,44 @@ impl Hub {
         let key = channel_key(&packet);
         self.counters
             .published(&key, data.len(), self.config.max_channels);
-        Outcome::Forward(&self.dests)
+        Outcome::Forward {
+            len: data.len(),
+            dests: &self.dests,
+        }
+    }
+
+    /// Checks a signed datagram and strips its `auth` line. Without a key,
+    /// an `auth` line is stripped unchecked, so a signing client can use a
+    /// hub that asks for none.
+    fn authenticate<'d>(
+        &mut self,
+        now: Instant,
+        src: SocketAddr,
+        data: &'d [u8],
+    ) -> Result<(&'d [u8], Proof), DropReason> {
+        let Some(key) = &self.config.key else {
+            return Ok((auth::strip_auth(data).unwrap_or(data), Proof::None));
+        };
+        if !self.config.auth_all && !auth::has_auth_label(data) {
+            return Ok((data, Proof::None));
+        }
+        let signed = key.verify(data).map_err(|_| DropReason::BadAuth)?;
+        let wall = auth::unix_micros(self.wall_at_start + now.saturating_duration_since(self.started));
+        let window = self.config.auth_window.as_micros() as u64;
+        if signed.n.abs_diff(wall) > window {
+            return Err(DropReason::BadAuth);
+        }
+        if !self.signers.contains_key(&src) && self.signers.len() >= MAX_SIGNERS {
+            let oldest = wall.saturating_sub(window);
+            self.signers.retain(|_, w| w.highest() >= oldest);
+            if self.signers.len() >= MAX_SIGNERS {
+                return Err(DropReason::BadAuth);
+            }
+        }
+        if !self.signers.entry(src).or_default().accept(signed.n) {
+            return Err(DropReason::BadAuth);
+        }
+        Ok((signed.body, Proof::Key))
     }
 
     fn dropped(&mut self, reason: DropReason) -> Outcome<'static> {
@@ -189,7 +288,11 @@ impl Hub {
         src: SocketAddr,
         packet: &Packet<'_>,
         len: usize,
+        proof: Proof,
     ) -> Outcome<'_> {
+        if !self.rates.take(&src, now) {
+            return self.dropped(DropReason::RateLimited);
+        }
         let requests = match Request::parse_all(packet) {
             Ok(r) => r,
             Err(e) => {
@@ -197,7 +300,34 @@ impl Hub {
                 return self.dropped(DropReason::BadControl);
             }
         };
-        let had_lease = self.clients.contains_key(&src);
+        let cookie = requests.iter().find_map(|r| match r {
+            Request::Cookie(c) => Some(*c),
+            _ => None,
+        });
+        // Only a packet that proves its source, with a cookie the hub gave
+        // that address, may act: otherwise anyone could aim a stream, or a
+        // status report, at an address of their choice. A signature is no
+        // such proof: a signed packet seen on the wire can be sent again from
+        // any address.
+        let proven = cookie.is_some_and(|c| self.cookies.check(&src, now, c));
+        let acts = requests.iter().any(|r| !matches!(r, Request::Cookie(_)));
+        if !proven {
+            if acts {
+                if cookie.is_some_and(|c| c != Cookie::NONE) {
+                    self.counters.drop(DropReason::BadCookie, 1);
+                }
+                let reply = Reply::cookie_packet(self.cookies.issue(&src, now));
+                // Never more than was sent: a forged source must not turn the
+                // hub into an amplifier.
+                if reply.len() <= len {
+                    self.replies.push_back(Transmit {
+                        dest: src,
+                        payload: reply,
+                    });
+                }
+            }
+            return Outcome::Control;
+        }
         let mut subscribed = false;
         for request in requests {
             match request {
@@ -207,25 +337,57 @@ impl Hub {
                 },
                 Request::Unsubscribe(subject) => self.unsubscribe(src, &subject),
                 Request::UnsubscribeAll => self.forget(src),
-                Request::MinPriority(p) => {
-                    tracing::info!(%src, min_priority = p.0, "minimum priority set");
-                    self.min_priority = p;
-                }
-                Request::Status => self.status_request(now, src, had_lease),
+                Request::MinPriority(p) => self.set_min_priority(now, src, p, proof),
+                Request::Status => self.status_request(now, src),
+                Request::Cookie(_) => {}
             }
         }
         if subscribed {
             let lease = Reply::lease_packet(self.config.lease.as_millis() as u64);
-            // Never answer an address that held no lease with more than it sent:
-            // a forged source must not turn the hub into an amplifier.
-            if had_lease || lease.len() <= len {
-                self.replies.push_back(Transmit {
-                    dest: src,
-                    payload: lease,
-                });
-            }
+            self.replies.push_back(Transmit {
+                dest: src,
+                payload: lease,
+            });
         }
         Outcome::Control
+    }
+
+    /// An operator's request: from a console (by address, with a cookie) or
+    /// signed with the key. A raised minimum lasts one lease unless renewed,
+    /// so a console that dies hands the robots back.
+    fn set_min_priority(&mut self, now: Instant, src: SocketAddr, p: Priority, proof: Proof) {
+        let console =
+            proof == Proof::Key || self.config.consoles.iter().any(|c| c.contains(&src));
+        if !console {
+            self.counters.drop(DropReason::NotConsole, 1);
+            self.log_operator(now, src, "minimum priority refused: not a console");
+            return;
+        }
+        if p != self.min_priority {
+            self.log_operator(now, src, "minimum priority set");
+        }
+        self.min_priority = p;
+        self.min_priority_until = (p != Priority(i32::MIN)).then(|| now + self.config.lease);
+    }
+
+    fn lapse_min_priority(&mut self, now: Instant) {
+        if self.min_priority_until.is_some_and(|t| t <= now) {
+            tracing::info!(min_priority = self.min_priority.0, "minimum priority lapsed: its console did not renew it");
+            self.min_priority = Priority(i32::MIN);
+            self.min_priority_until = None;
+        }
+    }
+
+    /// Logs an operator action, at most once a second: a flood of requests
+    /// must not become a flood of log lines.
+    fn log_operator(&mut self, now: Instant, src: SocketAddr, what: &str) {
+        if self.last_log.is_some_and(|t| now.duration_since(t) < Duration::from_secs(1)) {
+            self.quiet_logs += 1;
+            return;
+        }
+        self.last_log = Some(now);
+        let unlogged = std::mem::take(&mut self.quiet_logs);
+        tracing::info!(%src, min_priority = self.min_priority.0, unlogged, "{what}");
     }
 
     fn subscribe(
@@ -235,13 +397,12 @@ impl Hub {
         subject: Subject,
     ) -> Result<(), DropReason> {
         if !self.clients.contains_key(&src) && self.clients.len() >= self.config.max_clients {
-            return Err(DropReason::TooManyClients);
+            self.make_room(now)?;
         }
         let max_subs = self.config.max_subscriptions;
         let client = self.clients.entry(src).or_insert_with(|| Client {
             subs: HashMap::new(),
             last_heard: now,
-            last_status: None,
         });
         let expiry = now + self.config.lease;
         if let Some(e) = client.subs.get_mut(&subject) {
@@ -257,6 +418,25 @@ impl Hub {
         client.subs.insert(subject.clone(), expiry);
         self.subscribers.entry(subject).or_default().push(src);
         Ok(())
+    }
+
+    /// With the table full, a proven newcomer displaces the client heard from
+    /// least lately, if that one has been silent a while: a restarted robot
+    /// can always join, while clients in active use keep their place.
+    fn make_room(&mut self, now: Instant) -> Result<(), DropReason> {
+        let idlest = self
+            .clients
+            .iter()
+            .min_by_key(|(_, c)| c.last_heard)
+            .filter(|(_, c)| now.saturating_duration_since(c.last_heard) >= IDLE_EVICT)
+            .map(|(a, _)| *a);
+        match idlest {
+            Some(addr) => {
+                self.forget(addr);
+                Ok(())
+            }
+            None => Err(DropReason::TooManyClients),
+        }
     }
 
     fn unsubscribe(&mut self, src: SocketAddr, subject: &Subject) {
@@ -279,54 +459,58 @@ impl Hub {
         }
     }
 
-    fn status_request(&mut self, now: Instant, src: SocketAddr, had_lease: bool) {
-        if !had_lease {
-            self.counters.drop(DropReason::NoLease, 1);
-            return;
+    fn status_request(&mut self, now: Instant, src: SocketAddr) {
+        let fresh = self
+            .status_cache
+            .as_ref()
+            .is_some_and(|(at, _)| now.saturating_duration_since(*at) < self.config.status_interval);
+        if !fresh {
+            self.status_cache = Some((now, self.status(now).to_packet()));
         }
-        let interval = self.config.status_interval;
-        let Some(client) = self.clients.get_mut(&src) else {
-            // The same packet unsubscribed it before asking.
-            self.counters.drop(DropReason::NoLease, 1);
-            return;
-        };
-        if client
-            .last_status
-            .is_some_and(|t| now.duration_since(t) < interval)
-        {
-            self.counters.drop(DropReason::StatusRateLimited, 1);
-            return;
-        }
-        client.last_status = Some(now);
-        let payload = self.status(now).to_packet();
+        let payload = self.status_cache.as_ref().map(|(_, p)| p.clone()).unwrap_or_default();
         self.replies.push_back(Transmit { dest: src, payload });
     }
 
-    /// The hub's state as the `status` request reports it.
+    /// The hub's state as the `status` request reports it. Its cost is
+    /// bounded whatever the table holds: clients are listed in address order
+    /// only until one datagram is full.
     pub fn status(&self, now: Instant) -> StatusReport {
         let ms = |d: Duration| d.as_millis() as u64;
-        let mut clients: Vec<ClientInfo> = self
-            .clients
-            .iter()
-            .map(|(addr, c)| {
-                let mut subscriptions: Vec<(String, u64)> = c
-                    .subs
-                    .iter()
-                    .map(|(s, exp)| (s.to_string(), ms(exp.saturating_duration_since(now))))
-                    .collect();
-                subscriptions.sort();
-                ClientInfo {
-                    addr: addr.to_string(),
-                    idle_ms: ms(now.saturating_duration_since(c.last_heard)),
-                    subscriptions,
-                }
-            })
-            .collect();
-        clients.sort_by(|a, b| a.addr.cmp(&b.addr));
+        let mut addrs: Vec<&SocketAddr> = self.clients.keys().collect();
+        addrs.sort_by_cached_key(|a| a.to_string());
+        let mut clients = Vec::new();
+        let mut budget = MAX_PACKET;
+        let mut truncated = false;
+        for addr in addrs {
+            let c = &self.clients[addr];
+            // A client line costs about its subscriptions' names plus a few
+            // digits each; stop before the report could not be sent anyway.
+            let cost = 48 + c.subs.keys().map(|s| s.as_str().len() + 8).sum::<usize>();
+            if cost > budget {
+                truncated = true;
+                break;
+            }
+            budget -= cost;
+            let mut subscriptions: Vec<(String, u64)> = c
+                .subs
+                .iter()
+                .map(|(s, exp)| (s.to_string(), ms(exp.saturating_duration_since(now))))
+                .collect();
+            subscriptions.sort();
+            clients.push(ClientInfo {
+                addr: addr.to_string(),
+                idle_ms: ms(now.saturating_duration_since(c.last_heard)),
+                subscriptions,
+            });
+        }
+        let min_priority = match self.min_priority_until {
+            Some(t) if t <= now => Priority(i32::MIN),
+            _ => self.min_priority,
+        };
         StatusReport {
             uptime_ms: ms(now.saturating_duration_since(self.started)),
             lease_ms: ms(self.config.lease),
-            min_priority: self.min_priority,
+            min_priority,
             client_count: self.clients.len() as u64,
             clients,
             channels: self
@@ -344,7 +528,7 @@ impl Hub {
                 .map(|&r| (r.name().to_owned(), self.counters.drops(r)))
                 .filter(|&(_, n)| n > 0)
                 .collect(),
-            truncated: false,
+            truncated,
         }
     }
 
@@ -358,11 +542,12 @@ impl Hub {
         self.next_sweep
     }
 
-    /// Expires leases that ran out by `now`.
+    /// Expires leases (and a raised minimum priority) that ran out by `now`.
     pub fn handle_timeout(&mut self, now: Instant) {
         if now < self.next_sweep {
             return;
         }
+        self.lapse_min_priority(now);
         self.next_sweep = now + sweep_interval(&self.config);
         let subscribers = &mut self.subscribers;
         self.clients.retain(|addr, client| {

@@ -129,7 +129,7 @@ impl Server {
                 }
             }
             let failed = match outcome {
-                Outcome::Forward(dests) => send_to_many(&self.socket, data, dests),
+                Outcome::Forward { len, dests } => send_to_many(&self.socket, &data[..len], dests),
                 Outcome::Control | Outcome::Dropped(_) => 0,
             };
             if failed > 0 {

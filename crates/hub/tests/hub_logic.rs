@@ -4,23 +4,40 @@ use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
 use colony_hub::{DropReason, Hub, HubConfig, Outcome};
-use colony_wire::{Packet, Reply, StatusReport};
+use colony_wire::{Cookie, Packet, Reply, StatusReport};
 
 fn addr(port: u16) -> SocketAddr {
     SocketAddr::from(([127, 0, 0, 1], port))
 }
 
-fn subscribe(hub: &mut Hub, now: Instant, who: SocketAddr, subjects: &[&str]) {
-    let mut text = String::from("@ <hub> 0\n");
-    for s in subjects {
-        text.push_str(&format!("subscribe ch {s}\n"));
+/// The cookie the hub gives `who` now (by asking as a new client would).
+fn cookie(hub: &mut Hub, now: Instant, who: SocketAddr) -> Cookie {
+    while hub.poll_transmit().is_some() {} // answers to earlier requests
+    let ask = format!("@ <hub> 0\ncookie v {}\nstatus\n", Cookie::NONE);
+    assert_eq!(hub.handle(now, who, ask.as_bytes()), Outcome::Control);
+    let reply = hub.poll_transmit().expect("a cookie for a new address");
+    assert_eq!(reply.dest, who);
+    match Reply::parse(&Packet::parse(&reply.payload).unwrap()) {
+        Some(Ok(Reply::Cookie(c))) => c,
+        other => panic!("expected a cookie, got {other:?}"),
     }
+}
+
+/// Sends control lines from `who` with the cookie the hub gave it.
+fn control(hub: &mut Hub, now: Instant, who: SocketAddr, lines: &str) {
+    let c = cookie(hub, now, who);
+    let text = format!("@ <hub> 0\ncookie v {c}\n{lines}");
     assert_eq!(hub.handle(now, who, text.as_bytes()), Outcome::Control);
+}
+
+fn subscribe(hub: &mut Hub, now: Instant, who: SocketAddr, subjects: &[&str]) {
+    let lines: String = subjects.iter().map(|s| format!("subscribe ch {s}\n")).collect();
+    control(hub, now, who, &lines);
 }
 
 fn forwarded(hub: &mut Hub, now: Instant, from: SocketAddr, packet: &str) -> Vec<SocketAddr> {
     match hub.handle(now, from, packet.as_bytes()) {
-        Outcome::Forward(dests) => {
+        Outcome::Forward { dests, .. } => {
             let mut d = dests.to_vec();
             d.sort();
             d
@@ -116,12 +133,21 @@ fn timeouts_come_often_enough_to_end_leases_nearly_on_time() {
     assert!(hub.poll_timeout() <= start + Duration::from_secs(1));
 }
 
+/// A hub that takes operator requests from `addr(7)`.
+fn with_console(now: Instant) -> Hub {
+    let config = HubConfig {
+        consoles: vec!["127.0.0.1:7".parse().unwrap()],
+        ..HubConfig::default()
+    };
+    Hub::new(config, now)
+}
+
 #[test]
 fn packets_below_the_minimum_priority_are_dropped_on_every_channel() {
     let now = Instant::now();
-    let mut hub = Hub::new(HubConfig::default(), now);
+    let mut hub = with_console(now);
     subscribe(&mut hub, now, addr(1), &["radio", "vision"]);
-    hub.handle(now, addr(7), b"@ <hub> 0\nmin_priority value 5\n");
+    control(&mut hub, now, addr(7), "min_priority value 5\n");
     assert_eq!(
         hub.handle(now, addr(8), b"@ <radio> 0\ncmd id 1\n"),
         Outcome::Dropped(DropReason::BelowMinPriority)
@@ -141,7 +167,7 @@ fn packets_below_the_minimum_priority_are_dropped_on_every_channel() {
     assert_eq!(hub.drops(DropReason::BelowMinPriority), 2);
     // Control requests are never filtered, or nobody could subscribe again.
     subscribe(&mut hub, now, addr(2), &["radio"]);
-    hub.handle(now, addr(7), b"@ <hub> 0\nmin_priority value -2147483648\n");
+    control(&mut hub, now, addr(7), "min_priority value -2147483648\n");
     assert_eq!(
         forwarded(&mut hub, now, addr(8), "@ <radio> 0\ncmd id 1\n"),
         [addr(1), addr(2)]
@@ -212,42 +238,40 @@ fn unsubscribing_stops_delivery_and_unsubscribe_all_forgets_the_client() {
     let now = Instant::now();
     let mut hub = Hub::new(HubConfig::default(), now);
     subscribe(&mut hub, now, addr(1), &["a", "b"]);
-    hub.handle(now, addr(1), b"@ <hub> 0\nunsubscribe ch a\n");
+    control(&mut hub, now, addr(1), "unsubscribe ch a\n");
     assert!(forwarded(&mut hub, now, addr(9), "@ <a> 0\nx y 1\n").is_empty());
     assert_eq!(
         forwarded(&mut hub, now, addr(9), "@ <b> 0\nx y 1\n"),
         [addr(1)]
     );
-    hub.handle(now, addr(1), b"@ <hub> 0\nunsubscribe_all\n");
+    control(&mut hub, now, addr(1), "unsubscribe_all\n");
     assert!(forwarded(&mut hub, now, addr(9), "@ <b> 0\nx y 1\n").is_empty());
     assert_eq!(hub.client_count(), 0);
 }
 
 #[test]
-fn status_is_answered_only_to_a_client_that_held_a_lease_before_asking() {
+fn status_is_answered_only_to_a_source_that_returned_its_cookie() {
     let now = Instant::now();
     let mut hub = Hub::new(HubConfig::default(), now);
-    // A stranger (or a forged source) asking for status gets nothing.
+    // A stranger (or a forged source) asking for status gets nothing: its
+    // request is shorter than a cookie.
     hub.handle(now, addr(5), b"@ <hub> 0\nstatus\n");
     assert!(replies(&mut hub).is_empty());
-    assert_eq!(hub.drops(DropReason::NoLease), 1);
-    // Nor does taking the lease in the same packet as the question count.
-    hub.handle(now, addr(5), b"@ <hub> 0\nsubscribe ch x\nstatus\n");
-    let r = replies(&mut hub);
-    assert!(
-        r.iter()
-            .all(|(_, p)| p.len() <= b"@ <hub> 0\nsubscribe ch x\nstatus\n".len()),
-        "only the small lease ack"
-    );
-    assert_eq!(hub.drops(DropReason::NoLease), 2);
-    // Once leased, it gets the report.
-    hub.handle(now, addr(5), b"@ <hub> 0\nstatus\n");
+    // With room for one, it gets a cookie and nothing more.
+    let c = cookie(&mut hub, now, addr(5));
+    assert!(replies(&mut hub).is_empty());
+    // Back with its cookie, it gets the report, no lease needed.
+    let ask = format!("@ <hub> 0\ncookie v {c}\nstatus\n");
+    hub.handle(now, addr(5), ask.as_bytes());
     let r = replies(&mut hub);
     assert_eq!(r.len(), 1);
     let report = StatusReport::from_packet(&Packet::parse(&r[0].1).unwrap()).unwrap();
-    assert_eq!(report.client_count, 1);
-    assert_eq!(report.clients[0].addr, addr(5).to_string());
-    assert_eq!(report.clients[0].subscriptions[0].0, "x");
+    assert_eq!(report.client_count, 0);
+    // A cookie is good for its own address only.
+    hub.handle(now, addr(6), ask.as_bytes());
+    let r = replies(&mut hub);
+    assert!(r.iter().all(|(_, p)| p.len() <= ask.len()), "a cookie at most");
+    assert_eq!(hub.drops(DropReason::BadCookie), 1);
 }
 
 #[test]
@@ -267,22 +291,27 @@ fn the_lease_ack_to_a_new_address_is_never_larger_than_the_request() {
 }
 
 #[test]
-fn status_requests_are_rate_limited_per_client() {
+fn status_requests_within_the_interval_are_served_from_one_report() {
     let now = Instant::now();
     let mut hub = Hub::new(HubConfig::default(), now);
     subscribe(&mut hub, now, addr(1), &["x"]);
+    let c = cookie(&mut hub, now, addr(1));
+    let ask = format!("@ <hub> 0\ncookie v {c}\nstatus\n");
+    hub.handle(now, addr(1), ask.as_bytes());
+    let first = replies(&mut hub);
+    subscribe(&mut hub, now, addr(2), &["x"]);
     replies(&mut hub);
     for _ in 0..10 {
-        hub.handle(now, addr(1), b"@ <hub> 0\nstatus\n");
+        hub.handle(now, addr(1), ask.as_bytes());
     }
-    assert_eq!(replies(&mut hub).len(), 1);
-    assert_eq!(hub.drops(DropReason::StatusRateLimited), 9);
-    hub.handle(
-        now + Duration::from_millis(150),
-        addr(1),
-        b"@ <hub> 0\nstatus\n",
-    );
-    assert_eq!(replies(&mut hub).len(), 1);
+    let again = replies(&mut hub);
+    assert_eq!(again.len(), 10, "each verified request is answered");
+    assert!(again.iter().all(|r| r.1 == first[0].1), "from the one report");
+    let later = now + Duration::from_millis(150);
+    hub.handle(later, addr(1), ask.as_bytes());
+    let r = replies(&mut hub);
+    let report = StatusReport::from_packet(&Packet::parse(&r[0].1).unwrap()).unwrap();
+    assert_eq!(report.client_count, 2, "a new report once the interval passed");
 }
 
 #[test]

@@ -15,7 +15,7 @@ use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
 use std::time::{Duration, Instant};
 
 use colony_client::{ClientConfig, Session};
-use colony_hub::{Hub, HubConfig, Outcome};
+use colony_hub::{Cidr, Hub, HubConfig, Outcome};
 use colony_wire::{Packet, Request, Subject};
 
 use crate::time::Time;
@@ -26,6 +26,9 @@ use crate::time::Time;
 /// [`Bus::publish`]: crate::Bus::publish
 pub(crate) const CONSOLE: SocketAddr =
     SocketAddr::V4(SocketAddrV4::new(Ipv4Addr::new(127, 0, 0, 1), 1));
+
+/// Exchanges with the hub at one instant: a request, a cookie, the request again.
+const ROUNDS: usize = 3;
 
 /// The synthetic address of the node at place `i`: `10.a.b.c:1` with `i` in
 /// the low 24 bits, so an address names its place and nothing else.
@@ -80,18 +83,22 @@ pub(crate) struct Ports {
     epoch: Instant,
     client: ClientConfig,
     ports: Vec<Port>,
+    /// The console's own session (it needs the hub's cookie as any client does).
+    console: Session,
     /// Places whose link is down: what they send, and what is sent to them, is lost.
     cut: HashSet<usize>,
 }
 
 impl Ports {
-    pub(crate) fn new(hub: HubConfig, client: ClientConfig) -> Ports {
+    pub(crate) fn new(mut hub: HubConfig, client: ClientConfig) -> Ports {
         // Any instant will do: the hub and the sessions only compare instants
         // and subtract them, so results do not depend on when the bus was made.
         let epoch = Instant::now();
+        hub.consoles.push(Cidr::host(CONSOLE.ip(), Some(CONSOLE.port())));
         Ports {
             hub: Hub::new(hub, epoch),
             epoch,
+            console: Session::new(client.clone(), epoch),
             client,
             ports: Vec::new(),
             cut: HashSet::new(),
@@ -169,23 +176,51 @@ impl Ports {
     /// Sends what `place`'s session wants sent to the hub, and hands the hub's
     /// replies back to the sessions they are for.
     fn flush(&mut self, place: usize, now: Time) {
+        self.pump(Some(place), now);
+        self.ports[place].touched();
+    }
+
+    /// Sends what a session (a place's, or the console's for `None`) wants
+    /// sent, and hands the hub's replies back. A cookie from the hub has the
+    /// session ask again at once: a new session's subscription takes two
+    /// rounds, all at the same instant.
+    fn pump(&mut self, place: Option<usize>, now: Time) {
         let at = self.instant_of(now);
-        let src = address_of(place);
-        let cut = self.cut.contains(&place);
-        while let Some(datagram) = self.ports[place].session.poll_transmit() {
-            if !cut {
-                self.hub.handle(at, src, &datagram);
+        let (src, cut) = match place {
+            Some(p) => (address_of(p), self.cut.contains(&p)),
+            None => (CONSOLE, false),
+        };
+        for _ in 0..ROUNDS {
+            let mut sent = false;
+            loop {
+                let session = match place {
+                    Some(p) => &mut self.ports[p].session,
+                    None => &mut self.console,
+                };
+                let Some(datagram) = session.poll_transmit() else {
+                    break;
+                };
+                sent = true;
+                if !cut {
+                    self.hub.handle(at, src, &datagram);
+                }
+            }
+            self.replies(now);
+            if !sent {
+                break;
             }
         }
-        self.ports[place].touched();
-        self.replies(now);
     }
 
     fn replies(&mut self, now: Time) {
         let at = self.instant_of(now);
         while let Some(t) = self.hub.poll_transmit() {
+            if t.dest == CONSOLE {
+                let _ = self.console.handle_datagram(at, &t.payload);
+                continue;
+            }
             let Some(place) = place_of(t.dest) else {
-                continue; // the console's status reports: read from `hub()` instead
+                continue;
             };
             if self.cut.contains(&place) {
                 continue;
@@ -240,7 +275,7 @@ impl Ports {
         places.clear();
         let at = self.instant_of(now);
         let routed = match self.hub.handle(at, src, datagram) {
-            Outcome::Forward(dests) => {
+            Outcome::Forward { dests, .. } => {
                 let n = self.ports.len();
                 places.extend(
                     dests
@@ -272,9 +307,8 @@ impl Ports {
 
     /// Sends control requests from the console, as `colony hub` tools do.
     pub(crate) fn console(&mut self, now: Time, requests: &[Request]) {
-        let at = self.instant_of(now);
-        self.hub.handle(at, CONSOLE, &Request::to_packet(requests));
-        self.replies(now);
+        self.console.request(requests);
+        self.pump(None, now);
     }
 }
 

@@ -16,6 +16,11 @@ use colony_node::{run, Link, Mux, Node, Time};
 use colony_wire::{Packet, Priority, Request, Subject};
 
 /// A hub in this process on a free loopback port, stopped when dropped.
+/// The key the test's hub takes operator requests with.
+fn console_key() -> colony_wire::auth::Key {
+    colony_wire::auth::Key::new(b"a console key for the live hub tests").unwrap()
+}
+
 struct Hub {
     addr: SocketAddr,
     stop: Arc<AtomicBool>,
@@ -24,7 +29,11 @@ struct Hub {
 
 impl Hub {
     fn start() -> Hub {
-        let mut server = Server::bind("127.0.0.1:0", HubConfig::default()).unwrap();
+        let config = HubConfig {
+            key: Some(console_key()),
+            ..HubConfig::default()
+        };
+        let mut server = Server::bind("127.0.0.1:0", config).unwrap();
         let addr = server.local_addr().unwrap();
         let stop = Arc::new(AtomicBool::new(false));
         let s = stop.clone();
@@ -218,9 +227,17 @@ fn two_nodes_on_one_mio_loop_talk_through_the_hub_and_obey_its_minimum_priority(
     // A console raises the minimum priority above the nodes' 0: the hub
     // forwards none of their packets any more.
     let mut console = UdpClient::connect(hub.addr).unwrap();
+    console.set_key(console_key());
     console
         .request(&[Request::MinPriority(Priority(1))])
         .unwrap();
+    // The hub answers a new address with a cookie; the client asks again with it.
+    let asked = Instant::now();
+    while console.session().cookie().is_none() && asked.elapsed() < LIMIT {
+        console.wait(Some(Instant::now() + Duration::from_millis(50))).unwrap();
+        console.recv_reply().unwrap();
+    }
+    assert!(console.session().cookie().is_some(), "the hub sent a cookie");
     // Let what was under way before the request arrive.
     until(&mut mux, u32::MAX, Duration::from_millis(200));
     let before = pongs.load(Ordering::Relaxed);

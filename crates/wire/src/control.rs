@@ -11,7 +11,11 @@
 //! min_priority value 5
 //! ```
 //!
-//! The hub answers on `<hub>` too: `lease ms N` after a subscription, and a
+//! A packet that subscribes also carries `cookie v HHHHHHHHHHHHHHHH` (16 hex
+//! digits, zeros until the hub has sent one): the hub leases only to an
+//! address that proved it receives there, by returning the cookie the hub sent
+//! it. The hub answers on `<hub>` too: `cookie v H` to a subscription from an
+//! address it does not know yet, `lease ms N` after a subscription, and a
 //! [`StatusReport`] after `status`.
 
 use std::fmt;
@@ -35,8 +39,33 @@ pub enum Request {
     UnsubscribeAll,
     /// Ask for a [`StatusReport`]; only answered to a client that already holds a lease.
     Status,
-    /// Drop every published packet below this priority, on every channel.
+    /// Drop every published packet below this priority, on every channel,
+    /// for one lease (a console's request; refused from anyone else).
     MinPriority(Priority),
+    /// The cookie the hub last sent this address ([`Cookie::NONE`] for none).
+    Cookie(Cookie),
+}
+
+/// A hub's proof that an address receives what is sent to it: a keyed hash
+/// of the address, handed out by the hub and handed back by the client.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct Cookie(pub u64);
+
+impl Cookie {
+    /// What a client sends before the hub has given it a cookie.
+    pub const NONE: Cookie = Cookie(0);
+
+    fn parse(text: &str) -> Option<Cookie> {
+        (text.len() == 16 && text.bytes().all(|b| matches!(b, b'0'..=b'9' | b'a'..=b'f')))
+            .then(|| u64::from_str_radix(text, 16).ok().map(Cookie))
+            .flatten()
+    }
+}
+
+impl fmt::Display for Cookie {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:016x}", self.0)
+    }
 }
 
 /// A packet to `<hub>` that is not a well-formed request or reply.
@@ -53,6 +82,11 @@ pub enum ControlError {
     },
     /// A request whose field is missing or of the wrong type.
     Field(FieldError),
+    /// A cookie that is not 16 lowercase hex digits.
+    BadCookie {
+        /// 1-based line of the packet.
+        line: u32,
+    },
     /// A subscription to a subject that cannot be one (such as `hub` itself).
     BadSubject {
         /// The subject asked for.
@@ -68,9 +102,12 @@ impl fmt::Display for ControlError {
             ControlError::NotControl => write!(f, "a control packet must name `<{HUB_SUBJECT}>` alone"),
             ControlError::Unknown { label, line } => write!(
                 f,
-                "line {line}: unknown request `{label}` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority)"
+                "line {line}: unknown request `{label}` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority, cookie)"
             ),
             ControlError::Field(e) => e.fmt(f),
+            ControlError::BadCookie { line } => {
+                write!(f, "line {line}: a cookie is 16 lowercase hex digits")
+            }
             ControlError::BadSubject { name, line } => {
                 write!(f, "line {line}: `{name}` cannot be subscribed to")
             }
@@ -141,6 +178,11 @@ impl Request {
                         })?;
                         Request::MinPriority(Priority(v))
                     }
+                    "cookie" => Request::Cookie(
+                        Cookie::parse(&line.str("v")?).ok_or(ControlError::BadCookie {
+                            line: line.number(),
+                        })?,
+                    ),
                     other => {
                         return Err(ControlError::Unknown {
                             label: other.to_owned(),
@@ -162,6 +204,7 @@ impl Request {
                 Request::UnsubscribeAll => writeln!(text, "unsubscribe_all"),
                 Request::Status => writeln!(text, "status"),
                 Request::MinPriority(p) => writeln!(text, "min_priority value {p}"),
+                Request::Cookie(c) => writeln!(text, "cookie v {c}"),
             }
             .expect("writing to a String cannot fail");
         }
@@ -179,6 +222,8 @@ pub enum Reply {
     },
     /// The answer to a `status` request.
     Status(StatusReport),
+    /// The hub does not know this address yet: subscribe again with this cookie.
+    Cookie(Cookie),
 }
 
 impl Reply {
@@ -189,6 +234,12 @@ impl Reply {
     /// next refresh.)
     pub fn lease_packet(ms: u64) -> Vec<u8> {
         format!("@ <{HUB_SUBJECT}> 0\nlease ms {ms}\n").into_bytes()
+    }
+
+    /// The cookie reply: 36 bytes, never longer than a subscribe request that
+    /// carries a cookie line (the hub answers nothing longer than it was sent).
+    pub fn cookie_packet(cookie: Cookie) -> Vec<u8> {
+        format!("@ <{HUB_SUBJECT}> 0\ncookie v {cookie}\n").into_bytes()
     }
 
     /// Reads a reply from the hub, or `None` if the packet is not one.
@@ -207,6 +258,13 @@ impl Reply {
                     .map_err(Into::into),
             ),
             "status" => Some(StatusReport::from_packet(packet).map(Reply::Status)),
+            "cookie" => Some(first.str("v").map_err(Into::into).and_then(|v| {
+                Cookie::parse(&v)
+                    .map(Reply::Cookie)
+                    .ok_or(ControlError::BadCookie {
+                        line: first.number(),
+                    })
+            })),
             _ => None,
         }
     }

@@ -14,12 +14,14 @@
 //! bare token, a quoted string or a parenthesised group of pairs.
 //!
 //! This crate parses ([`Packet`], zero-copy), writes ([`PacketBuilder`]) and
-//! reads the hub's control requests ([`Request`], [`StatusReport`]). It does
-//! no I/O and depends on nothing but `std`. It is not a schema layer: what a
+//! reads the hub's control requests ([`Request`], [`StatusReport`]); [`auth`]
+//! signs and checks packets with a shared key. It does no I/O; its one
+//! dependency is HMAC-SHA256. It is not a schema layer: what a
 //! label or field means is up to the programs that use it.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod auth;
 mod build;
 mod control;
 mod error;
@@ -30,7 +32,7 @@ mod subject;
 
 pub use build::{write_quoted, write_token_or_quoted, LineBuilder, PacketBuilder, WireValue};
 pub use control::{
-    hub_packet, ChannelInfo, ClientInfo, ControlError, Reply, Request, StatusReport, HUB_SUBJECT,
+    hub_packet, ChannelInfo, ClientInfo, ControlError, Cookie, Reply, Request, StatusReport, HUB_SUBJECT,
 };
 pub use error::{ErrorKind, FieldError, FieldErrorKind, ParseError};
 pub use packet::{Field, Fields, Group, Line, Lines, Packet, Quoted, Subjects, Value};

@@ -1,7 +1,7 @@
 //! Hub control requests and replies: parse, write, round-trip, errors.
 
 use colony_wire::{
-    ChannelInfo, ClientInfo, ControlError, FieldError, FieldErrorKind, Packet, Priority, Reply,
+    ChannelInfo, ClientInfo, ControlError, Cookie, FieldError, FieldErrorKind, Packet, Priority, Reply,
     Request, StatusReport, Subject, HUB_SUBJECT, MAX_PACKET,
 };
 
@@ -96,6 +96,37 @@ fn requests_round_trip_through_a_packet() {
         all
     );
     assert_eq!(Request::to_packet(&[]), b"@ <hub> 0\n");
+}
+
+#[test]
+fn cookies_are_sixteen_hex_digits_and_round_trip() {
+    let all = vec![
+        Request::Cookie(Cookie(0x0123_4567_89ab_cdef)),
+        Request::Subscribe(subject("x")),
+    ];
+    let bytes = Request::to_packet(&all);
+    assert!(bytes.starts_with(b"@ <hub> 0\ncookie v 0123456789abcdef\n"));
+    assert_eq!(
+        Request::parse_all(&Packet::parse(&bytes).unwrap()).unwrap(),
+        all
+    );
+    for bad in ["123", "0123456789ABCDEF", "0123456789abcdefa", "g123456789abcdef", "\"\""] {
+        let text = format!("@ <hub> 0\ncookie v {bad}\n");
+        assert_eq!(
+            requests(&text).unwrap_err(),
+            ControlError::BadCookie { line: 2 },
+            "{bad}"
+        );
+    }
+    let reply = Reply::cookie_packet(Cookie(u64::MAX));
+    assert_eq!(reply.len(), 36);
+    assert_eq!(
+        Reply::parse(&Packet::parse(&reply).unwrap()),
+        Some(Ok(Reply::Cookie(Cookie(u64::MAX))))
+    );
+    // The smallest request that asks for a cookie is never shorter than the answer.
+    let ask = Request::to_packet(&[Request::Cookie(Cookie::NONE), Request::Status]);
+    assert!(ask.len() >= reply.len());
 }
 
 #[test]
