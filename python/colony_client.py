@@ -24,6 +24,7 @@ token and for every quoted string (``"5"`` stays the string ``'5'``), and
 Python 3.8 or later.
 """
 
+import errno
 import hashlib
 import hmac
 import ipaddress
@@ -1029,6 +1030,13 @@ def _hub_address(hub):
 
 
 _REFUSED = (ConnectionRefusedError, BlockingIOError, InterruptedError)
+# What a connected UDP socket reports for one datagram (an ICMP error that came
+# back, a full buffer) and not for the socket: the next datagram may well pass.
+_TRANSIENT = frozenset(
+    getattr(errno, name)
+    for name in ("ECONNREFUSED", "EHOSTUNREACH", "ENETUNREACH", "EHOSTDOWN", "ENETDOWN", "ENOBUFS", "EAGAIN", "EINTR")
+    if hasattr(errno, name)
+)
 
 
 class Client:
@@ -1126,6 +1134,11 @@ class Client:
             # Fire and forget: a hub that is down (refused) or a full buffer
             # loses this one datagram, and the session recovers.
             pass
+        except OSError as e:
+            # So does a network that is briefly unreachable: a robot's program
+            # must not die of a Wi-Fi gap.
+            if e.errno not in _TRANSIENT:
+                raise
         return datagram
 
     def _flush(self):
@@ -1219,6 +1232,12 @@ class Client:
             except (ConnectionRefusedError, InterruptedError):
                 # The hub's port was closed when we last sent: it is down,
                 # and the session will resubscribe once it is back.
+                continue
+            except OSError as e:
+                # Another ICMP error for a datagram we sent (host or network
+                # unreachable) is reported once, here; the next recv goes on.
+                if e.errno not in _TRANSIENT:
+                    raise
                 continue
             try:
                 got = self.session.handle_datagram(time.monotonic(), data)

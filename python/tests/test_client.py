@@ -1132,6 +1132,45 @@ class FakeHub(unittest.TestCase):
         self.assertTrue(got[3].startswith(b"@ <hub> 0\nmin_priority value 3\nauth n "))
         self.assertTrue(got[4].startswith(b"@ <hub> 0\nunsubscribe ch a\nauth n "))
 
+    def test_network_errors_for_one_datagram_are_survived(self):
+        # A connected UDP socket reports an ICMP error (host or network
+        # unreachable) on the next send or recv: one datagram is lost, the
+        # client goes on; any other error still surfaces.
+        import errno
+
+        c = self.client
+        real = c._sock
+        self.addCleanup(setattr, c, "_sock", real)
+
+        class Flaky:
+            def __init__(self, errors):
+                self.errors = list(errors)
+
+            def send(self, data):
+                if self.errors:
+                    raise OSError(self.errors.pop(0), "flaky")
+                return real.send(data)
+
+            def recv(self, n):
+                if self.errors:
+                    raise OSError(self.errors.pop(0), "flaky")
+                return real.recv(n)
+
+            def fileno(self):
+                return real.fileno()
+
+        c._sock = Flaky([errno.EHOSTUNREACH, errno.ENETUNREACH])
+        c.subscribe("a")  # lost to EHOSTUNREACH
+        c.publish("a", 0, [("x", {})])  # lost to ENETUNREACH
+        c.publish("a", 0, [("y", {})])
+        self.assertEqual(self.hub_recv()[0], b"@ <a> 0\ny\n")
+        self.hub.sendto(b"@ <a> 0\nz\n", real.getsockname())
+        c._sock = Flaky([errno.EHOSTUNREACH])
+        self.assertEqual(self.client_recv().labels(), ["z"])
+        c._sock = Flaky([errno.EBADF])
+        with self.assertRaises(OSError):
+            c.publish("a", 0, [("w", {})])
+
     def test_publish_checks_before_sending(self):
         c = self.client
         sent = c.publish(["a", "b"], 3, [("ball", {"x": 1.5})])
