@@ -831,6 +831,8 @@ class Session:
         self.cookie = NO_COOKIE
         #: How many cookie replies have arrived.
         self.cookies = 0
+        # The raised minimum priority this client keeps, and when it last asked.
+        self._min_priority = None
 
     def subscriptions(self):
         return [s.subject for s in self._subs]
@@ -869,18 +871,39 @@ class Session:
             return self.refresh
         return max(_MIN_REFRESH, min(self.refresh, self.lease_ms / 3000.0))
 
+    def set_min_priority(self, now, value):
+        """Asks the hub to drop every published packet below ``value``, and
+        keeps asking: a raised minimum is a lease that lapses unless refreshed
+        (RULES point 3), so a console that dies hands the robots back.
+        ``-2147483648`` lifts it, once, and ends the refreshes."""
+        self.request("min_priority value {}".format(value))
+        self._min_priority = None if value == _I32_MIN else (value, now)
+
+    def _min_priority_due(self):
+        value, asked = self._min_priority
+        # Before the hub has said its lease, as often as a silent channel is
+        # asked for again: a console need not subscribe to anything.
+        every = self.refresh_interval() if self.lease_ms is not None else min(self.refresh, self.resubscribe_after)
+        return asked + every
+
     def poll_timeout(self):
-        """When :meth:`handle_timeout` next has work, or None with no subscriptions."""
-        if not self._subs:
-            return None
-        refresh = self.refresh_interval()
-        return min(s.due(refresh, self.resubscribe_after) for s in self._subs)
+        """When :meth:`handle_timeout` next has work, or None when nothing is held."""
+        due = []
+        if self._subs:
+            refresh = self.refresh_interval()
+            due.append(min(s.due(refresh, self.resubscribe_after) for s in self._subs))
+        if self._min_priority is not None:
+            due.append(self._min_priority_due())
+        return min(due) if due else None
 
     def handle_timeout(self, now):
-        """Queues a subscribe request for every subscription due by ``now``."""
+        """Queues a subscribe request for every subscription due by ``now``,
+        and the raised minimum priority when its refresh is due."""
         refresh = self.refresh_interval()
         due = [s for s in self._subs if s.due(refresh, self.resubscribe_after) <= now]
         self._request_subscriptions(now, due)
+        if self._min_priority is not None and self._min_priority_due() <= now:
+            self.set_min_priority(now, self._min_priority[0])
 
     def _request_subscriptions(self, now, subs):
         for s in subs:
@@ -931,6 +954,11 @@ class Session:
                     return "cookie", cookie
                 return "hub", packet
             if first[0] == "status":
+                # The report says the lease too: a console that subscribes to
+                # nothing learns from it how often to refresh its minimum priority.
+                lease = first[1].get("lease_ms")
+                if isinstance(lease, int) and lease > 0:
+                    self.lease_ms = lease
                 return "status", packet
             return "hub", packet
         self.note_data(now, packet)
@@ -1177,10 +1205,18 @@ class Client:
         self._flush()
 
     def set_min_priority(self, value):
-        """Tells the hub to drop every published packet below this priority."""
+        """Tells the hub to drop every published packet below this priority.
+
+        The hub takes it only from a console (``colony hub --console`` naming
+        this address, or a client with the hub's ``key``), and a raised minimum
+        lapses after the hub's lease unless refreshed: the client refreshes it
+        (keep calling :meth:`poll` at :meth:`next_deadline`) until it is set to
+        ``-2147483648``, which lifts it at once. A console that stops hands the
+        robots back."""
         if isinstance(value, bool) or not isinstance(value, int) or not _I32_MIN <= value <= _I32_MAX:
             raise ValueError("the minimum priority is a 32-bit int")
-        self.request("min_priority value {}".format(value))
+        self.session.set_min_priority(time.monotonic(), value)
+        self._flush()
 
     # -- publishing
 

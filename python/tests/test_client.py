@@ -881,6 +881,29 @@ class SessionTiming(unittest.TestCase):
                 self.assertEqual(s.cookie, "0000000000000042")
                 self.assertEqual(self.sent(s), [])
 
+    def test_a_raised_minimum_priority_is_refreshed_until_lifted(self):
+        s = cc.Session(now=0.0)
+        s.set_min_priority(0.0, 5)
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nmin_priority value 5\n"])
+        # No lease heard yet (a console need subscribe to nothing): every second.
+        self.assertEqual(s.poll_timeout(), 1.0)
+        s.handle_timeout(0.99)
+        self.assertEqual(self.sent(s), [])
+        s.handle_timeout(1.0)
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nmin_priority value 5\n"])
+        # A status report says the lease: a third of it from then on.
+        s.handle_datagram(1.1, b"@ <hub> 0\nstatus uptime_ms 1 lease_ms 2400 min_priority 5 clients 1 truncated 0\n")
+        self.assertEqual(s.lease_ms, 2400)
+        self.assertAlmostEqual(s.poll_timeout(), 1.8)
+        s.handle_timeout(1.8)
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nmin_priority value 5\n"])
+        # Lifting it is said once, and then nothing more is due.
+        s.set_min_priority(2.0, cc._I32_MIN)
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nmin_priority value -2147483648\n"])
+        self.assertIsNone(s.poll_timeout())
+        s.handle_timeout(100.0)
+        self.assertEqual(self.sent(s), [])
+
     def test_subscriptions_split_to_fit_a_datagram_with_cookie_and_auth(self):
         s = cc.Session(now=0.0)
         for i in range(2000):
@@ -1786,6 +1809,28 @@ class RealHub(unittest.TestCase):
         self.assertEqual(r["min_priority"], 5, "the unsigned request changed nothing")
         self.assertEqual(r["drops"].get("below_min_priority"), 1)
         self.assertGreaterEqual(r["drops"].get("not_console", 0) + r["drops"].get("bad_auth", 0), 1, r["drops"])
+
+    def test_a_consoles_minimum_priority_lasts_while_it_runs_and_lapses_when_it_stops(self):
+        # Needs the hub of RULES point 3: a raised minimum is a lease. The
+        # client refreshes it; once the console is gone it lapses.
+        keyfile = os.path.join(self.tmp(), "hub.key")
+        with open(keyfile, "wb") as f:
+            f.write(b"console key")
+        self.restart_hub("--key", keyfile, "--lease", "2")
+        key = cc.read_key(keyfile)
+        console = cc.Client(self.hub.addr, key=key)
+        self.addCleanup(console.close)
+        console.set_min_priority(5)
+        pump = Pump(console)
+        pump.until(lambda: False, 3.0)  # longer than a lease: only the refreshes keep it
+        self.assertEqual(self.client(key=key).status()["min_priority"], 5)
+        console.close()
+        deadline = time.monotonic() + 8.0
+        lifted = False
+        while not lifted and time.monotonic() < deadline:
+            time.sleep(0.5)
+            lifted = self.client(key=key).status()["min_priority"] == cc._I32_MIN
+        self.assertTrue(lifted, "the minimum outlived its console")
 
     def test_python_cli_sub_with_colony_hub_from_the_environment(self):
         env = _child_env()
