@@ -13,7 +13,9 @@ The packet format (the same text every colony process speaks)::
 * :class:`Client` talks to a hub over a non-blocking UDP socket. It never
   starts a thread and never owns the loop: wait on :meth:`Client.fileno` until
   :meth:`Client.next_deadline`, then call :meth:`Client.poll` and
-  :meth:`Client.recv`.
+  :meth:`Client.recv`. It follows the hub's lease and cookie by itself, signs
+  every packet when given the hub's key, and skips (and counts) datagrams that
+  do not parse.
 
 Values become plain Python: ``int`` for a bare token Rust reads as an ``i64``,
 ``float`` for any other bare token Rust reads as an ``f64`` (``1e5``, ``.5``,
