@@ -13,7 +13,9 @@ The packet format (the same text every colony process speaks)::
 * :class:`Client` talks to a hub over a non-blocking UDP socket. It never
   starts a thread and never owns the loop: wait on :meth:`Client.fileno` until
   :meth:`Client.next_deadline`, then call :meth:`Client.poll` and
-  :meth:`Client.recv`.
+  :meth:`Client.recv`. It follows the hub's lease and cookie by itself, signs
+  every packet when given the hub's key, and skips (and counts) datagrams that
+  do not parse.
 
 Values become plain Python: ``int`` for a bare token Rust reads as an ``i64``,
 ``float`` for any other bare token Rust reads as an ``f64`` (``1e5``, ``.5``,
@@ -24,6 +26,9 @@ token and for every quoted string (``"5"`` stays the string ``'5'``), and
 Python 3.8 or later.
 """
 
+import errno
+import hashlib
+import hmac
 import ipaddress
 import os
 import re
@@ -45,7 +50,10 @@ __all__ = [
     "parse",
     "build",
     "format_packet",
+    "NO_COOKIE",
     "Session",
+    "Signer",
+    "read_key",
     "Client",
 ]
 
@@ -66,6 +74,8 @@ _I64_MIN = -(2 ** 63)
 _I64_MAX = 2 ** 63 - 1
 _I32_MIN = -(2 ** 31)
 _I32_MAX = 2 ** 31 - 1
+# The most digits an i64 has (after any leading zeros).
+_I64_DIGITS = 19
 
 # --------------------------------------------------------------------------- errors
 
@@ -124,8 +134,10 @@ def _make_error(kind, line, column, detail):
 # --------------------------------------------------------------------------- scanning
 
 # Bare tokens: every character but controls (< 0x20, 0x7f), blank, `"`, `(`, `)`.
-# Every non-ASCII character is bare, as every byte >= 0x80 is in Rust.
-_BARE_RUN = re.compile(r'[^\x00-\x20"()\x7f]+')
+# Every non-ASCII character is bare, as every byte >= 0x80 is in Rust. Lone
+# surrogates are no characters in UTF-8 (decoding never yields them), so a str
+# holding one is no token that can be written.
+_BARE_RUN = re.compile(r'[^\x00-\x20"()\x7f\ud800-\udfff]+')
 # The fast run inside a quoted string: anything but controls (a raw tab is kept), `"`, `\`.
 _QUOTE_RUN = re.compile(r'[^\x00-\x08\x0a-\x1f"\\\x7f]*')
 _BLANKS = re.compile(r"[ \t]*")
@@ -136,6 +148,7 @@ _FLOAT = re.compile(
     r"[+-]?(?:inf|infinity|nan|(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:e[+-]?[0-9]+)?)",
     re.IGNORECASE | re.ASCII,
 )
+_SURROGATE = re.compile(r"[\ud800-\udfff]")
 _ESCAPE = re.compile(r"\\(.)", re.DOTALL)
 _UNESCAPE = {"n": "\n", "r": "\r", "t": "\t"}
 
@@ -157,14 +170,33 @@ def is_subject(s):
     return isinstance(s, str) and _SUBJECT.fullmatch(s) is not None
 
 
+def _integer(token, lo, hi):
+    """The token as Rust's ``i64``/``i32`` ``from_str`` reads it (an optional sign,
+    then ASCII digits) when it lies in ``lo..=hi``, else None.
+
+    Python's ``int()`` refuses strings of more than 4,300 digits with a
+    ValueError (Python 3.11), so a token is measured before it is converted:
+    past 19 significant digits it is out of range whatever it says.
+    """
+    if _INTEGER.fullmatch(token) is None:
+        return None
+    digits = token.lstrip("+-").lstrip("0") or "0"
+    if len(digits) > _I64_DIGITS:
+        return None
+    v = int(digits)
+    if token[0] == "-":
+        v = -v
+    return v if lo <= v <= hi else None
+
+
 def _value_of(token):
     """A bare token as plain Python: int, float or str, as Rust's getters read it."""
-    if _INTEGER.fullmatch(token):
-        v = int(token)
-        if _I64_MIN <= v <= _I64_MAX:
-            return v
-        return float(token)
+    v = _integer(token, _I64_MIN, _I64_MAX)
+    if v is not None:
+        return v
     if _FLOAT.fullmatch(token):
+        # float() has no digit limit and, like Rust, rounds any length correctly
+        # (a 5,000-digit integer is inf in both).
         return float(token)
     return token
 
@@ -327,8 +359,8 @@ def _header(s):
     kind, _, text = s.next()
     if kind != _BARE:
         raise s.error(prio_at, "bad_header", what="an integer priority")
-    priority = int(text) if _INTEGER.fullmatch(text) else None
-    if priority is None or not _I32_MIN <= priority <= _I32_MAX:
+    priority = _integer(text, _I32_MIN, _I32_MAX)
+    if priority is None:
         raise s.error(prio_at, "bad_priority", text=text)
     end_at = s.pos
     if s.next()[0] != _EOL:
@@ -504,7 +536,20 @@ def parse(data):
 # --------------------------------------------------------------------------- writing
 
 
+# What a quoted string cannot hold, escapes and all: the control characters
+# with no escape, and lone surrogates (no UTF-8 for them).
+_UNWRITABLE = re.compile(r"[\x00-\x08\x0b-\x0c\x0e-\x1f\x7f\ud800-\udfff]")
+
+
 def _quote(s):
+    bad = _UNWRITABLE.search(s)
+    if bad is not None:
+        # No packet reads back as this string, so writing a stand-in (as the
+        # Rust builder does, U+FFFD) would send something else than asked.
+        raise ValueError(
+            "string {!r} holds {!r} at {}: no packet can carry it (only \\n \\r \\t "
+            "have escapes)".format(s if len(s) <= 40 else s[:40] + "...", bad.group(), bad.start())
+        )
     out = ['"']
     for ch in s:
         if ch == '"':
@@ -517,9 +562,6 @@ def _quote(s):
             out.append("\\r")
         elif ch == "\t":
             out.append("\\t")
-        elif _is_control(ch):
-            # As the Rust builder does: no escape exists for it.
-            out.append("\ufffd")
         else:
             out.append(ch)
     out.append('"')
@@ -531,11 +573,13 @@ def _write_value(value, depth):
         return "true" if value else "false"
     if isinstance(value, int):
         if not _I64_MIN <= value <= _I64_MAX:
+            # Such a token reads back as a float, never as this int.
             raise ValueError("integer {} does not fit in 64 bits".format(value))
-        return str(value)
+        # int's own text, whatever a subclass (an IntEnum) prints.
+        return int.__repr__(value)
     if isinstance(value, float):
         # repr is the shortest text that reads back to the same float.
-        return repr(value)
+        return float.__repr__(value)
     if isinstance(value, str):
         # Bare only when it reads back as this very string (not as a number).
         if is_bare_token(value) and isinstance(_value_of(value), str):
@@ -613,6 +657,8 @@ def format_packet(subjects, priority=0, lines=()):
     for item in _line_items(lines):
         if isinstance(item, str):
             # A line written by hand, such as "ball x 5.3 y -2.5".
+            if _SURROGATE.search(item) is not None:
+                raise ValueError("line {!r} holds a lone surrogate: it has no UTF-8".format(item))
             out.append(item if item.endswith("\n") else item + "\n")
             continue
         label, fields = item
@@ -636,6 +682,13 @@ def build(subjects, priority=0, lines=()):
     str (bare when it is a bare token that reads back as that string, quoted and
     escaped otherwise), dict (a group). The result is checked with
     :func:`parse`; a problem raises ValueError, TypeError or ParseError.
+
+    What it writes parses back to the same values (``True`` and ``False``
+    excepted, which read back as the strings ``'true'`` and ``'false'``), and
+    it refuses exactly what no packet can carry: an int outside 64 bits (it
+    would read back as a float), a string with a control character other than
+    ``\\n \\r \\t`` (there is no escape for it), a name that is no bare token,
+    groups deeper than 32, more than 65507 bytes.
     """
     return format_packet(subjects, priority, lines).encode("utf-8")
 
@@ -686,6 +739,43 @@ def parse_status(packet):
 
 # --------------------------------------------------------------------------- session
 
+#: The cookie a client sends before the hub has given it one.
+NO_COOKIE = "0" * 16
+_COOKIE = re.compile(r"[0-9a-f]{16}")
+# The shortest refresh interval a lease can ask for: a hub that grants a lease
+# of 0 ms (or a few) must not make the client send in a busy loop.
+_MIN_REFRESH = 0.01
+
+
+def _first_line_raw(packet):
+    """The label of the packet's first line and its top-level bare and quoted
+    values as written (not converted: a cookie of 16 decimal digits is text,
+    and ``1e34567890123456`` would be a float)."""
+    s = _Scanner(packet.text, packet._body, 2, packet._body)
+    while not s.at_end():
+        kind, _, label = s.next()
+        if kind == _EOL:
+            continue
+        fields = {}
+        depth = 0
+        name = None
+        while True:
+            kind, _, text = s.next()
+            if kind == _EOL:
+                return label, fields
+            if kind == _OPEN:
+                depth += 1
+                name = None
+            elif kind == _CLOSE:
+                depth -= 1
+            elif depth == 0:
+                if name is None:
+                    name = text
+                else:
+                    fields[name] = text if kind == _BARE else None
+                    name = None
+    return None, {}
+
 
 class _Subscription:
     __slots__ = ("subject", "added", "last_data", "last_request")
@@ -714,6 +804,16 @@ class Session:
     Feed it time (:meth:`handle_timeout`) and received datagrams
     (:meth:`handle_datagram`); take what it wants sent from
     :meth:`poll_transmit`.
+
+    Two things the hub asks of every client are kept here, so an application
+    never sees them:
+
+    * the lease: once the hub has said ``lease ms N``, each subscription is
+      refreshed at least three times per lease (``min(refresh, N / 3)``);
+    * the cookie: every packet that subscribes carries ``cookie v H``, the
+      last cookie the hub sent (:data:`NO_COOKIE` before that); when the hub
+      answers a subscription with a new cookie, every subscription is sent
+      again at once, with it.
     """
 
     def __init__(self, now=None, refresh=3.0, resubscribe_after=1.0, unreachable_after=10.0):
@@ -729,6 +829,12 @@ class Session:
         self.lease_ms = None
         #: How many lease replies have arrived.
         self.leases = 0
+        #: The cookie sent with every subscription: the hub's last, 16 hex digits.
+        self.cookie = NO_COOKIE
+        #: How many cookie replies have arrived.
+        self.cookies = 0
+        # The raised minimum priority this client keeps, and when it last asked.
+        self._min_priority = None
 
     def subscriptions(self):
         return [s.subject for s in self._subs]
@@ -749,27 +855,66 @@ class Session:
         self._subs = []
         self._outbox.append(_control("unsubscribe_all"))
 
+    def control_packet(self, *lines):
+        """A control packet of these request lines; one that subscribes carries
+        the cookie line first, as the hub requires."""
+        if any(_is_subscribe(line) for line in lines):
+            lines = ("cookie v " + self.cookie,) + lines
+        return _control(*lines)
+
     def request(self, *lines):
         """Queues a control packet of these request lines (``status``, ...)."""
-        self._outbox.append(_control(*lines))
+        self._outbox.append(self.control_packet(*lines))
+
+    def refresh_interval(self):
+        """How often a subscription is refreshed while data flows: ``refresh``,
+        or a third of the hub's lease once it has told us, if that is shorter."""
+        if self.lease_ms is None:
+            return self.refresh
+        return max(_MIN_REFRESH, min(self.refresh, self.lease_ms / 3000.0))
+
+    def set_min_priority(self, now, value):
+        """Asks the hub to drop every published packet below ``value``, and
+        keeps asking: a raised minimum is a lease that lapses unless refreshed
+        (RULES point 3), so a console that dies hands the robots back.
+        ``-2147483648`` lifts it, once, and ends the refreshes."""
+        self.request("min_priority value {}".format(value))
+        self._min_priority = None if value == _I32_MIN else (value, now)
+
+    def _min_priority_due(self):
+        value, asked = self._min_priority
+        # Before the hub has said its lease, as often as a silent channel is
+        # asked for again: a console need not subscribe to anything.
+        every = self.refresh_interval() if self.lease_ms is not None else min(self.refresh, self.resubscribe_after)
+        return asked + every
 
     def poll_timeout(self):
-        """When :meth:`handle_timeout` next has work, or None with no subscriptions."""
-        if not self._subs:
-            return None
-        return min(s.due(self.refresh, self.resubscribe_after) for s in self._subs)
+        """When :meth:`handle_timeout` next has work, or None when nothing is held."""
+        due = []
+        if self._subs:
+            refresh = self.refresh_interval()
+            due.append(min(s.due(refresh, self.resubscribe_after) for s in self._subs))
+        if self._min_priority is not None:
+            due.append(self._min_priority_due())
+        return min(due) if due else None
 
     def handle_timeout(self, now):
-        """Queues a subscribe request for every subscription due by ``now``."""
-        due = []
-        for s in self._subs:
-            if s.due(self.refresh, self.resubscribe_after) <= now:
-                s.last_request = now
-                due.append(s.subject)
-        # One control packet carries many subscriptions; split only to fit a datagram.
-        per_packet = MAX_PACKET // (16 + MAX_SUBJECT_LEN)
-        for i in range(0, len(due), per_packet):
-            self._outbox.append(_control(*("subscribe ch " + s for s in due[i : i + per_packet])))
+        """Queues a subscribe request for every subscription due by ``now``,
+        and the raised minimum priority when its refresh is due."""
+        refresh = self.refresh_interval()
+        due = [s for s in self._subs if s.due(refresh, self.resubscribe_after) <= now]
+        self._request_subscriptions(now, due)
+        if self._min_priority is not None and self._min_priority_due() <= now:
+            self.set_min_priority(now, self._min_priority[0])
+
+    def _request_subscriptions(self, now, subs):
+        for s in subs:
+            s.last_request = now
+        # One control packet carries many subscriptions; split only to fit a
+        # datagram with the cookie line and an authentication line.
+        per_packet = (MAX_PACKET - 256) // (len("subscribe ch \n") + MAX_SUBJECT_LEN)
+        for i in range(0, len(subs), per_packet):
+            self.request(*("subscribe ch " + s.subject for s in subs[i : i + per_packet]))
 
     def poll_transmit(self):
         """The next datagram to send to the hub, or None."""
@@ -783,9 +928,15 @@ class Session:
 
     def handle_datagram(self, now, data):
         """Notes a datagram from the hub. Returns ``('packet', Packet)`` for
-        published data, ``('lease', ms)`` or ``('status', Packet)`` for the
-        hub's replies, ``('hub', Packet)`` for another packet on ``<hub>``.
-        Raises ParseError for a datagram that does not parse."""
+        published data, ``('lease', ms)``, ``('cookie', hex)`` or
+        ``('status', Packet)`` for the hub's replies, ``('hub', Packet)`` for
+        another packet on ``<hub>``. Raises ParseError for a datagram that does
+        not parse.
+
+        A new cookie queues every subscription again at once (take it from
+        :meth:`poll_transmit`); the cookie already held queues nothing, so a
+        hub (or a forger) repeating it cannot start an exchange that never ends.
+        """
         self.last_from_hub = now
         packet = parse(data)
         if packet.is_control():
@@ -794,7 +945,22 @@ class Session:
                 self.lease_ms = max(first[1]["ms"], 0)
                 self.leases += 1
                 return "lease", self.lease_ms
+            if first[0] == "cookie":
+                _, raw = _first_line_raw(packet)
+                cookie = raw.get("v")
+                if cookie is not None and _COOKIE.fullmatch(cookie):
+                    self.cookies += 1
+                    if cookie != self.cookie:
+                        self.cookie = cookie
+                        self._request_subscriptions(now, self._subs)
+                    return "cookie", cookie
+                return "hub", packet
             if first[0] == "status":
+                # The report says the lease too: a console that subscribes to
+                # nothing learns from it how often to refresh its minimum priority.
+                lease = first[1].get("lease_ms")
+                if isinstance(lease, int) and lease > 0:
+                    self.lease_ms = lease
                 return "status", packet
             return "hub", packet
         self.note_data(now, packet)
@@ -806,6 +972,68 @@ class Session:
         if now - since >= self.unreachable_after and self._subs:
             return "unreachable"
         return "unknown" if self.last_from_hub is None else "alive"
+
+
+def _is_subscribe(line):
+    return line.split(None, 1)[:1] == ["subscribe"]
+
+
+# --------------------------------------------------------------------------- authentication
+
+
+def read_key(path):
+    """The key in a file, as ``colony hub --key FILE`` reads it: the file's bytes
+    with trailing whitespace (blank, tab, line ends, form feed) trimmed."""
+    with open(path, "rb") as f:
+        key = f.read().rstrip(b" \t\r\n\x0c")
+    if not key:
+        raise ValueError("key file {} is empty".format(path))
+    return key
+
+
+def _now_us():
+    return time.time_ns() // 1000
+
+
+class Signer:
+    """Signs packets for a hub that checks them (``colony hub --key FILE``).
+
+    Appends the line ``auth n N mac M``: N is a counter, microseconds since the
+    UNIX epoch and strictly increasing (``max(last + 1, now)``), so the hub can
+    refuse a replayed packet; M is the HMAC-SHA256 of every byte before it
+    (through ``mac``), under ``key``, in 64 lowercase hex digits::
+
+        Signer(b"secret").sign(b"@ <hub> 0\\nstatus\\n")
+        # b'@ <hub> 0\\nstatus\\nauth n 1764037... mac 5f0c...\\n'
+
+    ``clock`` gives the microseconds (for tests); the default is the system clock.
+    """
+
+    def __init__(self, key, clock=None):
+        if isinstance(key, str):
+            key = key.encode("utf-8")
+        key = bytes(key)
+        if not key:
+            raise ValueError("an empty key authenticates nothing")
+        self._key = key
+        self._clock = _now_us if clock is None else clock
+        #: The counter of the last packet signed.
+        self.last = 0
+
+    def sign(self, data):
+        """``data`` (a valid packet) with its authentication line. Raises
+        ParseError (``too_large``) when the line does not fit in a datagram."""
+        n = max(self.last + 1, int(self._clock()))
+        self.last = n
+        data = bytes(data)
+        if not data.endswith(b"\n"):
+            data += b"\n"
+        head = data + b"auth n %d mac " % n
+        mac = hmac.new(self._key, head, hashlib.sha256).hexdigest().encode("ascii")
+        out = head + mac + b"\n"
+        if len(out) > MAX_PACKET:
+            raise ParseError("too_large", 1, 1, len=len(out))
+        return out
 
 
 # --------------------------------------------------------------------------- client
@@ -832,6 +1060,13 @@ def _hub_address(hub):
 
 
 _REFUSED = (ConnectionRefusedError, BlockingIOError, InterruptedError)
+# What a connected UDP socket reports for one datagram (an ICMP error that came
+# back, a full buffer) and not for the socket: the next datagram may well pass.
+_TRANSIENT = frozenset(
+    getattr(errno, name)
+    for name in ("ECONNREFUSED", "EHOSTUNREACH", "ENETUNREACH", "EHOSTDOWN", "ENETDOWN", "ENOBUFS", "EAGAIN", "EINTR")
+    if hasattr(errno, name)
+)
 
 
 class Client:
@@ -854,9 +1089,19 @@ class Client:
 
     ``hub`` is ``(host, port)`` or ``"host:port"``; None means the environment
     variable ``COLONY_HUB``, else ``127.0.0.1:7400``.
+
+    ``key`` (bytes or str, e.g. from :func:`read_key`): the key of a hub
+    started with ``--key FILE``; every packet the client sends is then signed
+    with it (see :class:`Signer`), requests and published packets alike.
+
+    The hub's lease and cookie are followed without the application seeing
+    them (see :class:`Session`). A datagram that does not parse is skipped by
+    :meth:`recv` and counted in :attr:`malformed`, so one bad publisher cannot
+    stop a subscriber.
     """
 
-    def __init__(self, hub=None, refresh=3.0, resubscribe_after=1.0, unreachable_after=10.0):
+    def __init__(self, hub=None, refresh=3.0, resubscribe_after=1.0, unreachable_after=10.0, key=None):
+        signer = None if key is None else Signer(key)
         family, addr = _hub_address(hub)
         self.hub = addr
         sock = socket.socket(family, socket.SOCK_DGRAM)
@@ -874,6 +1119,7 @@ class Client:
             sock.close()
             raise
         self._sock = sock
+        self._signer = signer
         self.session = Session(
             time.monotonic(),
             refresh=refresh,
@@ -910,12 +1156,20 @@ class Client:
         self.close()
 
     def _send(self, datagram):
+        if self._signer is not None:
+            datagram = self._signer.sign(datagram)
         try:
             self._sock.send(datagram)
         except _REFUSED:
             # Fire and forget: a hub that is down (refused) or a full buffer
             # loses this one datagram, and the session recovers.
             pass
+        except OSError as e:
+            # So does a network that is briefly unreachable: a robot's program
+            # must not die of a Wi-Fi gap.
+            if e.errno not in _TRANSIENT:
+                raise
+        return datagram
 
     def _flush(self):
         while True:
@@ -953,21 +1207,29 @@ class Client:
         self._flush()
 
     def set_min_priority(self, value):
-        """Tells the hub to drop every published packet below this priority."""
+        """Tells the hub to drop every published packet below this priority.
+
+        The hub takes it only from a console (``colony hub --console`` naming
+        this address, or a client with the hub's ``key``), and a raised minimum
+        lapses after the hub's lease unless refreshed: the client refreshes it
+        (keep calling :meth:`poll` at :meth:`next_deadline`) until it is set to
+        ``-2147483648``, which lifts it at once. A console that stops hands the
+        robots back."""
         if isinstance(value, bool) or not isinstance(value, int) or not _I32_MIN <= value <= _I32_MAX:
             raise ValueError("the minimum priority is a 32-bit int")
-        self.request("min_priority value {}".format(value))
+        self.session.set_min_priority(time.monotonic(), value)
+        self._flush()
 
     # -- publishing
 
     def publish(self, subjects, priority=0, lines=()):
-        """Builds (see :func:`build`) and sends a packet; returns its bytes."""
+        """Builds (see :func:`build`) and sends a packet; returns the bytes sent
+        (with the authentication line when the client has a key)."""
         names = _subject_list(subjects)
         if HUB_SUBJECT in names:
             raise ValueError("`hub` is reserved for requests to the hub; use publish_raw")
         data = build(names, priority, lines)
-        self._send(data)
-        return data
+        return self._send(data)
 
     def publish_raw(self, data):
         """Sends a packet written by hand, checked first (a bad one raises ParseError
@@ -976,8 +1238,7 @@ class Client:
             data = data.encode("utf-8")
         data = bytes(data)
         parse(data)
-        self._send(data)
-        return data
+        return self._send(data)
 
     # -- the loop
 
@@ -1010,10 +1271,22 @@ class Client:
                 # The hub's port was closed when we last sent: it is down,
                 # and the session will resubscribe once it is back.
                 continue
+            except OSError as e:
+                # Another ICMP error for a datagram we sent (host or network
+                # unreachable) is reported once, here; the next recv goes on.
+                if e.errno not in _TRANSIENT:
+                    raise
+                continue
             try:
-                return self.session.handle_datagram(time.monotonic(), data)
+                got = self.session.handle_datagram(time.monotonic(), data)
             except ParseError:
+                # One bad datagram (a publisher's, or a forger's) is skipped,
+                # never raised: every subscriber on the channel would die of it.
                 self.malformed += 1
+                continue
+            # A cookie reply has queued every subscription again: send them now.
+            self._flush()
+            return got
 
     def recv(self):
         """The next packet published on a subscribed channel, or None when none
@@ -1127,6 +1400,9 @@ def _main(argv=None):
 
     ap = argparse.ArgumentParser(prog="colony_client.py", description="A colony hub client.")
     ap.add_argument("--hub", default=None, help="HOST:PORT (default: $COLONY_HUB or 127.0.0.1:7400)")
+    ap.add_argument(
+        "--key", default=None, metavar="FILE", help="sign every packet with this key (the hub's --key FILE)"
+    )
     sub = ap.add_subparsers(dest="command")
     p_sub = sub.add_parser("sub", help="subscribe and print packets as they arrive")
     p_sub.add_argument("subjects", nargs="+", metavar="SUBJECT")
@@ -1138,7 +1414,7 @@ def _main(argv=None):
     args = ap.parse_args(argv)
 
     try:
-        client = Client(args.hub)
+        client = Client(args.hub, key=None if args.key is None else read_key(args.key))
     except (OSError, ValueError) as e:
         print("colony_client: {}".format(e), file=sys.stderr)
         return 1

@@ -11,6 +11,7 @@ Every wait has a deadline; every subprocess is killed in a cleanup.
 import glob
 import math
 import os
+import re
 import select
 import signal
 import socket
@@ -42,6 +43,11 @@ VISION = (
 
 def _b(x):
     return x.encode("utf-8") if isinstance(x, str) else x
+
+
+def subscribe_packet(*subjects, cookie=cc.NO_COOKIE):
+    """A control packet that subscribes, as RULES point 1 has it: the cookie line first."""
+    return ("@ <hub> 0\ncookie v %s\n" % cookie + "".join("subscribe ch %s\n" % s for s in subjects)).encode()
 
 
 # =========================================================================== parser
@@ -129,6 +135,24 @@ class Values(unittest.TestCase):
         self.assertEqual(n["max"], 2 ** 63 - 1)
         self.assertIsInstance(n["big"], float, "Rust reads it as f64, not i64")
         self.assertEqual(n["big"], 9223372036854775808.0)
+
+    def test_a_5000_digit_integer_reads_as_rust_reads_it(self):
+        # Python 3.11's int() refuses over 4,300 digits with ValueError; Rust
+        # reads such a token as an f64 (inf), and so must this parser.
+        big = "9" * 5000
+        n = parse(("@ <a> 0\nl x %s y -%s z +%s g (w %s)\n" % (big, big, big, big)).encode()).line("l")
+        self.assertEqual(n, {"x": math.inf, "y": -math.inf, "z": math.inf, "g": {"w": math.inf}})
+        small = "0." + "0" * 5000 + "1"
+        self.assertEqual(parse(("@ <a> 0\nl x %s\n" % small).encode()).line("l"), {"x": 0.0})
+        zeros = "0" * 5000
+        n = parse(("@ <a> 0\nl x %s7 y -%s7 z %s\n" % (zeros, zeros, zeros)).encode()).line("l")
+        self.assertEqual(n, {"x": 7, "y": -7, "z": 0}, "leading zeros are no digits too many")
+        self.assertIsInstance(n["x"], int)
+        for prio in [big, "-" + big, "1" * 5000]:
+            with self.assertRaises(ParseError) as cm:
+                parse(("@ <a> %s\n" % prio).encode())
+            self.assertEqual((cm.exception.kind, cm.exception.column), ("bad_priority", 7))
+        self.assertEqual(parse(("@ <a> -%s5\n" % zeros).encode()).priority, -5)
 
     def test_words_stay_strings(self):
         n = parse(b'@ <a> 0\nn w fast x 0x10 y 1_000 z . e 1e q "5.3" r infin s nanx t ++1 u \xd9\xa1\n').line("n")
@@ -384,6 +408,202 @@ class Errors(unittest.TestCase):
                     self.assertEqual(cm.exception.kind, want)
 
 
+# =========================================================================== properties
+
+
+def canon(v):
+    """A value with its type, and NaN made equal to itself, so that parsed
+    values can be compared exactly (1 != 1.0, nan == nan, -0.0 != 0.0)."""
+    if isinstance(v, dict):
+        return ("dict", [(k, canon(x)) for k, x in v.items()])
+    if isinstance(v, float):
+        if math.isnan(v):
+            return ("float", "nan")
+        return ("float", v, math.copysign(1.0, v))
+    if isinstance(v, (list, tuple)):
+        return ("seq", [canon(x) for x in v])
+    return (type(v).__name__, v)
+
+
+def canon_packet(p):
+    return (p.subjects, p.priority, [(label, canon(f)) for label, f in p.lines])
+
+
+# Characters the generators draw from: every delimiter and escape the grammar
+# knows, digits and number letters, non-ASCII (2, 3 and 4 UTF-8 bytes).
+_ALPHABET = 'ab09_-.:/+eEinfINFaN"\\()<>@ \t\n\r#\u00e9\u6f22\U0001f916'
+_SUBJECT_CHARS = "abcXYZ019_-.:/"
+
+
+class Properties(unittest.TestCase):
+    """Seeded random checks of the writer against the parser (the suite is
+    standard library only, so a loop with random.Random rather than hypothesis)."""
+
+    def rnd(self, seed):
+        import random
+
+        return random.Random(seed)
+
+    def random_int(self, r):
+        return r.choice(
+            [
+                r.randint(-10, 10),
+                r.randint(cc._I64_MIN, cc._I64_MAX),
+                cc._I64_MIN,
+                cc._I64_MAX,
+                r.randint(-(10 ** 6), 10 ** 6),
+            ]
+        )
+
+    def random_float(self, r):
+        import struct
+
+        kind = r.randrange(5)
+        if kind == 0:
+            return struct.unpack("<d", struct.pack("<Q", r.getrandbits(64)))[0]
+        if kind == 1:
+            return r.choice([0.0, -0.0, math.inf, -math.inf, math.nan, 5e-324, 1.7976931348623157e308, 1e16, 1e22])
+        if kind == 2:
+            return float(r.randint(-1000, 1000))
+        return r.uniform(-1e6, 1e6) * 10 ** r.randint(-20, 20)
+
+    def random_text(self, r, n):
+        return "".join(r.choice(_ALPHABET) for _ in range(n))
+
+    def random_token(self, r):
+        """A bare token: no blank, control, quote or parenthesis."""
+        while True:
+            t = "".join(c for c in self.random_text(r, r.randint(1, 8)) if c not in ' \t\n\r"()')
+            if t:
+                return t
+
+    def random_value(self, r, depth):
+        kind = r.randrange(6 if depth < cc.MAX_DEPTH else 5)
+        if kind == 0:
+            return self.random_int(r)
+        if kind == 1:
+            return self.random_float(r)
+        if kind == 2:
+            return self.random_text(r, r.randint(0, 12))
+        if kind == 3:
+            return self.random_token(r)
+        if kind == 4:
+            return r.choice(["5", "-7", "1e5", "inf", "NaN", "+nan", "true", "", "9" * r.randint(1, 60)])
+        return self.random_fields(r, depth + 1, r.randint(0, 3))
+
+    def random_fields(self, r, depth, n):
+        fields = {}
+        for _ in range(n):
+            fields[self.random_token(r)] = self.random_value(r, depth)
+        return fields
+
+    def random_packet(self, r):
+        subjects = []
+        for _ in range(r.randint(1, 4)):
+            s = "".join(r.choice(_SUBJECT_CHARS) for _ in range(r.randint(1, 10)))
+            if s not in subjects:
+                subjects.append(s)
+        priority = r.choice([0, -1, 7, cc._I32_MIN, cc._I32_MAX, r.randint(cc._I32_MIN, cc._I32_MAX)])
+        lines = [(self.random_token(r), self.random_fields(r, 0, r.randint(0, 5))) for _ in range(r.randint(0, 6))]
+        return subjects, priority, lines
+
+    def test_build_writes_what_parses_back_to_the_same_values(self):
+        r = self.rnd(12)
+        for i in range(600):
+            subjects, priority, lines = self.random_packet(r)
+            data = build(subjects, priority, lines)
+            with self.subTest(i=i, data=data[:200]):
+                p = parse(data)
+                self.assertEqual(canon_packet(p), (subjects, priority, [(l, canon(f)) for l, f in lines]))
+                self.assertEqual(build(p.subjects, p.priority, p.lines), data, "writing is deterministic")
+                self.assertEqual(str(p).encode(), data, "build writes the canonical form")
+
+    def mutate(self, r, data):
+        data = bytearray(data)
+        for _ in range(1 if r.random() < 0.6 else r.randint(2, 4)):
+            op = r.randrange(7)
+            at = r.randint(0, len(data))
+            if op == 0 and data:
+                del data[min(at, len(data) - 1)]
+            elif op == 1:
+                data[at:at] = r.choice(_ALPHABET).encode() if r.random() < 0.8 else bytes([r.randrange(256)])
+            elif op == 2 and data:
+                data[min(at, len(data) - 1)] = r.randrange(256)
+            elif op == 3:
+                # Long numbers: past the 19 digits of an i64, past Python's 4,300 of int().
+                digits = r.choice([19, 20, 400, 4301, 5000, 20000])
+                data[at:at] = (r.choice(["", "-", "+", "0" * 30]) + "".join(r.choice("0123456789") for _ in range(digits))).encode()
+            elif op == 4:
+                data[at:at] = r.choice([b"(" * 40, b")" * 3, b'"', b"\\", b"\r", b"\xc3", b"\xed\xa0\x80", b"e" + b"9" * 30, b".", b"\n\n"])
+            elif op == 5 and data:
+                end = r.randint(at, len(data))
+                data[at:at] = data[at:end]
+            else:
+                data[at:at] = r.choice([b" <x>", b"<", b">", b"@ ", b" 2147483648", b" -2147483649"])
+        return bytes(data[: cc.MAX_PACKET + 10])
+
+    def test_any_datagram_parses_or_raises_parse_error_and_what_parses_builds_again(self):
+        # The other half of the round trip: whatever a packet can say, build can
+        # write (so what build refuses no packet says), and it reads back the same.
+        r = self.rnd(9)
+        good = [
+            VISION,
+            nested(32),
+            nested(31),
+            packet_of_len(300),
+            b'@ <a> <b:c> -3\nl n 5 f 1.5e3 s "x\\"y\\\\z\\n" w word g (h (i 1) j "") k inf\n',
+            b"@ <a> 0\nl big 123456789012345678901234567890 n -9223372036854775808 z 00000000000000000000007\n",
+        ]
+        bad = [d for d, *_ in Errors.CASES if len(d) < 2000]
+        if os.path.isdir(CORPUS):
+            for path in sorted(glob.glob(os.path.join(CORPUS, "*"))):
+                with open(path, "rb") as f:
+                    data = f.read()[:4000]
+                (good if os.path.basename(path).startswith("ok-") else bad).append(data)
+        parsed = 0
+        for i in range(4000):
+            data = self.mutate(r, r.choice(good if r.random() < 0.85 else bad))
+            try:
+                p = parse(data)
+            except ParseError as e:
+                self.assertIn(e.kind, cc._MESSAGES)
+                self.assertIsInstance(str(e), str)
+                continue
+            except Exception as e:  # the bug this pins: ValueError from int() and the like
+                self.fail("parse(%r...) raised %s: %s" % (data[:120], type(e).__name__, e))
+            parsed += 1
+            with self.subTest(i=i, data=data[:200]):
+                again = build(p.subjects, p.priority, p.lines)
+                self.assertEqual(canon_packet(parse(again)), canon_packet(p))
+                self.assertEqual(str(parse(str(p).encode())), str(p))
+        self.assertGreater(parsed, 400, "the mutations kept enough packets valid to test writing")
+
+    def test_what_build_refuses_no_packet_can_say(self):
+        refused = [
+            ({"x": 2 ** 63}, "9223372036854775808", float),
+            ({"x": -(2 ** 63) - 1}, "-9223372036854775809", float),
+            ({"x": 10 ** 5000}, "1" + "0" * 5000, float),
+        ]
+        for fields, text, reads_as in refused:
+            with self.assertRaises(ValueError):
+                build("a", 0, [("l", fields)])
+            got = parse(("@ <a> 0\nl x %s\n" % text).encode()).line("l")["x"]
+            self.assertIsInstance(got, reads_as, "the token reads back as a float, never as that int")
+        for s in ["a\x00b", "\x01", "x\x1b[0m", "\x7f", "\x0b", "\x0c", "a\ud800b", "\udfff"]:
+            with self.subTest(s=s):
+                with self.assertRaises(ValueError):
+                    build("a", 0, [("l", {"s": s})])
+                with self.assertRaises(ValueError):
+                    build("a", 0, [("l", {s + "n": 1})])
+                with self.assertRaises(ValueError):
+                    build("a", 0, [(s + "l", {})])
+                with self.assertRaises(ValueError):
+                    build("a", 0, ["l s " + s])
+        # Only \n \r \t have escapes, and they round-trip; a raw tab is fine too.
+        p = parse(build("a", 0, [("l", {"s": "\n\r\t", "t": "a\tb"})]))
+        self.assertEqual(p.line("l"), {"s": "\n\r\t", "t": "a\tb"})
+
+
 # =========================================================================== writer
 
 
@@ -453,9 +673,12 @@ class Writing(unittest.TestCase):
         self.assertEqual(build("a", 0, [("l", [("x", 1), ("y", "z")])]), b"@ <a> 0\nl x 1 y z\n")
         self.assertEqual(build("a"), b"@ <a> 0\n")
 
-    def test_control_characters_become_replacement_characters(self):
-        p = parse(build("a", 0, [("l", {"s": "a\x00b\x7f"})]))
-        self.assertEqual(p.line("l")["s"], "a\ufffdb\ufffd")
+    def test_control_characters_are_refused_rather_than_replaced(self):
+        # No escape exists for them, so no packet reads back as such a string;
+        # writing U+FFFD instead (as the Rust builder does) would send another value.
+        for s in ["a\x00b", "b\x7f", "\x1b[31m"]:
+            with self.assertRaises(ValueError):
+                build("a", 0, [("l", {"s": s})])
 
     def test_what_cannot_be_written_is_refused(self):
         with self.assertRaises(ValueError):
@@ -515,12 +738,12 @@ class SessionTiming(unittest.TestCase):
         s.subscribe(100.0, "a")
         self.assertEqual(s.poll_timeout(), 100.0, "a new subscription is asked for at once")
         s.handle_timeout(100.0)
-        self.assertEqual(self.sent(s), [b"@ <hub> 0\nsubscribe ch a\n"])
+        self.assertEqual(self.sent(s), [subscribe_packet("a")])
         self.assertEqual(s.poll_timeout(), 101.0, "silent: again after 1 s")
         s.handle_timeout(100.9)
         self.assertEqual(self.sent(s), [])
         s.handle_timeout(101.0)
-        self.assertEqual(self.sent(s), [b"@ <hub> 0\nsubscribe ch a\n"])
+        self.assertEqual(self.sent(s), [subscribe_packet("a")])
         data = parse(b"@ <a> 0\nx y 1\n")
         # Data every half second: the refresh waits for 3 s after the last request.
         for t in (101.5, 102.0, 102.5, 103.0, 103.5):
@@ -529,7 +752,7 @@ class SessionTiming(unittest.TestCase):
             self.assertEqual(self.sent(s), [], t)
         self.assertEqual(s.poll_timeout(), 104.0)
         s.handle_timeout(104.0)
-        self.assertEqual(self.sent(s), [b"@ <hub> 0\nsubscribe ch a\n"])
+        self.assertEqual(self.sent(s), [subscribe_packet("a")])
         # Silence again: resubscribe 1 s after the last request.
         self.assertEqual(s.poll_timeout(), 105.0)
 
@@ -539,10 +762,10 @@ class SessionTiming(unittest.TestCase):
         s.subscribe(0.0, "b")
         s.subscribe(0.0, "c")
         s.handle_timeout(0.0)
-        self.assertEqual(self.sent(s), [b"@ <hub> 0\nsubscribe ch a\nsubscribe ch b\nsubscribe ch c\n"])
+        self.assertEqual(self.sent(s), [subscribe_packet("a", "b", "c")])
         s.note_data(0.8, parse(b"@ <a> <b> 0\n"))
         s.handle_timeout(1.0)
-        self.assertEqual(self.sent(s), [b"@ <hub> 0\nsubscribe ch c\n"])
+        self.assertEqual(self.sent(s), [subscribe_packet("c")])
         self.assertEqual(s.poll_timeout(), 1.8)
 
     def test_replies_and_unsubscribe(self):
@@ -568,6 +791,132 @@ class SessionTiming(unittest.TestCase):
         s.unsubscribe_all()
         self.assertEqual(self.sent(s), [b"@ <hub> 0\nunsubscribe_all\n"])
 
+    def test_refreshes_three_times_per_lease_once_the_hub_says_it(self):
+        # `colony hub --lease 2`: a refresh every 3 s let every lease lapse for a
+        # second in three (29 % of a stream lost); a third of the lease keeps it.
+        s = cc.Session(now=0.0)
+        s.subscribe(0.0, "a")
+        s.handle_timeout(0.0)
+        self.sent(s)
+        self.assertEqual(s.refresh_interval(), 3.0, "before the hub has said, the configured refresh")
+        self.assertEqual(s.handle_datagram(0.01, b"@ <hub> 0\nlease ms 2000\n"), ("lease", 2000))
+        self.assertAlmostEqual(s.refresh_interval(), 2.0 / 3)
+        data = parse(b"@ <a> 0\nx y 1\n")
+        t = 0.0
+        asked = [0.0]
+        # 50 Hz of data for 5 s: the subscription is refreshed every 2/3 s.
+        while t < 5.0:
+            t = round(t + 0.02, 6)
+            s.note_data(t, data)
+            s.handle_timeout(t)
+            if self.sent(s) == [subscribe_packet("a")]:
+                asked.append(t)
+        gaps = [b - a for a, b in zip(asked, asked[1:])]
+        self.assertEqual(len(asked), 8, asked)
+        for g in gaps:
+            self.assertTrue(2.0 / 3 <= g < 2.0 / 3 + 0.021, gaps)
+        # A longer lease than three refreshes leaves the configured refresh in force.
+        s.handle_datagram(t, b"@ <hub> 0\nlease ms 10000\n")
+        self.assertEqual(s.refresh_interval(), 3.0)
+        last = asked[-1]
+        while t < last + 3.5:
+            t = round(t + 0.02, 6)
+            s.note_data(t, data)
+            s.handle_timeout(t)
+            if self.sent(s):
+                asked.append(t)
+        self.assertEqual(len(asked), 9)
+        self.assertTrue(3.0 <= asked[-1] - last < 3.021, asked)
+        # A lease of nothing (a broken or hostile hub) cannot make the client spin.
+        s.handle_datagram(t, b"@ <hub> 0\nlease ms 0\n")
+        self.assertEqual(s.refresh_interval(), 0.01)
+        s.handle_datagram(t, b"@ <hub> 0\nlease ms -5\n")
+        self.assertEqual((s.lease_ms, s.refresh_interval()), (0, 0.01))
+        s.handle_datagram(t, b"@ <hub> 0\nlease ms 9223372036854775807\n")
+        self.assertEqual(s.refresh_interval(), 3.0)
+
+    def test_cookie_from_the_hub_resends_every_subscription_at_once(self):
+        s = cc.Session(now=0.0)
+        s.subscribe(0.0, "a")
+        s.subscribe(0.0, "b")
+        s.handle_timeout(0.0)
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\ncookie v 0000000000000000\nsubscribe ch a\nsubscribe ch b\n"])
+        # The hub has never seen us: it answers with a cookie, and we come back with it at once.
+        self.assertEqual(s.handle_datagram(0.01, b"@ <hub> 0\ncookie v 0123456789abcdef\n"), ("cookie", "0123456789abcdef"))
+        self.assertEqual(s.cookie, "0123456789abcdef")
+        self.assertEqual(self.sent(s), [subscribe_packet("a", "b", cookie="0123456789abcdef")])
+        self.assertEqual(s.poll_timeout(), 1.01, "the resend counts as the request")
+        self.assertEqual(s.handle_datagram(0.02, b"@ <hub> 0\nlease ms 2000\n"), ("lease", 2000))
+        # The same cookie again (a duplicate, or a forger's copy) starts nothing.
+        self.assertEqual(s.handle_datagram(0.03, b"@ <hub> 0\ncookie v 0123456789abcdef\n"), ("cookie", "0123456789abcdef"))
+        self.assertEqual(self.sent(s), [])
+        self.assertEqual(s.cookies, 2)
+        # Refreshes carry the cookie; other requests carry none.
+        s.handle_timeout(1.01)
+        self.assertEqual(self.sent(s), [subscribe_packet("a", "b", cookie="0123456789abcdef")])
+        s.request("status")
+        s.unsubscribe("b")
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nstatus\n", b"@ <hub> 0\nunsubscribe ch b\n"])
+        s.request("subscribe ch c", "status")
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\ncookie v 0123456789abcdef\nsubscribe ch c\nstatus\n"])
+        # A restarted hub gives a new cookie: taken, and everything is sent again with it.
+        # Sixteen decimal digits stay text, as written (not the int they look like).
+        s.handle_datagram(2.0, b"@ <hub> 0\r\ncookie   v 0000000000000042\r\n")
+        self.assertEqual(s.cookie, "0000000000000042")
+        self.assertEqual(self.sent(s), [subscribe_packet("a", cookie="0000000000000042")])
+        # What is not a cookie is not taken: upper case, the wrong length, quoted, missing.
+        for bad in [
+            b"@ <hub> 0\ncookie v 0123456789ABCDEF\n",
+            b"@ <hub> 0\ncookie v 0123456789abcde\n",
+            b"@ <hub> 0\ncookie v 0123456789abcdef0\n",
+            b'@ <hub> 0\ncookie v "0123456789abcdef"\n',
+            b"@ <hub> 0\ncookie w 0123456789abcdef\n",
+            b"@ <hub> 0\ncookie g (v 0123456789abcdef)\n",
+            b"@ <hub> 0\ncookie\n",
+            b"@ <x> 0\ncookie v 0123456789abcdef\n",
+        ]:
+            with self.subTest(bad=bad):
+                kind, _ = s.handle_datagram(3.0, bad)
+                self.assertNotEqual(kind, "cookie")
+                self.assertEqual(s.cookie, "0000000000000042")
+                self.assertEqual(self.sent(s), [])
+
+    def test_a_raised_minimum_priority_is_refreshed_until_lifted(self):
+        s = cc.Session(now=0.0)
+        s.set_min_priority(0.0, 5)
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nmin_priority value 5\n"])
+        # No lease heard yet (a console need subscribe to nothing): every second.
+        self.assertEqual(s.poll_timeout(), 1.0)
+        s.handle_timeout(0.99)
+        self.assertEqual(self.sent(s), [])
+        s.handle_timeout(1.0)
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nmin_priority value 5\n"])
+        # A status report says the lease: a third of it from then on.
+        s.handle_datagram(1.1, b"@ <hub> 0\nstatus uptime_ms 1 lease_ms 2400 min_priority 5 clients 1 truncated 0\n")
+        self.assertEqual(s.lease_ms, 2400)
+        self.assertAlmostEqual(s.poll_timeout(), 1.8)
+        s.handle_timeout(1.8)
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nmin_priority value 5\n"])
+        # Lifting it is said once, and then nothing more is due.
+        s.set_min_priority(2.0, cc._I32_MIN)
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\nmin_priority value -2147483648\n"])
+        self.assertIsNone(s.poll_timeout())
+        s.handle_timeout(100.0)
+        self.assertEqual(self.sent(s), [])
+
+    def test_subscriptions_split_to_fit_a_datagram_with_cookie_and_auth(self):
+        s = cc.Session(now=0.0)
+        for i in range(2000):
+            s.subscribe(0.0, "%s%04d" % ("s" * 60, i))
+        s.handle_timeout(0.0)
+        sent = self.sent(s)
+        self.assertEqual(len(sent), 3)
+        signer = cc.Signer(b"k")
+        for d in sent:
+            self.assertTrue(d.startswith(b"@ <hub> 0\ncookie v 0000000000000000\nsubscribe ch "))
+            parse(signer.sign(d))
+        self.assertEqual(sum(d.count(b"\nsubscribe ch ") for d in sent), 2000)
+
     def test_status_report_parsing(self):
         data = (
             b"@ <hub> 0\nstatus uptime_ms 123456 lease_ms 5000 min_priority -2 clients 2 truncated 0\n"
@@ -590,6 +939,73 @@ class SessionTiming(unittest.TestCase):
                 {"addr": "[::1]:40002", "idle_ms": 0, "subs": {}},
             ],
         )
+
+
+# =========================================================================== authentication
+
+
+def hmac_sha256_by_hand(key, msg):
+    """HMAC-SHA256 from its definition (RFC 2104) on hashlib alone: an
+    independent check of the client's use of the hmac module."""
+    import hashlib
+
+    block = 64
+    if len(key) > block:
+        key = hashlib.sha256(key).digest()
+    key = key.ljust(block, b"\0")
+    inner = hashlib.sha256(bytes(b ^ 0x36 for b in key) + msg).digest()
+    return hashlib.sha256(bytes(b ^ 0x5C for b in key) + inner).hexdigest()
+
+
+AUTH_LINE = re.compile(rb"\A(?P<head>.*\nauth n (?P<n>[0-9]+) mac )(?P<mac>[0-9a-f]{64})\n\Z", re.S)
+
+
+class Authentication(unittest.TestCase):
+    """RULES point 4: the last line `auth n N mac M`, M = HMAC-SHA256(key, every byte before M)."""
+
+    def test_known_vector(self):
+        signer = cc.Signer(b"colony-test-key", clock=lambda: 1764000000000000)
+        got = signer.sign(b"@ <hub> 0\nmin_priority value 5\n")
+        # The MAC from `printf '@ <hub> 0\nmin_priority value 5\nauth n 1764000000000000 mac '
+        #   | openssl dgst -sha256 -hmac colony-test-key`.
+        mac = "cd6aba831153055a1709b5e9443aff027bd1ec5532830840f0b59386e46e133e"
+        self.assertEqual(got, b"@ <hub> 0\nmin_priority value 5\nauth n 1764000000000000 mac " + mac.encode() + b"\n")
+        self.assertEqual(hmac_sha256_by_hand(b"colony-test-key", got[: -65]), mac)
+        p = parse(got)
+        self.assertEqual(p.lines[-1], ("auth", {"n": 1764000000000000, "mac": mac}))
+
+    def test_counter_strictly_increases_whatever_the_clock_does(self):
+        clock = [5000]
+        signer = cc.Signer("text key", clock=lambda: clock[0])
+        ns = []
+        for t in [5000, 5000, 4000, 9000, 9001, 9001]:
+            clock[0] = t
+            m = AUTH_LINE.match(signer.sign(b"@ <a> 0"))
+            self.assertIsNotNone(m)
+            self.assertEqual(m.group("mac").decode(), hmac_sha256_by_hand(b"text key", m.group("head")))
+            ns.append(int(m.group("n")))
+        self.assertEqual(ns, [5000, 5001, 5002, 9000, 9001, 9002])
+        # The default clock: microseconds since the UNIX epoch.
+        m = AUTH_LINE.match(cc.Signer(b"k").sign(b"@ <a> 0\n"))
+        self.assertLess(abs(int(m.group("n")) - time.time() * 1e6), 60e6)
+
+    def test_a_signed_packet_must_still_fit_a_datagram(self):
+        full = packet_of_len(cc.MAX_PACKET - 50)
+        with self.assertRaises(ParseError) as cm:
+            cc.Signer(b"k").sign(full)
+        self.assertEqual(cm.exception.kind, "too_large")
+        with self.assertRaises(ValueError):
+            cc.Signer(b"")
+
+    def test_read_key_trims_trailing_whitespace_only(self):
+        with tempfile.NamedTemporaryFile("wb", delete=False) as f:
+            f.write(b"  s3cret key\t \r\n\n")
+        self.addCleanup(os.unlink, f.name)
+        self.assertEqual(cc.read_key(f.name), b"  s3cret key")
+        with open(f.name, "wb") as g:
+            g.write(b" \n")
+        with self.assertRaises(ValueError):
+            cc.read_key(f.name)
 
 
 # =========================================================================== client vs a fake hub
@@ -635,7 +1051,7 @@ class FakeHub(unittest.TestCase):
         self.assertIsNone(c.next_deadline())
         c.subscribe("vision_out")
         data, addr = self.hub_recv()
-        self.assertEqual(data, b"@ <hub> 0\nsubscribe ch vision_out\n")
+        self.assertEqual(data, subscribe_packet("vision_out"))
         self.assertEqual(addr, c.local_addr)
         self.hub.sendto(b"@ <hub> 0\nlease ms 10000\n", addr)
         self.hub.sendto(b"@ <vision_out> 0\nball x 1\n", addr)
@@ -652,7 +1068,7 @@ class FakeHub(unittest.TestCase):
         c.poll(d - 0.01)
         self.assertTrue(self.hub_silent())
         c.poll(d)
-        self.assertEqual(self.hub_recv()[0], b"@ <hub> 0\nsubscribe ch vision_out\n")
+        self.assertEqual(self.hub_recv()[0], subscribe_packet("vision_out"))
         self.assertAlmostEqual(c.next_deadline(), d + 1.0, places=6)
 
     def test_garbage_from_the_hub_is_counted_and_skipped(self):
@@ -664,6 +1080,119 @@ class FakeHub(unittest.TestCase):
         p = self.client_recv()
         self.assertEqual(p.line("ok"), {"x": 1})
         self.assertEqual(c.malformed, 1)
+
+    def test_a_5000_digit_integer_never_kills_a_subscriber(self):
+        # Issue 12, finding 9: one such packet made recv() raise ValueError.
+        c = self.client
+        c.subscribe("a")
+        _, addr = self.hub_recv()
+        big = b"9" * 5000
+        self.hub.sendto(b"@ <a> 0\nhuge n " + big + b" m -" + big + b"\n", addr)
+        # What the hub would drop, sent straight to the client: still skipped, never raised.
+        self.hub.sendto(b"@ <a> " + big + b"\nx y 1\n", addr)
+        self.hub.sendto(b"@ <a> 0\nx y \xff\n", addr)
+        self.hub.sendto(b"@ <a> 0\nx " + b"g (" * 5000 + b"\n", addr)
+        self.hub.sendto(b"\x00" * cc.MAX_PACKET, addr)
+        self.hub.sendto(b"@ <a> 0\nafter n 1\n", addr)
+        p = self.client_recv()
+        self.assertEqual(p.line("huge"), {"n": math.inf, "m": -math.inf}, "a valid packet: Rust reads it as f64 too")
+        p = self.client_recv()
+        self.assertEqual(p.line("after"), {"n": 1})
+        self.assertEqual(c.malformed, 4)
+
+    def test_cookie_then_lease_then_refreshes_at_a_third_of_the_lease(self):
+        c = self.client
+        c.subscribe("a")
+        c.subscribe("b")
+        data, addr = self.hub_recv()
+        self.assertEqual(data, subscribe_packet("a"))
+        self.assertEqual(self.hub_recv()[0], subscribe_packet("b"))
+        # The hub answers an unverified source with a cookie, and nothing else.
+        self.hub.sendto(b"@ <hub> 0\ncookie v 00ff00ff00ff00ff\n", addr)
+        self.assertIsNone(self.client_recv(0.5), "a cookie is no packet for the application")
+        self.assertEqual(self.hub_recv()[0], subscribe_packet("a", "b", cookie="00ff00ff00ff00ff"), "both at once, with the cookie")
+        self.assertEqual(c.session.cookie, "00ff00ff00ff00ff")
+        self.hub.sendto(b"@ <hub> 0\nlease ms 600\n", addr)
+        self.hub.sendto(b"@ <a> 0\nx y 1\n", addr)
+        self.assertEqual(self.client_recv().line("x"), {"y": 1})
+        self.assertEqual(c.lease_ms, 600)
+        # A 0.6 s lease: the next refresh is due 0.2 s after the last request.
+        d = c.next_deadline()
+        self.assertLessEqual(d - time.monotonic(), 0.2)
+        while time.monotonic() < d:
+            readable([c], d - time.monotonic())
+            c.recv()
+        c.poll()
+        self.assertEqual(self.hub_recv()[0], subscribe_packet("a", "b", cookie="00ff00ff00ff00ff"))
+        # The same cookie once more sends nothing (recv alone sends only for a new cookie).
+        self.hub.sendto(b"@ <hub> 0\ncookie v 00ff00ff00ff00ff\n", addr)
+        self.assertIsNone(self.client_recv(0.3))
+        self.assertEqual(c.session.cookies, 2)
+        self.assertTrue(self.hub_silent())
+
+    def test_a_key_signs_every_packet_the_client_sends(self):
+        key = b"k3y\x00\xffwith bytes"
+        c = cc.Client(self.hub.getsockname(), key=key)
+        self.addCleanup(c.close)
+        c.subscribe("a")
+        sent_pub = c.publish("a", 2, [("ball", {"x": 1.5})])
+        c.publish_raw(b"@ <b> 0")
+        c.set_min_priority(3)
+        c.unsubscribe("a")
+        got = [self.hub_recv()[0] for _ in range(5)]
+        self.assertEqual(got[1], sent_pub, "publish returns the bytes sent, auth line and all")
+        ns = []
+        for data in got:
+            m = AUTH_LINE.match(data)
+            self.assertIsNotNone(m, data)
+            self.assertEqual(m.group("mac").decode(), hmac_sha256_by_hand(key, m.group("head")), data)
+            parse(data)
+            ns.append(int(m.group("n")))
+        self.assertEqual(ns, sorted(set(ns)), "strictly increasing")
+        self.assertTrue(got[0].startswith(subscribe_packet("a")))
+        self.assertTrue(got[1].startswith(b"@ <a> 2\nball x 1.5\nauth n "))
+        self.assertTrue(got[2].startswith(b"@ <b> 0\nauth n "))
+        self.assertTrue(got[3].startswith(b"@ <hub> 0\nmin_priority value 3\nauth n "))
+        self.assertTrue(got[4].startswith(b"@ <hub> 0\nunsubscribe ch a\nauth n "))
+
+    def test_network_errors_for_one_datagram_are_survived(self):
+        # A connected UDP socket reports an ICMP error (host or network
+        # unreachable) on the next send or recv: one datagram is lost, the
+        # client goes on; any other error still surfaces.
+        import errno
+
+        c = self.client
+        real = c._sock
+        self.addCleanup(setattr, c, "_sock", real)
+
+        class Flaky:
+            def __init__(self, errors):
+                self.errors = list(errors)
+
+            def send(self, data):
+                if self.errors:
+                    raise OSError(self.errors.pop(0), "flaky")
+                return real.send(data)
+
+            def recv(self, n):
+                if self.errors:
+                    raise OSError(self.errors.pop(0), "flaky")
+                return real.recv(n)
+
+            def fileno(self):
+                return real.fileno()
+
+        c._sock = Flaky([errno.EHOSTUNREACH, errno.ENETUNREACH])
+        c.subscribe("a")  # lost to EHOSTUNREACH
+        c.publish("a", 0, [("x", {})])  # lost to ENETUNREACH
+        c.publish("a", 0, [("y", {})])
+        self.assertEqual(self.hub_recv()[0], b"@ <a> 0\ny\n")
+        self.hub.sendto(b"@ <a> 0\nz\n", real.getsockname())
+        c._sock = Flaky([errno.EHOSTUNREACH])
+        self.assertEqual(self.client_recv().labels(), ["z"])
+        c._sock = Flaky([errno.EBADF])
+        with self.assertRaises(OSError):
+            c.publish("a", 0, [("w", {})])
 
     def test_publish_checks_before_sending(self):
         c = self.client
@@ -727,7 +1256,7 @@ class FakeHub(unittest.TestCase):
         t.start()
         r = c.status(timeout=3.0)
         t.join(3.0)
-        self.assertEqual(answers[0], b"@ <hub> 0\nsubscribe ch a\n")
+        self.assertEqual(answers[0], subscribe_packet("a"))
         self.assertIn(b"@ <hub> 0\nstatus\n", answers)
         self.assertEqual(r["clients"][0]["subs"], {"a": 4999})
         self.assertEqual(c.recv().line("meanwhile"), {"x": 1}, "data that came meanwhile is kept")
@@ -813,8 +1342,9 @@ def run_colony(args, timeout=10.0, **kw):
 class Hub:
     """A `colony hub` subprocess on a fixed port, which can be killed and started again."""
 
-    def __init__(self, port=None):
+    def __init__(self, port=None, args=()):
         self.port = port or free_udp_port()
+        self.args = list(args)
         self.proc = None
         self.log = tempfile.TemporaryFile()
 
@@ -831,7 +1361,7 @@ class Hub:
         self.log.seek(0)
         self.log.truncate()
         self.proc = subprocess.Popen(
-            [path, "hub", "--bind", self.addr_text],
+            [path, "hub", "--bind", self.addr_text] + self.args,
             stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL,
             stderr=self.log,
@@ -921,10 +1451,87 @@ class RealHub(unittest.TestCase):
         self.addCleanup(self.hub.close)
         self.hub.start()
 
-    def client(self):
-        c = cc.Client(self.hub.addr)
+    def client(self, key=None):
+        c = cc.Client(self.hub.addr, key=key)
         self.addCleanup(c.close)
         return c
+
+    def tmp(self):
+        d = tempfile.TemporaryDirectory()
+        self.addCleanup(d.cleanup)
+        return d.name
+
+    def restart_hub(self, *args):
+        self.hub.stop()
+        self.hub.args = list(args)
+        self.hub.start()
+
+    def test_the_hubs_cookie_is_taken_without_the_application_noticing(self):
+        # Needs the hub of RULES point 1: it answers a new source with a cookie first.
+        sub = self.client()
+        sub.subscribe("a")
+        pump = Pump(sub)
+        self.assertTrue(leased(pump, sub))
+        self.assertGreaterEqual(sub.session.cookies, 1, "the hub asked for a cookie first")
+        self.assertNotEqual(sub.session.cookie, cc.NO_COOKIE)
+        self.assertTrue(cc._COOKIE.fullmatch(sub.session.cookie))
+
+    def test_a_two_second_lease_is_kept_under_a_50_hz_stream(self):
+        # Issue 12, finding 9: refreshing every 3 s against `--lease 2` lost 29 %
+        # of a stream. Generous bounds, nothing about speed: 95 % of what was sent
+        # arrives, and no silence lasts a whole lease.
+        self.restart_hub("--lease", "2")
+        sub, pub = self.client(), self.client()
+        sub.subscribe("stream")
+        pump = Pump(sub)
+        self.assertTrue(leased(pump, sub))
+        self.assertEqual(sub.lease_ms, 2000)
+        leases_before = sub.session.leases
+        arrivals = []
+        sent = 0
+        start = time.monotonic()
+        end = start + 10.0
+        while True:
+            now = time.monotonic()
+            if now >= end + 0.5:
+                break
+            # 50 packets a second, caught up if the loop was late.
+            due = min(500, int((now - start) / 0.02) + 1)
+            while sent < due:
+                pub.publish("stream", 0, [("tick", {"n": sent})])
+                sent += 1
+            wait = min(0.02, sub.timeout() if sub.timeout() is not None else 0.02)
+            readable([sub], wait)
+            sub.poll()
+            for p in sub:
+                arrivals.append((time.monotonic(), p.line("tick")["n"]))
+        got = {n for _, n in arrivals}
+        self.assertEqual(sent, 500)
+        self.assertGreaterEqual(len(got), 475, "only %d of %d arrived" % (len(got), sent))
+        times = [t for t, _ in arrivals]
+        gaps = [b - a for a, b in zip(times, times[1:])]
+        self.assertLess(max(gaps), 2.0, "a silence of %.2f s: the lease lapsed" % max(gaps))
+        # The hub answered every refresh: at least one in each third of a lease.
+        self.assertGreaterEqual(sub.session.leases - leases_before, 10)
+
+    def test_a_5000_digit_integer_through_the_hub_does_not_kill_a_subscriber(self):
+        # Issue 12, finding 9, end to end: the hub forwards it (it is a valid
+        # packet); the Python subscriber reads inf, as Rust does, and goes on.
+        sub = self.client()
+        sub.subscribe("big")
+        pump = Pump(sub)
+        self.assertTrue(leased(pump, sub))
+        raw = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.addCleanup(raw.close)
+        huge = b"@ <big> 0\nhuge n " + b"9" * 5000 + b"\n"
+        ok = pump.until(lambda: len(pump.received(sub)) >= 2, 5.0, every=0.2,
+                        action=lambda: (raw.sendto(huge, self.hub.addr), raw.sendto(b"@ <big> 0\nafter\n", self.hub.addr)))
+        self.assertTrue(ok)
+        labels = [p.labels()[0] for p in pump.received(sub)]
+        self.assertIn("huge", labels)
+        self.assertIn("after", labels)
+        self.assertEqual([p.line("huge") for p in pump.received(sub) if p.line("huge")][0], {"n": math.inf})
+        self.assertEqual(sub.malformed, 0)
 
     def test_python_publishes_and_python_receives(self):
         sub, pub = self.client(), self.client()
@@ -1132,21 +1739,98 @@ class RealHub(unittest.TestCase):
         r = sub.status(timeout=3.0)
         self.assertEqual(r["drops"].get("malformed"), len(bad), r["drops"])
 
-    def test_min_priority(self):
-        sub, pub = self.client(), self.client()
+    def test_random_datagrams_the_hub_forwards_are_exactly_those_python_accepts(self):
+        # A differential check of the two parsers on mutated packets: the Rust
+        # hub forwards what its parser accepts and counts the rest as malformed.
+        sub = self.client()
+        sub.subscribe("d")
+        pump = Pump(sub)
+        self.assertTrue(leased(pump, sub))
+        import random
+
+        r = random.Random(3)
+        seeds = [
+            b'@ <d> 0\nl n 5 f 1.5e3 s "x\\"y\\\\z\\n" w word g (h (i 1) j "") k inf\n',
+            b"@ <d> 0\nl big 123456789012345678901234567890 n -9223372036854775808 z 007 e 1e5 p .5 q 5.\n",
+            b"@ <d> -3\r\nball x 5.3 y -2.5\r\n\r\nblue id 0 pose (xh 1.0 yh 0.0)\n",
+        ]
+        props = Properties()
+        good, bad = [], []
+        while len(good) + len(bad) < 120:
+            seed = r.choice(seeds)
+            head = seed.index(b"\n") + 1
+            data = seed[:head] + props.mutate(r, seed[head:])
+            if len(data) > cc.MAX_PACKET:
+                continue  # no datagram can carry it
+            try:
+                parse(data)
+            except ParseError:
+                bad.append(data)
+            else:
+                good.append(data)
+        raw = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.addCleanup(raw.close)
+        for data in good + bad:
+            raw.sendto(data, self.hub.addr)
+            time.sleep(0.005)
+        self.assertTrue(pump.until(lambda: len(pump.received(sub)) >= len(good), 5.0))
+        pump.until(lambda: False, 0.3)
+        self.assertEqual([bytes(p) for p in pump.received(sub)], good)
+        r = sub.status(timeout=3.0)
+        self.assertEqual(r["drops"].get("malformed"), len(bad), r["drops"])
+        self.assertGreater(len(good), 20)
+        self.assertGreater(len(bad), 20)
+
+    def test_min_priority_from_a_console_proven_by_the_key(self):
+        # Needs the hub of RULES points 3 and 4: `min_priority` only from a
+        # console, here one proven by `--key FILE`; an unsigned one is refused.
+        keyfile = os.path.join(self.tmp(), "hub.key")
+        with open(keyfile, "wb") as f:
+            f.write(b"a key for the test\n")
+        self.restart_hub("--key", keyfile)
+        key = cc.read_key(keyfile)
+        self.assertEqual(key, b"a key for the test")
+        console, intruder = self.client(key=key), self.client()
+        sub, pub = self.client(key=key), self.client(key=key)
         sub.subscribe("a")
         pump = Pump(sub)
         self.assertTrue(leased(pump, sub))
-        sub.set_min_priority(5)
-        # The request and a status travel on one socket, in order: once the status
-        # shows the minimum, it is in force.
-        self.assertEqual(sub.status()["min_priority"], 5)
+        console.set_min_priority(5)
+        # The request and the status travel on one socket, in order: once the
+        # status shows the minimum, it is in force.
+        self.assertEqual(console.status()["min_priority"], 5)
+        intruder.set_min_priority(100)
         pub.publish("a", 4, [("low", {})])
         pub.publish("a", 5, [("high", {})])
         self.assertTrue(pump.until(lambda: pump.received(sub), 5.0))
         pump.until(lambda: False, 0.2)
         self.assertEqual([p.labels() for p in pump.received(sub)], [["high"]])
-        self.assertEqual(sub.status()["drops"].get("below_min_priority"), 1)
+        r = sub.status()
+        self.assertEqual(r["min_priority"], 5, "the unsigned request changed nothing")
+        self.assertEqual(r["drops"].get("below_min_priority"), 1)
+        self.assertGreaterEqual(r["drops"].get("not_console", 0) + r["drops"].get("bad_auth", 0), 1, r["drops"])
+
+    def test_a_consoles_minimum_priority_lasts_while_it_runs_and_lapses_when_it_stops(self):
+        # Needs the hub of RULES point 3: a raised minimum is a lease. The
+        # client refreshes it; once the console is gone it lapses.
+        keyfile = os.path.join(self.tmp(), "hub.key")
+        with open(keyfile, "wb") as f:
+            f.write(b"console key")
+        self.restart_hub("--key", keyfile, "--lease", "2")
+        key = cc.read_key(keyfile)
+        console = cc.Client(self.hub.addr, key=key)
+        self.addCleanup(console.close)
+        console.set_min_priority(5)
+        pump = Pump(console)
+        pump.until(lambda: False, 3.0)  # longer than a lease: only the refreshes keep it
+        self.assertEqual(self.client(key=key).status()["min_priority"], 5)
+        console.close()
+        deadline = time.monotonic() + 8.0
+        lifted = False
+        while not lifted and time.monotonic() < deadline:
+            time.sleep(0.5)
+            lifted = self.client(key=key).status()["min_priority"] == cc._I32_MIN
+        self.assertTrue(lifted, "the minimum outlived its console")
 
     def test_python_cli_sub_with_colony_hub_from_the_environment(self):
         env = _child_env()
