@@ -739,6 +739,10 @@ def parse_status(packet):
 
 # --------------------------------------------------------------------------- session
 
+#: Requests sent this recently are sent again when the hub answers with a
+#: cookie instead (it did not act on them).
+_RESEND_WITHIN = 2.0
+
 #: The cookie a client sends before the hub has given it one.
 NO_COOKIE = "0" * 16
 _COOKIE = re.compile(r"[0-9a-f]{16}")
@@ -810,10 +814,11 @@ class Session:
 
     * the lease: once the hub has said ``lease ms N``, each subscription is
       refreshed at least three times per lease (``min(refresh, N / 3)``);
-    * the cookie: every packet that subscribes carries ``cookie v H``, the
-      last cookie the hub sent (:data:`NO_COOKIE` before that); when the hub
-      answers a subscription with a new cookie, every subscription is sent
-      again at once, with it.
+    * the cookie: every control packet carries ``cookie v H``, the last
+      cookie the hub sent (:data:`NO_COOKIE` before that), since the hub acts
+      only on requests from an address that proved it receives there; when
+      the hub answers with a new cookie, every subscription, and every other
+      request sent in the last two seconds, is sent again at once, with it.
     """
 
     def __init__(self, now=None, refresh=3.0, resubscribe_after=1.0, unreachable_after=10.0):
@@ -835,11 +840,16 @@ class Session:
         self.cookies = 0
         # The raised minimum priority this client keeps, and when it last asked.
         self._min_priority = None
+        # The latest time any call gave, and one-off requests lately sent
+        # (sent again with a fresh cookie: the hub did not act on them).
+        self._clock = now
+        self._recent = []
 
     def subscriptions(self):
         return [s.subject for s in self._subs]
 
     def subscribe(self, now, subject):
+        self._clock = max(self._clock, now)
         if not any(s.subject == subject for s in self._subs):
             self._subs.append(_Subscription(subject, now))
 
@@ -847,24 +857,26 @@ class Session:
         for i, s in enumerate(self._subs):
             if s.subject == subject:
                 del self._subs[i]
-                self._outbox.append(_control("unsubscribe ch " + subject))
+                self.request("unsubscribe ch " + subject)
                 return True
         return False
 
     def unsubscribe_all(self):
         self._subs = []
-        self._outbox.append(_control("unsubscribe_all"))
+        self.request("unsubscribe_all")
 
     def control_packet(self, *lines):
-        """A control packet of these request lines; one that subscribes carries
-        the cookie line first, as the hub requires."""
-        if any(_is_subscribe(line) for line in lines):
-            lines = ("cookie v " + self.cookie,) + lines
-        return _control(*lines)
+        """A control packet of these request lines, with the cookie line first,
+        as the hub requires."""
+        return _control("cookie v " + self.cookie, *lines)
 
     def request(self, *lines):
         """Queues a control packet of these request lines (``status``, ...)."""
         self._outbox.append(self.control_packet(*lines))
+        if not any(_is_subscribe(line) for line in lines):
+            clock = self._clock
+            self._recent = [(t, l) for (t, l) in self._recent if clock - t < _RESEND_WITHIN]
+            self._recent.append((clock, lines))
 
     def refresh_interval(self):
         """How often a subscription is refreshed while data flows: ``refresh``,
@@ -901,6 +913,7 @@ class Session:
     def handle_timeout(self, now):
         """Queues a subscribe request for every subscription due by ``now``,
         and the raised minimum priority when its refresh is due."""
+        self._clock = max(self._clock, now)
         refresh = self.refresh_interval()
         due = [s for s in self._subs if s.due(refresh, self.resubscribe_after) <= now]
         self._request_subscriptions(now, due)
@@ -938,6 +951,7 @@ class Session:
         hub (or a forger) repeating it cannot start an exchange that never ends.
         """
         self.last_from_hub = now
+        self._clock = max(self._clock, now)
         packet = parse(data)
         if packet.is_control():
             first = packet.lines[0] if packet.lines else (None, {})
@@ -953,6 +967,10 @@ class Session:
                     if cookie != self.cookie:
                         self.cookie = cookie
                         self._request_subscriptions(now, self._subs)
+                        recent, self._recent = self._recent, []
+                        for t, lines in recent:
+                            if now - t < _RESEND_WITHIN:
+                                self.request(*lines)
                     return "cookie", cookie
                 return "hub", packet
             if first[0] == "status":

@@ -785,11 +785,11 @@ class SessionTiming(unittest.TestCase):
         self.assertEqual(s.hub_state(10.41), "unreachable")
         self.assertTrue(s.unsubscribe("a"))
         self.assertFalse(s.unsubscribe("a"))
-        self.assertEqual(self.sent(s), [b"@ <hub> 0\nunsubscribe ch a\n"])
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\ncookie v 0000000000000000\nunsubscribe ch a\n"])
         self.assertIsNone(s.poll_timeout())
         self.assertEqual(s.hub_state(100.0), "alive", "unreachable only while subscribed")
         s.unsubscribe_all()
-        self.assertEqual(self.sent(s), [b"@ <hub> 0\nunsubscribe_all\n"])
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\ncookie v 0000000000000000\nunsubscribe_all\n"])
 
     def test_refreshes_three_times_per_lease_once_the_hub_says_it(self):
         # `colony hub --lease 2`: a refresh every 3 s let every lease lapse for a
@@ -851,19 +851,24 @@ class SessionTiming(unittest.TestCase):
         self.assertEqual(s.handle_datagram(0.03, b"@ <hub> 0\ncookie v 0123456789abcdef\n"), ("cookie", "0123456789abcdef"))
         self.assertEqual(self.sent(s), [])
         self.assertEqual(s.cookies, 2)
-        # Refreshes carry the cookie; other requests carry none.
+        # Refreshes carry the cookie, and so does every other request.
         s.handle_timeout(1.01)
         self.assertEqual(self.sent(s), [subscribe_packet("a", "b", cookie="0123456789abcdef")])
         s.request("status")
         s.unsubscribe("b")
-        self.assertEqual(self.sent(s), [b"@ <hub> 0\nstatus\n", b"@ <hub> 0\nunsubscribe ch b\n"])
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\ncookie v 0123456789abcdef\nstatus\n", b"@ <hub> 0\ncookie v 0123456789abcdef\nunsubscribe ch b\n"])
         s.request("subscribe ch c", "status")
         self.assertEqual(self.sent(s), [b"@ <hub> 0\ncookie v 0123456789abcdef\nsubscribe ch c\nstatus\n"])
         # A restarted hub gives a new cookie: taken, and everything is sent again with it.
         # Sixteen decimal digits stay text, as written (not the int they look like).
         s.handle_datagram(2.0, b"@ <hub> 0\r\ncookie   v 0000000000000042\r\n")
         self.assertEqual(s.cookie, "0000000000000042")
-        self.assertEqual(self.sent(s), [subscribe_packet("a", cookie="0000000000000042")])
+        # (the subscription, and the requests of the last two seconds).
+        self.assertEqual(self.sent(s), [
+            subscribe_packet("a", cookie="0000000000000042"),
+            b"@ <hub> 0\ncookie v 0000000000000042\nstatus\n",
+            b"@ <hub> 0\ncookie v 0000000000000042\nunsubscribe ch b\n",
+        ])
         # What is not a cookie is not taken: upper case, the wrong length, quoted, missing.
         for bad in [
             b"@ <hub> 0\ncookie v 0123456789ABCDEF\n",
@@ -884,22 +889,22 @@ class SessionTiming(unittest.TestCase):
     def test_a_raised_minimum_priority_is_refreshed_until_lifted(self):
         s = cc.Session(now=0.0)
         s.set_min_priority(0.0, 5)
-        self.assertEqual(self.sent(s), [b"@ <hub> 0\nmin_priority value 5\n"])
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\ncookie v 0000000000000000\nmin_priority value 5\n"])
         # No lease heard yet (a console need subscribe to nothing): every second.
         self.assertEqual(s.poll_timeout(), 1.0)
         s.handle_timeout(0.99)
         self.assertEqual(self.sent(s), [])
         s.handle_timeout(1.0)
-        self.assertEqual(self.sent(s), [b"@ <hub> 0\nmin_priority value 5\n"])
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\ncookie v 0000000000000000\nmin_priority value 5\n"])
         # A status report says the lease: a third of it from then on.
         s.handle_datagram(1.1, b"@ <hub> 0\nstatus uptime_ms 1 lease_ms 2400 min_priority 5 clients 1 truncated 0\n")
         self.assertEqual(s.lease_ms, 2400)
         self.assertAlmostEqual(s.poll_timeout(), 1.8)
         s.handle_timeout(1.8)
-        self.assertEqual(self.sent(s), [b"@ <hub> 0\nmin_priority value 5\n"])
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\ncookie v 0000000000000000\nmin_priority value 5\n"])
         # Lifting it is said once, and then nothing more is due.
         s.set_min_priority(2.0, cc._I32_MIN)
-        self.assertEqual(self.sent(s), [b"@ <hub> 0\nmin_priority value -2147483648\n"])
+        self.assertEqual(self.sent(s), [b"@ <hub> 0\ncookie v 0000000000000000\nmin_priority value -2147483648\n"])
         self.assertIsNone(s.poll_timeout())
         s.handle_timeout(100.0)
         self.assertEqual(self.sent(s), [])
@@ -1152,8 +1157,8 @@ class FakeHub(unittest.TestCase):
         self.assertTrue(got[0].startswith(subscribe_packet("a")))
         self.assertTrue(got[1].startswith(b"@ <a> 2\nball x 1.5\nauth n "))
         self.assertTrue(got[2].startswith(b"@ <b> 0\nauth n "))
-        self.assertTrue(got[3].startswith(b"@ <hub> 0\nmin_priority value 3\nauth n "))
-        self.assertTrue(got[4].startswith(b"@ <hub> 0\nunsubscribe ch a\nauth n "))
+        self.assertTrue(got[3].startswith(b"@ <hub> 0\ncookie v 0000000000000000\nmin_priority value 3\nauth n "))
+        self.assertTrue(got[4].startswith(b"@ <hub> 0\ncookie v 0000000000000000\nunsubscribe ch a\nauth n "))
 
     def test_network_errors_for_one_datagram_are_survived(self):
         # A connected UDP socket reports an ICMP error (host or network
@@ -1217,12 +1222,13 @@ class FakeHub(unittest.TestCase):
         c.subscribe("a")
         self.hub_recv()
         c.unsubscribe("a")
-        self.assertEqual(self.hub_recv()[0], b"@ <hub> 0\nunsubscribe ch a\n")
+        # Every request carries the cookie: the hub acts on none without it.
+        self.assertEqual(self.hub_recv()[0], b"@ <hub> 0\ncookie v 0000000000000000\nunsubscribe ch a\n")
         self.assertIsNone(c.next_deadline())
         c.set_min_priority(-4)
-        self.assertEqual(self.hub_recv()[0], b"@ <hub> 0\nmin_priority value -4\n")
+        self.assertEqual(self.hub_recv()[0], b"@ <hub> 0\ncookie v 0000000000000000\nmin_priority value -4\n")
         c.unsubscribe_all()
-        self.assertEqual(self.hub_recv()[0], b"@ <hub> 0\nunsubscribe_all\n")
+        self.assertEqual(self.hub_recv()[0], b"@ <hub> 0\ncookie v 0000000000000000\nunsubscribe_all\n")
 
     def test_status_waits_for_a_lease_then_asks(self):
         c = self.client
@@ -1241,7 +1247,7 @@ class FakeHub(unittest.TestCase):
                 while True:
                     data, a = self.hub_recv()
                     answers.append(data)
-                    if data == b"@ <hub> 0\nstatus\n":
+                    if data.endswith(b"\nstatus\n"):
                         self.hub.sendto(b"@ <a> 0\nmeanwhile x 1\n", a)
                         self.hub.sendto(
                             b"@ <hub> 0\nstatus uptime_ms 5 lease_ms 5000 min_priority 0 clients 1 truncated 0\n"
@@ -1257,7 +1263,7 @@ class FakeHub(unittest.TestCase):
         r = c.status(timeout=3.0)
         t.join(3.0)
         self.assertEqual(answers[0], subscribe_packet("a"))
-        self.assertIn(b"@ <hub> 0\nstatus\n", answers)
+        self.assertIn(b"@ <hub> 0\ncookie v 0000000000000000\nstatus\n", answers)
         self.assertEqual(r["clients"][0]["subs"], {"a": 4999})
         self.assertEqual(c.recv().line("meanwhile"), {"x": 1}, "data that came meanwhile is kept")
 
@@ -1800,6 +1806,8 @@ class RealHub(unittest.TestCase):
         # status shows the minimum, it is in force.
         self.assertEqual(console.status()["min_priority"], 5)
         intruder.set_min_priority(100)
+        # The intruder's request comes back as a cookie, and is sent again with it.
+        Pump(intruder).until(lambda: intruder.session.cookies > 0, 5.0)
         pub.publish("a", 4, [("low", {})])
         pub.publish("a", 5, [("high", {})])
         self.assertTrue(pump.until(lambda: pump.received(sub), 5.0))
@@ -1815,7 +1823,7 @@ class RealHub(unittest.TestCase):
         # client refreshes it; once the console is gone it lapses.
         keyfile = os.path.join(self.tmp(), "hub.key")
         with open(keyfile, "wb") as f:
-            f.write(b"console key")
+            f.write(b"a console key, at least 16 bytes")
         self.restart_hub("--key", keyfile, "--lease", "2")
         key = cc.read_key(keyfile)
         console = cc.Client(self.hub.addr, key=key)

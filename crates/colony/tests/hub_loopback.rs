@@ -47,15 +47,38 @@ fn fan_out_to_50_subscribers_loses_nothing_at_a_moderate_rate() {
     );
 }
 
+/// A key file for a hub's consoles, kept for the test's length.
+fn key_file() -> (tempfile::TempDir, std::path::PathBuf, colony_wire::auth::Key) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("colony.key");
+    let bytes = b"a console key for the loopback tests\n";
+    std::fs::write(&path, bytes).unwrap();
+    (dir, path, colony_wire::auth::Key::new(bytes).unwrap())
+}
+
+/// Sends operator requests and waits until the hub has acted on them: the
+/// first goes out before the client holds a cookie and is sent again with it.
+fn console_request(console: &mut colony_client::UdpClient, requests: &[Request]) {
+    console.request(requests).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while console.session().cookie().is_none() && Instant::now() < deadline {
+        console
+            .wait(Some(Instant::now() + Duration::from_millis(20)))
+            .unwrap();
+        console.recv_reply().unwrap();
+    }
+    assert!(console.session().cookie().is_some(), "no cookie from the hub");
+    std::thread::sleep(Duration::from_millis(50));
+}
+
 #[test]
 fn the_minimum_priority_filters_low_priority_packets_until_restored() {
-    let hub = HubProcess::start(&[]);
+    let (_dir, path, key) = key_file();
+    let hub = HubProcess::start(&["--key", path.to_str().unwrap()]);
     let mut sub = subscribed(hub.addr, &["radio"]);
     let mut console = hub.client();
-    console
-        .request(&[Request::MinPriority(Priority(10))])
-        .unwrap();
-    std::thread::sleep(Duration::from_millis(50));
+    console.set_key(key);
+    console_request(&mut console, &[Request::MinPriority(Priority(10))]);
     let mut ai = hub.client();
     let mut operator = hub.client();
     ai.publish(b"@ <radio> 0\ncmd from \"ai\"\n").unwrap();
@@ -84,6 +107,31 @@ fn the_minimum_priority_filters_low_priority_packets_until_restored() {
         !g.is_empty()
     });
     assert_eq!(got, ["@ <radio> 0\ncmd from \"ai\"\n"]);
+}
+
+#[test]
+fn a_min_priority_from_a_process_that_is_no_console_silences_nobody() {
+    let hub = HubProcess::start(&[]);
+    let mut sub = subscribed(hub.addr, &["radio"]);
+    // The attack as a person would type it, and as a client that does the
+    // cookie round trip: neither is a console.
+    let raw = UdpSocket::bind("127.0.0.1:0").unwrap();
+    raw.send_to(b"@ <hub> 0\nmin_priority value 2147483647\n", hub.addr)
+        .unwrap();
+    let mut stranger = hub.client();
+    console_request(&mut stranger, &[Request::MinPriority(Priority(i32::MAX))]);
+    let mut ai = hub.client();
+    ai.publish(b"@ <radio> 0\ncmd from \"ai\"\n").unwrap();
+    let got = drain_until(&mut sub, Instant::now() + Duration::from_secs(30), |g| {
+        !g.is_empty()
+    });
+    assert_eq!(got, ["@ <radio> 0\ncmd from \"ai\"\n"]);
+    let report = colony_client::status::fetch_status(&hub.addr.to_string(), Duration::from_secs(30)).unwrap();
+    assert!(
+        report.drops.iter().any(|(r, n)| r == "not_console" && *n >= 1),
+        "{:?}",
+        report.drops
+    );
 }
 
 #[test]

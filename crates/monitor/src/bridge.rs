@@ -165,7 +165,7 @@ impl Bridge {
                         self.state.on_status(now, report);
                         new_status = true;
                     }
-                    Ok(Some(Reply::Lease { .. })) => {}
+                    Ok(Some(Reply::Lease { .. } | Reply::Cookie(_))) => {}
                     Ok(None) => break,
                     Err(e) => {
                         tracing::debug!(error = %e, "control socket");

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use colony_hub::{HubConfig, HubSpec, Server, StartError};
+use colony_hub::{Cidr, HubConfig, HubSpec, Server, StartError};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -24,6 +24,20 @@ pub struct Args {
     /// Most clients held at once.
     #[arg(long, default_value_t = 4096)]
     pub max_clients: usize,
+    /// Sources that may act on other clients (`min_priority`): an address,
+    /// an address and port, or a range (10.0.0.0/8). Repeat for more.
+    #[arg(long, value_name = "ADDR|CIDR")]
+    pub console: Vec<Cidr>,
+    /// Only these sources may use the hub at all. Repeat for more.
+    #[arg(long, value_name = "CIDR")]
+    pub allow: Vec<Cidr>,
+    /// A shared key (a file of at least 16 bytes): packets signed with it
+    /// may act as a console's from any address.
+    #[arg(long, value_name = "FILE")]
+    pub key: Option<PathBuf>,
+    /// Refuse every packet not signed with --key.
+    #[arg(long, requires = "key")]
+    pub auth_all: bool,
 }
 
 pub fn config(args: &Args) -> anyhow::Result<HubConfig> {
@@ -39,8 +53,17 @@ pub fn config(args: &Args) -> anyhow::Result<HubConfig> {
     Ok(HubConfig {
         lease: Duration::from_secs_f64(args.lease),
         max_clients: args.max_clients,
+        consoles: args.console.clone(),
+        allow: args.allow.clone(),
+        key: args.key.as_deref().map(super::read_key).transpose()?,
+        auth_all: args.auth_all,
         ..HubConfig::default()
     })
+}
+
+/// A hub open to a network with nothing to say who may use it: worth a warning.
+fn open_to_anyone(args: &Args, addr: std::net::SocketAddr) -> bool {
+    !addr.ip().is_loopback() && args.allow.is_empty() && args.key.is_none()
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -56,7 +79,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         e => e.into(),
     })?;
     let stop = super::stop_flag()?;
-    tracing::info!(addr = %server.local_addr()?, log = ?args.log, "hub listening");
+    let addr = server.local_addr()?;
+    tracing::info!(%addr, log = ?args.log, "hub listening");
+    if open_to_anyone(&args, addr) {
+        tracing::warn!(
+            %addr,
+            "the hub listens beyond this machine with neither --allow nor --key: anyone who reaches it may publish and subscribe"
+        );
+    }
+    if args.console.is_empty() && args.key.is_none() {
+        tracing::info!("no --console and no --key: operator requests (min_priority) are refused");
+    }
     server.run(&stop)?;
     tracing::info!("hub stopped");
     Ok(())

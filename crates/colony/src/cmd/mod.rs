@@ -62,3 +62,11 @@ pub fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
         .context("cannot install the Ctrl-C handler")?;
     Ok(stop)
 }
+
+/// Reads a shared key from a file, with an error that names the file.
+pub fn read_key(path: &std::path::Path) -> anyhow::Result<colony_wire::auth::Key> {
+    let bytes = std::fs::read(path)
+        .map_err(|e| anyhow::anyhow!("cannot read the key file `{}`: {e}", path.display()))?;
+    colony_wire::auth::Key::new(&bytes)
+        .map_err(|e| anyhow::anyhow!("the key file `{}`: {e}", path.display()))
+}
