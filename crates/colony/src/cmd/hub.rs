@@ -1,9 +1,8 @@
 //! `colony hub`: the broker on a UDP port.
 
-use std::path::PathBuf;
-use std::time::Duration;
-
+use colony_hub::log::Rotation;
 use colony_hub::{HubConfig, HubSpec, Server, StartError};
+use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -13,12 +12,27 @@ pub struct Args {
     /// Append every accepted packet to this traffic log.
     #[arg(long, value_name = "FILE")]
     pub log: Option<PathBuf>,
-    /// Seconds a subscription lasts without a refresh.
+    /// Rotate the log once it would pass this size (`64K`, `100M`, `2G`; at least 64K):
+    /// FILE becomes FILE.1, FILE.1 becomes FILE.2 and so on, and a new FILE begins.
+    #[arg(long, value_name = "BYTES", requires = "log", value_parser = log_bytes)]
+    pub log_max: Option<u64>,
+    /// How many rotated logs to keep (FILE.1 newest to FILE.N oldest); older ones are deleted.
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 5,
+        requires = "log_max",
+        value_parser = clap::value_parser!(u32).range(0..=1000)
+    )]
+    pub log_keep: u32,
+    /// Seconds a subscription lasts without a refresh (clients refresh about
+    /// three times per lease, so a shorter lease costs traffic).
     #[arg(
         long,
         default_value_t = 10.0,
         value_name = "SECONDS",
-        allow_negative_numbers = true
+        allow_negative_numbers = true,
+        value_parser = LEASE
     )]
     pub lease: f64,
     /// Most clients held at once.
@@ -26,18 +40,46 @@ pub struct Args {
     pub max_clients: usize,
 }
 
-pub fn config(args: &Args) -> anyhow::Result<HubConfig> {
-    if !(args.lease.is_finite() && args.lease > 0.0 && args.lease <= 86_400.0) {
-        anyhow::bail!(
-            "--lease must be between 0 and 86400 seconds, not {}",
-            args.lease
-        );
+/// A lease from a tenth of a second (shorter, and clients do little but
+/// refresh) to a day.
+const LEASE: super::Bounds = super::Bounds::new(0.1, 86_400.0, "seconds");
+
+/// The smallest `--log-max`: about one largest record.
+const LOG_MAX_MIN: u64 = 64 * 1024;
+
+/// A size in bytes, with an optional binary suffix: `65536`, `64K`, `100M`, `2G`.
+fn log_bytes(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let (digits, unit) = match t.char_indices().last() {
+        Some((i, c)) if c.is_ascii_alphabetic() => (&t[..i], c.to_ascii_uppercase()),
+        _ => (t, 'B'),
+    };
+    let shift = match unit {
+        'B' => 0,
+        'K' => 10,
+        'M' => 20,
+        'G' => 30,
+        'T' => 40,
+        _ => return Err(format!("`{text}`: the suffix may be K, M, G or T")),
+    };
+    let n: u64 = digits
+        .parse()
+        .map_err(|_| format!("`{text}` is not a size such as 65536, 64K or 100M"))?;
+    let bytes = n
+        .checked_mul(1 << shift)
+        .ok_or_else(|| format!("`{text}` is too large"))?;
+    if bytes < LOG_MAX_MIN {
+        return Err(format!("must be at least 64K, not {text}"));
     }
+    Ok(bytes)
+}
+
+pub fn config(args: &Args) -> anyhow::Result<HubConfig> {
     if args.max_clients == 0 {
         anyhow::bail!("--max-clients must be at least 1");
     }
     Ok(HubConfig {
-        lease: Duration::from_secs_f64(args.lease),
+        lease: super::seconds("--lease", args.lease)?,
         max_clients: args.max_clients,
         ..HubConfig::default()
     })
@@ -48,6 +90,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bind: args.bind.clone(),
         config: config(&args)?,
         log: args.log.clone(),
+        log_rotation: args.log_max.map(|max_bytes| Rotation {
+            max_bytes,
+            keep: args.log_keep,
+        }),
     };
     let mut server = Server::start(&spec).map_err(|e| match e {
         StartError::Bind { addr, source } => anyhow::Error::new(source).context(format!(
