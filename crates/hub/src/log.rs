@@ -82,7 +82,7 @@ pub enum LogError {
     #[error(
         "{path}: record at byte {offset} is corrupt ({why}){}; this is not a torn tail, so nothing \
          was cut or appended. Move the file aside and log to a new one (or, to keep only the \
-         records before the damage, cut it at byte {offset} yourself: `truncate -s {offset}`)",
+         records before the damage, cut it at byte {offset} yourself: `truncate -s {offset} {path}`)",
         follows(*next)
     )]
     WontCut {
