@@ -452,8 +452,10 @@ impl LogReader {
 
     /// Where the first whole record (plausible length, inside the file,
     /// checksum right) starting after `damaged` is, if any. A write cut short
-    /// leaves none, so finding one proves the damage is no torn tail. Reads
-    /// in windows, so a long log costs memory for one window only.
+    /// leaves none, so finding one proves the damage is no torn tail. None can
+    /// be found inside a logged packet either: a length field holds NUL bytes,
+    /// which the hub never accepts in a packet. Reads in windows, so a long log
+    /// costs memory for one window only.
     fn next_whole_record(&mut self, damaged: u64) -> io::Result<Option<u64>> {
         let mut buf = Vec::new();
         let mut base = damaged + 1;
