@@ -1,8 +1,9 @@
 //! `colony hub`: the broker on a UDP port.
 
+use std::path::PathBuf;
+
 use colony_hub::log::Rotation;
 use colony_hub::{HubConfig, HubSpec, Server, StartError};
-use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -14,9 +15,9 @@ pub struct Args {
     pub log: Option<PathBuf>,
     /// Rotate the log once it would pass this size (`64K`, `100M`, `2G`; at least 64K):
     /// FILE becomes FILE.1, FILE.1 becomes FILE.2 and so on, and a new FILE begins.
-    #[arg(long, value_name = "BYTES", requires = "log", value_parser = log_bytes)]
+    #[arg(long, value_name = "BYTES", requires = "log", value_parser = super::log_size)]
     pub log_max: Option<u64>,
-    /// How many rotated logs to keep (FILE.1 newest to FILE.N oldest); older ones are deleted.
+    /// How many rotated logs to keep (FILE.1 newest to FILE.N oldest; 0: none); older ones are deleted.
     #[arg(
         long,
         value_name = "N",
@@ -43,36 +44,6 @@ pub struct Args {
 /// A lease from a tenth of a second (shorter, and clients do little but
 /// refresh) to a day.
 const LEASE: super::Bounds = super::Bounds::new(0.1, 86_400.0, "seconds");
-
-/// The smallest `--log-max`: about one largest record.
-const LOG_MAX_MIN: u64 = 64 * 1024;
-
-/// A size in bytes, with an optional binary suffix: `65536`, `64K`, `100M`, `2G`.
-fn log_bytes(text: &str) -> Result<u64, String> {
-    let t = text.trim();
-    let (digits, unit) = match t.char_indices().last() {
-        Some((i, c)) if c.is_ascii_alphabetic() => (&t[..i], c.to_ascii_uppercase()),
-        _ => (t, 'B'),
-    };
-    let shift = match unit {
-        'B' => 0,
-        'K' => 10,
-        'M' => 20,
-        'G' => 30,
-        'T' => 40,
-        _ => return Err(format!("`{text}`: the suffix may be K, M, G or T")),
-    };
-    let n: u64 = digits
-        .parse()
-        .map_err(|_| format!("`{text}` is not a size such as 65536, 64K or 100M"))?;
-    let bytes = n
-        .checked_mul(1 << shift)
-        .ok_or_else(|| format!("`{text}` is too large"))?;
-    if bytes < LOG_MAX_MIN {
-        return Err(format!("must be at least 64K, not {text}"));
-    }
-    Ok(bytes)
-}
 
 pub fn config(args: &Args) -> anyhow::Result<HubConfig> {
     if args.max_clients == 0 {

@@ -129,6 +129,36 @@ pub fn deadline(flag: &str, seconds: Option<f64>) -> anyhow::Result<Option<Insta
     Ok(Instant::now().checked_add(self::seconds(flag, s)?))
 }
 
+/// The smallest `--log-max`: about one largest record.
+const LOG_MAX_MIN: u64 = 64 * 1024;
+
+/// A `--log-max` size in bytes, with an optional binary suffix: `65536`, `64K`, `100M`, `2G`.
+pub fn log_size(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let (digits, unit) = match t.char_indices().last() {
+        Some((i, c)) if c.is_ascii_alphabetic() => (&t[..i], c.to_ascii_uppercase()),
+        _ => (t, 'B'),
+    };
+    let shift = match unit {
+        'B' => 0,
+        'K' => 10,
+        'M' => 20,
+        'G' => 30,
+        'T' => 40,
+        _ => return Err(format!("`{text}`: the suffix may be K, M, G or T")),
+    };
+    let n: u64 = digits
+        .parse()
+        .map_err(|_| format!("`{text}` is not a size such as 65536, 64K or 100M"))?;
+    let bytes = n
+        .checked_mul(1 << shift)
+        .ok_or_else(|| format!("`{text}` is too large"))?;
+    if bytes < LOG_MAX_MIN {
+        return Err(format!("must be at least 64K, not {text}"));
+    }
+    Ok(bytes)
+}
+
 /// A flag set by Ctrl-C or SIGTERM, so loops can stop cleanly.
 pub fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
     let stop = Arc::new(AtomicBool::new(false));
