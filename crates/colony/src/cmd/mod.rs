@@ -167,3 +167,27 @@ pub fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
         .context("cannot install the Ctrl-C handler")?;
     Ok(stop)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log_sizes_take_binary_suffixes_and_refuse_what_is_too_small_or_too_large() {
+        assert_eq!(log_size("65536"), Ok(65_536));
+        assert_eq!(log_size("64K"), Ok(65_536));
+        assert_eq!(log_size("100m"), Ok(100 << 20));
+        assert_eq!(log_size("2G"), Ok(2 << 30));
+        for bad in ["10", "63K", "1Q", "K", "", "-1M", "99999999999T", "1.5M"] {
+            assert!(log_size(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn bounds_refuse_nan_and_infinities() {
+        for v in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 0.0, 1e7] {
+            assert!(SPEED.check(v).is_err(), "{v}");
+        }
+        assert_eq!(SPEED.check(1.0), Ok(1.0));
+    }
+}
