@@ -37,10 +37,10 @@ struct Args {
     #[arg(long, default_value_t = 2_000)]
     warmup: usize,
     /// Measured seconds per throughput run.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = 3.0, value_parser = seconds_arg)]
     duration: f64,
     /// Unmeasured seconds before each throughput run is measured.
-    #[arg(long, default_value_t = 0.3)]
+    #[arg(long, default_value_t = 0.3, value_parser = seconds_arg)]
     settle: f64,
     /// Fan-outs (subscriber counts) for the throughput runs.
     #[arg(long, value_delimiter = ',', default_value = "1,10,100")]
@@ -70,7 +70,7 @@ struct Args {
     rounds: usize,
     /// Before each throughput run, wait up to this many seconds for other
     /// processes to use under 10 % of the machine (0: don't wait).
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, default_value_t = 30.0, value_parser = seconds_arg)]
     quiet_wait: f64,
     /// Also run the relay with UDP GSO (`UDP_SEGMENT`), sending each run of
     /// equal-length packets to a subscriber as one datagram train: an
@@ -147,6 +147,15 @@ const MQTT_NODELAY: &str = "Mosquitto, set_tcp_nodelay true";
 enum Pin {
     None,
     Split,
+}
+
+/// Seconds on the command line, 0 to a day: `Duration::from_secs_f64` panics
+/// on NaN, negative and overflowing values, so they are refused as usage errors.
+fn seconds_arg(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if (0.0..=86_400.0).contains(&v) => Ok(v),
+        _ => Err("must be a number of seconds from 0 to 86400".into()),
+    }
 }
 
 fn main() -> anyhow::Result<()> {

@@ -130,7 +130,7 @@ fn bad_options_give_clear_errors() {
     let cases: [(&[&str], &str); 7] = [
         (
             &["tasks", "longterm", "--hours=-2"],
-            "hours must be a positive number",
+            "invalid value '-2' for '--hours <HOURS>': must be from 0.001 to 720 hours",
         ),
         (
             &["tasks", "longterm", "--hours", "lots"],
@@ -151,7 +151,7 @@ fn bad_options_give_clear_errors() {
         (&["tasks", "boxpush", "--goal", "x"], "is not X,Y"),
         (
             &["tasks", "demo", "--seconds", "0"],
-            "--seconds must be a positive number",
+            "invalid value '0' for '--seconds <SECONDS>': must be from",
         ),
     ];
     for (args, want) in cases {

@@ -377,7 +377,9 @@ pub fn fast_forward(
 ) -> Result<FastOutcome, LiveMatchError> {
     let bots: Vec<&str> = plan.teams.iter().map(String::as_str).collect();
     let mut m = Match::new(plan.field.clone(), plan.rules.clone(), teams, &bots)?;
-    let steps = (plan.rules.time_limit_s / FieldConfig::default().control_step).ceil() as u64 + 1;
+    // `as u64` saturates on a time limit too long to count; the sum must too.
+    let steps = ((plan.rules.time_limit_s / FieldConfig::default().control_step).ceil() as u64)
+        .saturating_add(1);
     let mut shown = 0;
     while !m.is_over() && m.world().field().step_count() < steps {
         m.step(tap);

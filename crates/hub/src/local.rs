@@ -20,7 +20,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
-use crate::log::{LogError, LogWriter};
+use crate::log::{LogError, LogWriter, Rotation};
 use crate::{HubConfig, Server};
 
 /// How to start a hub: where it listens, its limits, and its traffic log.
@@ -32,6 +32,8 @@ pub struct HubSpec {
     pub config: HubConfig,
     /// Append every accepted packet to this traffic log.
     pub log: Option<PathBuf>,
+    /// Rotate that log by size (`None`: it grows without bound).
+    pub log_rotation: Option<Rotation>,
 }
 
 impl HubSpec {
@@ -41,6 +43,7 @@ impl HubSpec {
             bind: bind.into(),
             config: HubConfig::default(),
             log: None,
+            log_rotation: None,
         }
     }
 }
@@ -77,7 +80,8 @@ pub enum HubThreadError {
 
 impl Server {
     /// Binds a hub as `spec` says and opens its log. A torn record at the end
-    /// of the log (a write a crash cut short) is cut off, with a warning.
+    /// of the log (a write a crash cut short) is cut off, with a warning; a log
+    /// corrupt anywhere else is refused ([`LogError::WontCut`]), untouched.
     pub fn start(spec: &HubSpec) -> Result<Server, StartError> {
         let mut server =
             Server::bind(spec.bind.as_str(), spec.config.clone()).map_err(|source| {
@@ -87,9 +91,12 @@ impl Server {
                 }
             })?;
         if let Some(path) = &spec.log {
-            let (log, torn) = LogWriter::open(path)?;
+            let (mut log, torn) = LogWriter::open(path)?;
             if let Some(t) = torn {
                 tracing::warn!(path = %path.display(), offset = t.offset, bytes = t.bytes, "cut a torn record from the end of the log");
+            }
+            if let Some(r) = spec.log_rotation {
+                log = log.with_rotation(r);
             }
             server = server.with_log(log);
         }

@@ -11,11 +11,27 @@
 //! ...     the datagram, byte for byte
 //! ```
 //!
-//! Records are only ever appended, so a crash can tear only the last one.
-//! [`LogReader`] returns every whole record and then reports a torn tail;
-//! [`LogWriter::open`] cuts a torn tail off before it appends, so records
-//! written after a crash are never hidden behind a broken one.
+//! Records are only ever appended, so a crash can tear only the end of the
+//! file: the last record, or the last buffer of records, cut short (or, after
+//! a power cut, left as zeros). What a crash leaves therefore never contains a
+//! whole record, and that is how damage is told apart:
+//!
+//! - a **torn tail** is a record that cannot be whole (fewer bytes left than
+//!   its header, an impossible length, or a length running past the end of
+//!   the file) with no whole record anywhere after it. [`LogReader`] returns
+//!   every record before it and then reports it; [`LogWriter::open`] cuts it
+//!   off before it appends, so records written after a crash are never hidden
+//!   behind a broken one;
+//! - anything else (a record that fails its checks while a whole record
+//!   follows, or a whole-length record whose checksum fails) is **corruption**:
+//!   the reader reports it as an error with its offset, and the writer refuses
+//!   to append to the file at all, because cutting it would lose whole records.
+//!
+//! A writer can also rotate its log by size ([`Rotation`]): `FILE` becomes
+//! `FILE.1`, `FILE.1` becomes `FILE.2` and so on, the oldest beyond the number
+//! kept is deleted, and a fresh `FILE` begins.
 
+use std::ffi::OsString;
 use std::fs::{File, OpenOptions};
 use std::io::{self, BufReader, BufWriter, Read, Seek, SeekFrom, Write};
 use std::net::SocketAddr;
@@ -27,6 +43,9 @@ const MAGIC: &[u8] = b"colony-log 1\n";
 const FIXED: usize = 4 + 4 + 8 + 1;
 /// Largest length field a reader believes: one datagram plus its address.
 const MAX_REST: usize = 8 + 1 + 255 + colony_wire::MAX_PACKET + 1;
+/// Bytes of the file looked at per read while searching for a whole record
+/// after damage (plus one record's worth of overlap).
+const SCAN_WINDOW: usize = 1 << 20;
 
 /// A problem reading or writing a log.
 #[derive(Debug, thiserror::Error)]
@@ -45,8 +64,9 @@ pub enum LogError {
         /// The file.
         path: PathBuf,
     },
-    /// A record in the middle of the log fails its checksum or length check.
-    #[error("{path}: record at byte {offset} is corrupt ({why}) and whole records follow it")]
+    /// A record fails its checks and is not a torn tail: a whole record
+    /// follows it, or it is whole in length but its checksum fails.
+    #[error("{path}: record at byte {offset} is corrupt ({why}){}", follows(*next))]
     Corrupt {
         /// The log.
         path: PathBuf,
@@ -54,7 +74,35 @@ pub enum LogError {
         offset: u64,
         /// Which check it fails.
         why: &'static str,
+        /// Where the first whole record after it starts, if one does.
+        next: Option<u64>,
     },
+    /// [`LogWriter::open`] found corruption (not a torn tail) and refuses to
+    /// append to the file or to cut it, since cutting would lose whole records.
+    #[error(
+        "{path}: record at byte {offset} is corrupt ({why}){}; this is not a torn tail, so nothing \
+         was cut or appended. Move the file aside and log to a new one (or, to keep only the \
+         records before the damage, cut it at byte {offset} yourself: `truncate -s {offset} {path}`)",
+        follows(*next)
+    )]
+    WontCut {
+        /// The log.
+        path: PathBuf,
+        /// Where the corrupt record starts.
+        offset: u64,
+        /// Which check it fails.
+        why: &'static str,
+        /// Where the first whole record after it starts, if one does.
+        next: Option<u64>,
+    },
+}
+
+/// The end of a corruption message: what a cut there would lose.
+fn follows(next: Option<u64>) -> String {
+    match next {
+        Some(n) => format!(" and whole records follow it, the first at byte {n}"),
+        None => String::new(),
+    }
 }
 
 /// One logged packet.
@@ -77,14 +125,43 @@ pub struct TornTail {
     pub bytes: u64,
 }
 
+/// When a [`LogWriter`] starts a new file: once the next record would take
+/// the file past `max_bytes`, `FILE` is renamed `FILE.1` (after `FILE.1` has
+/// become `FILE.2`, and so on up to `FILE.{keep}`, the oldest, which the shift
+/// replaces) and a fresh `FILE` begins. The log then never holds more than
+/// about `(keep + 1) × max_bytes` on disk, and the newest records are always in
+/// `FILE`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Rotation {
+    /// Largest size of one file, header included (a single record larger
+    /// than this still gets a file of its own).
+    pub max_bytes: u64,
+    /// How many earlier files to keep (`FILE.1` to `FILE.{keep}`); 0 keeps none.
+    pub keep: u32,
+}
+
+impl Rotation {
+    /// The name of the `n`th earlier file: `FILE.n`.
+    pub fn earlier(path: &Path, n: u32) -> PathBuf {
+        let mut name = OsString::from(path.as_os_str());
+        name.push(format!(".{n}"));
+        PathBuf::from(name)
+    }
+}
+
 /// Appends records to a log.
 pub struct LogWriter {
     file: BufWriter<File>,
+    path: PathBuf,
+    /// Bytes in the current file, buffered ones included.
+    size: u64,
+    rotation: Option<Rotation>,
 }
 
 impl LogWriter {
-    /// Opens `path` for appending, creating it if needed. A torn last record
-    /// from an earlier crash is cut off first, and reported.
+    /// Opens `path` for appending, creating it if needed. A torn tail from an
+    /// earlier crash is cut off first, and reported; a log corrupt anywhere
+    /// else is refused ([`LogError::WontCut`]) and left as it is.
     pub fn open(path: impl AsRef<Path>) -> Result<(LogWriter, Option<TornTail>), LogError> {
         let path = path.as_ref();
         let io_err = |source| LogError::Io {
@@ -97,26 +174,53 @@ impl LogWriter {
             .create(true)
             .open(path)
             .map_err(io_err)?;
-        let len = file.metadata().map_err(io_err)?.len();
+        let mut size = file.metadata().map_err(io_err)?.len();
         let mut torn = None;
-        if len == 0 {
+        if size == 0 {
             file.write_all(MAGIC).map_err(io_err)?;
+            size = MAGIC.len() as u64;
         } else {
             let mut reader = LogReader::from_file(file.try_clone().map_err(io_err)?, path)?;
             for record in reader.by_ref() {
-                record?;
+                match record {
+                    Ok(_) => {}
+                    Err(LogError::Corrupt {
+                        path,
+                        offset,
+                        why,
+                        next,
+                    }) => {
+                        return Err(LogError::WontCut {
+                            path,
+                            offset,
+                            why,
+                            next,
+                        })
+                    }
+                    Err(e) => return Err(e),
+                }
             }
             if let Some(t) = reader.torn_tail() {
                 file.set_len(t.offset).map_err(io_err)?;
+                size = t.offset;
                 torn = Some(t.clone());
             }
         }
         Ok((
             LogWriter {
                 file: BufWriter::with_capacity(256 * 1024, file),
+                path: path.to_owned(),
+                size,
+                rotation: None,
             },
             torn,
         ))
+    }
+
+    /// Rotates the log by size from now on, as `rotation` says.
+    pub fn with_rotation(mut self, rotation: Rotation) -> LogWriter {
+        self.rotation = Some(rotation);
+        self
     }
 
     /// Appends one record (buffered: call [`flush`](Self::flush) to hand it to the OS).
@@ -137,6 +241,14 @@ impl LogWriter {
     fn append_raw(&mut self, time_us: u64, source: &str, payload: &[u8]) -> io::Result<()> {
         let source = &source.as_bytes()[..source.len().min(255)];
         let rest_len = 8 + 1 + source.len() + payload.len();
+        if let Some(r) = self.rotation {
+            // A file that holds no record yet takes this one whatever its size,
+            // so an oversized record cannot make every append rotate.
+            let record = 8 + rest_len as u64;
+            if self.size > MAGIC.len() as u64 && self.size + record > r.max_bytes {
+                self.rotate(r.keep)?;
+            }
+        }
         let mut hasher = crc32fast::Hasher::new();
         hasher.update(&time_us.to_le_bytes());
         hasher.update(&[source.len() as u8]);
@@ -147,7 +259,39 @@ impl LogWriter {
         self.file.write_all(&time_us.to_le_bytes())?;
         self.file.write_all(&[source.len() as u8])?;
         self.file.write_all(source)?;
-        self.file.write_all(payload)
+        self.file.write_all(payload)?;
+        self.size += 8 + rest_len as u64;
+        Ok(())
+    }
+
+    /// Closes the current file as `FILE.1` (shifting the earlier ones up, the
+    /// oldest beyond `keep` replaced) and begins a fresh `FILE`.
+    fn rotate(&mut self, keep: u32) -> io::Result<()> {
+        self.file.flush()?;
+        if keep == 0 {
+            std::fs::remove_file(&self.path)?;
+        } else {
+            // `rename` replaces its target, so shifting `FILE.{keep-1}` onto
+            // `FILE.{keep}` is what deletes the oldest.
+            for n in (1..keep).rev() {
+                let from = Rotation::earlier(&self.path, n);
+                match std::fs::rename(&from, Rotation::earlier(&self.path, n + 1)) {
+                    Err(e) if e.kind() == io::ErrorKind::NotFound => {}
+                    other => other?,
+                }
+            }
+            std::fs::rename(&self.path, Rotation::earlier(&self.path, 1))?;
+        }
+        // `create_new`: should someone else have made a `FILE` meanwhile, fail
+        // rather than append to (or cut) a file that is not ours.
+        let mut file = OpenOptions::new()
+            .append(true)
+            .create_new(true)
+            .open(&self.path)?;
+        file.write_all(MAGIC)?;
+        self.file = BufWriter::with_capacity(self.file.capacity(), file);
+        self.size = MAGIC.len() as u64;
+        Ok(())
     }
 
     /// Appends a record as read from another log.
@@ -170,6 +314,14 @@ pub struct LogReader {
     len: u64,
     torn: Option<TornTail>,
     done: bool,
+}
+
+/// What is wrong with the record at the reader's offset.
+struct Damage {
+    why: &'static str,
+    /// Whether the record cannot be whole (as a write cut short leaves it),
+    /// as opposed to whole in length but failing a check.
+    partial: bool,
 }
 
 impl LogReader {
@@ -216,13 +368,12 @@ impl LogReader {
         self.torn.as_ref()
     }
 
-    fn tear(&mut self) -> Option<Result<Record, LogError>> {
-        self.torn = Some(TornTail {
-            offset: self.offset,
-            bytes: self.len - self.offset,
-        });
+    fn io_error(&mut self, source: io::Error) -> Option<Result<Record, LogError>> {
         self.done = true;
-        None
+        Some(Err(LogError::Io {
+            path: self.path.clone(),
+            source,
+        }))
     }
 
     fn read_record(&mut self) -> Option<Result<Record, LogError>> {
@@ -231,40 +382,40 @@ impl LogReader {
         }
         let remaining = self.len - self.offset;
         if remaining < 8 {
-            return self.tear();
+            return self.damaged(Damage {
+                why: "shorter than a record's header",
+                partial: true,
+            });
         }
         let mut head = [0u8; 8];
         if let Err(e) = self.file.read_exact(&mut head) {
-            self.done = true;
-            return Some(Err(LogError::Io {
-                path: self.path.clone(),
-                source: e,
-            }));
+            return self.io_error(e);
         }
-        let rest_len = u32::from_le_bytes(head[..4].try_into().expect("4 bytes")) as u64;
-        let crc = u32::from_le_bytes(head[4..].try_into().expect("4 bytes"));
+        let (rest_len, crc) = header(&head);
         if rest_len < (FIXED - 8) as u64 || rest_len > MAX_REST as u64 {
-            return self.corrupt_or_torn("impossible length");
+            return self.damaged(Damage {
+                why: "impossible length",
+                partial: true,
+            });
         }
         if remaining - 8 < rest_len {
-            return self.tear();
+            return self.damaged(Damage {
+                why: "length runs past the end of the file",
+                partial: true,
+            });
         }
         let mut rest = vec![0u8; rest_len as usize];
         if let Err(e) = self.file.read_exact(&mut rest) {
-            self.done = true;
-            return Some(Err(LogError::Io {
-                path: self.path.clone(),
-                source: e,
-            }));
+            return self.io_error(e);
         }
-        if crc32fast::hash(&rest) != crc {
-            return self.corrupt_or_torn("checksum mismatch");
+        if let Err(why) = check_rest(&rest, crc) {
+            return self.damaged(Damage {
+                why,
+                partial: false,
+            });
         }
         let time_us = u64::from_le_bytes(rest[..8].try_into().expect("8 bytes"));
         let addr_len = rest[8] as usize;
-        if 9 + addr_len > rest.len() {
-            return self.corrupt_or_torn("address longer than its record");
-        }
         let source = String::from_utf8_lossy(&rest[9..9 + addr_len]).into_owned();
         let payload = rest[9 + addr_len..].to_vec();
         self.offset += 8 + rest_len;
@@ -275,35 +426,85 @@ impl LogReader {
         }))
     }
 
-    /// A bad record at the very end is a torn tail; one followed by more data is corruption.
-    fn corrupt_or_torn(&mut self, why: &'static str) -> Option<Result<Record, LogError>> {
-        let offset = self.offset;
-        if self.is_last_record(offset) {
-            return self.tear();
-        }
+    /// Ends the reading at a damaged record: a torn tail when it cannot be
+    /// whole and no whole record follows it, corruption otherwise.
+    fn damaged(&mut self, damage: Damage) -> Option<Result<Record, LogError>> {
         self.done = true;
+        let offset = self.offset;
+        let next = match self.next_whole_record(offset) {
+            Ok(next) => next,
+            Err(e) => return self.io_error(e),
+        };
+        if damage.partial && next.is_none() {
+            self.torn = Some(TornTail {
+                offset,
+                bytes: self.len - offset,
+            });
+            return None;
+        }
         Some(Err(LogError::Corrupt {
             path: self.path.clone(),
             offset,
-            why,
+            why: damage.why,
+            next,
         }))
     }
 
-    /// Whether a record starting at `offset` is the last thing in the file, as
-    /// a torn append would be: its length field reaches the end or beyond, or
-    /// the bytes after its claimed end hold no whole record.
-    fn is_last_record(&mut self, offset: u64) -> bool {
-        let Ok(mut file) = self.file.get_ref().try_clone() else {
-            return true;
-        };
-        let mut head = [0u8; 4];
-        if file.seek(SeekFrom::Start(offset)).is_err() || file.read_exact(&mut head).is_err() {
-            return true;
+    /// Where the first whole record (plausible length, inside the file,
+    /// checksum right) starting after `damaged` is, if any. A write cut short
+    /// leaves none, so finding one proves the damage is no torn tail. None can
+    /// be found inside a logged packet either: a length field holds NUL bytes,
+    /// which the hub never accepts in a packet. Reads in windows, so a long log
+    /// costs memory for one window only.
+    fn next_whole_record(&mut self, damaged: u64) -> io::Result<Option<u64>> {
+        let mut buf = Vec::new();
+        let mut base = damaged + 1;
+        while base + FIXED as u64 <= self.len {
+            let want = (self.len - base).min((SCAN_WINDOW + 8 + MAX_REST) as u64) as usize;
+            buf.resize(want, 0);
+            self.file.seek(SeekFrom::Start(base))?;
+            self.file.read_exact(&mut buf)?;
+            for i in 0..want.min(SCAN_WINDOW) {
+                if is_whole_record(&buf[i..]) {
+                    return Ok(Some(base + i as u64));
+                }
+            }
+            base += SCAN_WINDOW as u64;
         }
-        let claimed = u32::from_le_bytes(head) as u64;
-        let next = offset + 8 + claimed;
-        claimed > MAX_REST as u64 || next >= self.len
+        Ok(None)
     }
+}
+
+/// A record header's length of the rest and checksum.
+fn header(head: &[u8; 8]) -> (u64, u32) {
+    let rest_len = u32::from_le_bytes([head[0], head[1], head[2], head[3]]) as u64;
+    let crc = u32::from_le_bytes([head[4], head[5], head[6], head[7]]);
+    (rest_len, crc)
+}
+
+/// Checks the rest of a record (everything after its checksum) against its checksum.
+fn check_rest(rest: &[u8], crc: u32) -> Result<(), &'static str> {
+    if crc32fast::hash(rest) != crc {
+        return Err("checksum mismatch");
+    }
+    if rest.len() < FIXED - 8 || 9 + rest[8] as usize > rest.len() {
+        return Err("address longer than its record");
+    }
+    Ok(())
+}
+
+/// Whether `bytes` begin with a whole, valid record.
+fn is_whole_record(bytes: &[u8]) -> bool {
+    let Some(head) = bytes.first_chunk::<8>() else {
+        return false;
+    };
+    let (rest_len, crc) = header(head);
+    if rest_len < (FIXED - 8) as u64 || rest_len > MAX_REST as u64 {
+        return false;
+    }
+    bytes
+        .get(8..8 + rest_len as usize)
+        .is_some_and(|rest| check_rest(rest, crc).is_ok())
 }
 
 impl Iterator for LogReader {

@@ -121,7 +121,9 @@ pub struct Hub {
 
 impl Hub {
     /// A hub with no clients, started at `now`.
-    pub fn new(config: HubConfig, now: Instant) -> Hub {
+    pub fn new(mut config: HubConfig, now: Instant) -> Hub {
+        // Below this, a hub and its clients would do little but refresh.
+        config.lease = config.lease.max(crate::config::MIN_LEASE);
         let next_sweep = now + sweep_interval(&config);
         let rates = RateTable::new(config.control_rate, config.control_burst);
         Hub {

@@ -190,7 +190,11 @@ pub fn run(
                 }
             }
             let gap = -rng.random_range(f64::EPSILON..1.0f64).ln() * config.mean_gap.as_secs_f64();
-            next_task = now_i + Duration::from_secs_f64(gap);
+            // A mean gap too long for a clock means no more tasks in this run.
+            next_task = Duration::try_from_secs_f64(gap)
+                .ok()
+                .and_then(|d| now_i.checked_add(d))
+                .unwrap_or(end);
         }
         for (i, _, part) in mux.iter_mut() {
             match part {

@@ -33,17 +33,14 @@ pub struct Args {
     )]
     pub monitor_bind: String,
     /// How many times faster than real time the world runs.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = super::SPEED)]
     pub speed: f64,
     /// Stop after this many seconds (default: run until Ctrl-C).
-    #[arg(long)]
+    #[arg(long, value_parser = super::RUN_SECONDS)]
     pub seconds: Option<f64>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if !(args.speed.is_finite() && args.speed > 0.0) {
-        anyhow::bail!("--speed must be a positive number, not {}", args.speed);
-    }
     let deadline = super::deadline("--seconds", args.seconds)?;
     let stop = super::stop_flag()?;
     let hub = HubSite::here_or_elsewhere(None, &HubSpec::new(args.hub_bind.as_str()), &stop)

@@ -13,6 +13,10 @@ use colony_hub::log::LogWriter;
 use colony_hub::{HubSite, HubSpec, StartError};
 use colony_monitor::{Monitor, MonitorConfig};
 
+/// A match's game time: a tenth of a second (one control step and more) to a
+/// day, so the number of steps it makes always fits.
+const TIME_LIMIT: super::Bounds = super::Bounds::new(0.1, 86_400.0, "seconds");
+
 /// The squads each team gets unless told otherwise: 19 of the 30 points.
 const DEFAULT_TEAM: &str = "alpha:tank,infantry,infantry bravo:scout,scout,amphibian";
 
@@ -42,7 +46,7 @@ pub struct Setup {
     #[arg(long, default_value_t = 30)]
     pub budget: u32,
     /// Game time limit, seconds.
-    #[arg(long, default_value_t = 600.0)]
+    #[arg(long, default_value_t = 600.0, value_parser = TIME_LIMIT)]
     pub time_limit: f64,
 }
 
@@ -62,7 +66,7 @@ pub struct MatchArgs {
     #[arg(long)]
     pub record: Option<PathBuf>,
     /// How many times faster than real time the world runs (live).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = super::SPEED)]
     pub speed: f64,
     /// Use this running hub instead of starting one.
     #[arg(long, value_name = "HOST:PORT")]
@@ -77,7 +81,7 @@ pub struct MatchArgs {
     #[arg(long)]
     pub no_monitor: bool,
     /// Stop after this many seconds of wall time (live).
-    #[arg(long)]
+    #[arg(long, value_parser = super::RUN_SECONDS)]
     pub seconds: Option<f64>,
 }
 
@@ -107,7 +111,7 @@ pub struct PartArgs {
     #[arg(long)]
     pub team: Option<String>,
     /// How many times faster than real time the world runs.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = super::SPEED)]
     pub speed: f64,
     #[command(flatten)]
     pub hub: super::HubAddr,
@@ -134,9 +138,6 @@ fn load(mode: Mode, setup: &Setup) -> anyhow::Result<MatchPlan> {
         .map
         .clone()
         .unwrap_or_else(|| live_match::default_map(mode));
-    if !(setup.time_limit.is_finite() && setup.time_limit > 0.0) {
-        anyhow::bail!("--time-limit must be a positive number of seconds");
-    }
     let mut rules = Rules::new(mode);
     rules.budget = setup.budget;
     rules.time_limit_s = setup.time_limit;
@@ -154,9 +155,6 @@ fn play(mode: Mode, args: MatchArgs) -> anyhow::Result<()> {
     }
     if args.fast {
         return fast(&plan, &args);
-    }
-    if !(args.speed.is_finite() && args.speed > 0.0) {
-        anyhow::bail!("--speed must be a positive number, not {}", args.speed);
     }
     let stop = super::stop_flag()?;
     let spec = HubSpec {
@@ -245,7 +243,9 @@ fn fast(plan: &MatchPlan, args: &MatchArgs) -> anyhow::Result<()> {
     let mut log_error = None;
     let mut tap = |t: f64, p: &[u8]| {
         if let Some(w) = &mut log {
-            let at = UNIX_EPOCH + Duration::from_secs_f64(t.max(0.0));
+            // Game time is bounded by --time-limit; a value out of range (it cannot
+            // be) would be logged at the epoch rather than panic.
+            let at = UNIX_EPOCH + Duration::try_from_secs_f64(t).unwrap_or_default();
             if let Err(e) = w.append(at, source, p) {
                 log_error.get_or_insert(e);
             }

@@ -1,8 +1,8 @@
 //! `colony hub`: the broker on a UDP port.
 
 use std::path::PathBuf;
-use std::time::Duration;
 
+use colony_hub::log::Rotation;
 use colony_hub::{Cidr, HubConfig, HubSpec, Server, StartError};
 
 #[derive(clap::Args, Debug)]
@@ -13,12 +13,27 @@ pub struct Args {
     /// Append every accepted packet to this traffic log.
     #[arg(long, value_name = "FILE")]
     pub log: Option<PathBuf>,
-    /// Seconds a subscription lasts without a refresh.
+    /// Rotate the log once it would pass this size (`64K`, `100M`, `2G`; at least 64K):
+    /// FILE becomes FILE.1, FILE.1 becomes FILE.2 and so on, and a new FILE begins.
+    #[arg(long, value_name = "BYTES", requires = "log", value_parser = super::log_size)]
+    pub log_max: Option<u64>,
+    /// How many rotated logs to keep (FILE.1 newest to FILE.N oldest; 0: none); older ones are deleted.
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 5,
+        requires = "log_max",
+        value_parser = clap::value_parser!(u32).range(0..=1000)
+    )]
+    pub log_keep: u32,
+    /// Seconds a subscription lasts without a refresh (clients refresh about
+    /// three times per lease, so a shorter lease costs traffic).
     #[arg(
         long,
         default_value_t = 10.0,
         value_name = "SECONDS",
-        allow_negative_numbers = true
+        allow_negative_numbers = true,
+        value_parser = LEASE
     )]
     pub lease: f64,
     /// Most clients held at once.
@@ -40,18 +55,16 @@ pub struct Args {
     pub auth_all: bool,
 }
 
+/// A lease from a tenth of a second (shorter, and clients do little but
+/// refresh) to a day.
+const LEASE: super::Bounds = super::Bounds::new(0.1, 86_400.0, "seconds");
+
 pub fn config(args: &Args) -> anyhow::Result<HubConfig> {
-    if !(args.lease.is_finite() && args.lease > 0.0 && args.lease <= 86_400.0) {
-        anyhow::bail!(
-            "--lease must be between 0 and 86400 seconds, not {}",
-            args.lease
-        );
-    }
     if args.max_clients == 0 {
         anyhow::bail!("--max-clients must be at least 1");
     }
     Ok(HubConfig {
-        lease: Duration::from_secs_f64(args.lease),
+        lease: super::seconds("--lease", args.lease)?,
         max_clients: args.max_clients,
         consoles: args.console.clone(),
         allow: args.allow.clone(),
@@ -71,6 +84,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bind: args.bind.clone(),
         config: config(&args)?,
         log: args.log.clone(),
+        log_rotation: args.log_max.map(|max_bytes| Rotation {
+            max_bytes,
+            keep: args.log_keep,
+        }),
     };
     let mut server = Server::start(&spec).map_err(|e| match e {
         StartError::Bind { addr, source } => anyhow::Error::new(source).context(format!(

@@ -38,20 +38,125 @@ impl HubAddr {
     }
 }
 
-/// A positive number of seconds given on the command line; one past what a `Duration` holds is
-/// the longest `Duration`.
+/// The one rule for every floating-point flag: clap parses it with a [`Bounds`]
+/// (`#[arg(value_parser = SPEED)]`), so NaN, infinities and values that would
+/// overflow a `Duration` or make a loop spin are refused as usage errors
+/// (exit 2) that name the flag and the range, before any command runs.
+#[derive(Debug, Clone, Copy)]
+pub struct Bounds {
+    min: f64,
+    max: f64,
+    unit: &'static str,
+}
+
+impl Bounds {
+    /// Values from `min` to `max` inclusive, in `unit` (for messages).
+    pub const fn new(min: f64, max: f64, unit: &'static str) -> Bounds {
+        Bounds { min, max, unit }
+    }
+
+    /// `value` when it lies within the bounds (never NaN), or why not (the
+    /// caller shows the value as it was typed: `1e308` is clearer than its 309 digits).
+    pub fn check(&self, value: f64) -> Result<f64, String> {
+        if (self.min..=self.max).contains(&value) {
+            Ok(value)
+        } else {
+            Err(format!(
+                "must be from {} to {} {}",
+                self.min, self.max, self.unit
+            ))
+        }
+    }
+}
+
+impl clap::builder::TypedValueParser for Bounds {
+    type Value = f64;
+
+    fn parse_ref(
+        &self,
+        cmd: &clap::Command,
+        arg: Option<&clap::Arg>,
+        value: &std::ffi::OsStr,
+    ) -> Result<f64, clap::Error> {
+        let invalid = |why: String| {
+            let flag = arg.map_or_else(|| "value".to_string(), ToString::to_string);
+            cmd.clone().error(
+                clap::error::ErrorKind::ValueValidation,
+                format!(
+                    "invalid value '{}' for '{flag}': {why}",
+                    value.to_string_lossy()
+                ),
+            )
+        };
+        let text = value
+            .to_str()
+            .ok_or_else(|| invalid("not a number".into()))?;
+        let number: f64 = text
+            .trim()
+            .parse()
+            .map_err(|_| invalid("not a number".into()))?;
+        self.check(number).map_err(invalid)
+    }
+}
+
+/// How many times faster than real time a world or a replay runs: slower
+/// than 1/1000 makes a step last minutes, faster than a million is as fast
+/// as the machine goes anyway.
+pub const SPEED: Bounds = Bounds::new(0.001, 1e6, "times real time");
+/// How long to wait for an answer: a millisecond to a day.
+pub const TIMEOUT: Bounds = Bounds::new(0.001, 86_400.0, "seconds");
+/// How long a run lasts before it stops by itself: a millisecond to a year
+/// (`Instant` arithmetic on longer spans can overflow).
+pub const RUN_SECONDS: Bounds = Bounds::new(0.001, 365.0 * 86_400.0, "seconds");
+/// A point in a log or a simulation, seconds from its start: up to a century.
+pub const OFFSET_SECONDS: Bounds = Bounds::new(0.0, 100.0 * 365.0 * 86_400.0, "seconds");
+
+/// A number of seconds given on the command line (and already bounded by
+/// clap) as a `Duration`; a value out of `Duration`'s range is refused here
+/// too, for a caller that has not bounded it.
 pub fn seconds(flag: &str, s: f64) -> anyhow::Result<Duration> {
     if !(s.is_finite() && s > 0.0) {
         anyhow::bail!("{flag} must be a positive number of seconds, not {s}");
     }
-    Ok(Duration::try_from_secs_f64(s).unwrap_or(Duration::MAX))
+    Duration::try_from_secs_f64(s).map_err(|_| anyhow::anyhow!("{flag} is too many seconds: {s}"))
 }
 
-/// When a run given `--seconds` on the command line should end: `None` for no limit, or for a
-/// limit beyond what the clock can hold (the run then lasts until Ctrl-C).
+/// When a run given `--seconds` on the command line should end: `None` for
+/// no limit (or, should a bound ever allow one, a limit beyond what the clock
+/// can hold: the run then lasts until Ctrl-C).
 pub fn deadline(flag: &str, seconds: Option<f64>) -> anyhow::Result<Option<Instant>> {
     let Some(s) = seconds else { return Ok(None) };
     Ok(Instant::now().checked_add(self::seconds(flag, s)?))
+}
+
+/// The smallest `--log-max`: about one largest record.
+const LOG_MAX_MIN: u64 = 64 * 1024;
+
+/// A `--log-max` size in bytes, with an optional binary suffix: `65536`, `64K`, `100M`, `2G`.
+pub fn log_size(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let (digits, unit) = match t.char_indices().last() {
+        Some((i, c)) if c.is_ascii_alphabetic() => (&t[..i], c.to_ascii_uppercase()),
+        _ => (t, 'B'),
+    };
+    let shift = match unit {
+        'B' => 0,
+        'K' => 10,
+        'M' => 20,
+        'G' => 30,
+        'T' => 40,
+        _ => return Err(format!("`{text}`: the suffix may be K, M, G or T")),
+    };
+    let n: u64 = digits
+        .parse()
+        .map_err(|_| format!("`{text}` is not a size such as 65536, 64K or 100M"))?;
+    let bytes = n
+        .checked_mul(1 << shift)
+        .ok_or_else(|| format!("`{text}` is too large"))?;
+    if bytes < LOG_MAX_MIN {
+        return Err(format!("must be at least 64K, not {text}"));
+    }
+    Ok(bytes)
 }
 
 /// A flag set by Ctrl-C or SIGTERM, so loops can stop cleanly.
@@ -69,4 +174,28 @@ pub fn read_key(path: &std::path::Path) -> anyhow::Result<colony_wire::auth::Key
         .map_err(|e| anyhow::anyhow!("cannot read the key file `{}`: {e}", path.display()))?;
     colony_wire::auth::Key::new(&bytes)
         .map_err(|e| anyhow::anyhow!("the key file `{}`: {e}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log_sizes_take_binary_suffixes_and_refuse_what_is_too_small_or_too_large() {
+        assert_eq!(log_size("65536"), Ok(65_536));
+        assert_eq!(log_size("64K"), Ok(65_536));
+        assert_eq!(log_size("100m"), Ok(100 << 20));
+        assert_eq!(log_size("2G"), Ok(2 << 30));
+        for bad in ["10", "63K", "1Q", "K", "", "-1M", "99999999999T", "1.5M"] {
+            assert!(log_size(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn bounds_refuse_nan_and_infinities() {
+        for v in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 0.0, 1e7] {
+            assert!(SPEED.check(v).is_err(), "{v}");
+        }
+        assert_eq!(SPEED.check(1.0), Ok(1.0));
+    }
 }

@@ -123,7 +123,7 @@ pub struct LiveArgs {
     #[arg(long, default_value = "cachecons")]
     pub method: String,
     /// How many times faster than real time.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = super::SPEED)]
     pub speed: f64,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,

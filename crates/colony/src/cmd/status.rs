@@ -9,7 +9,7 @@ pub struct Args {
     #[command(flatten)]
     pub hub: HubAddr,
     /// Seconds to wait for the hub's answer.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = 3.0, value_parser = super::TIMEOUT)]
     pub timeout: f64,
 }
 

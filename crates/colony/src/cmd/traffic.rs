@@ -17,10 +17,10 @@ pub struct LogArgs {
     #[arg(long = "channel", short, value_name = "SUBJECT")]
     pub channels: Vec<String>,
     /// Only packets this many seconds or more after the log's first record.
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", value_parser = super::OFFSET_SECONDS)]
     pub from: Option<f64>,
     /// Only packets up to this many seconds after the log's first record.
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", value_parser = super::OFFSET_SECONDS)]
     pub to: Option<f64>,
 }
 
@@ -31,7 +31,7 @@ pub struct ReplayArgs {
     /// The traffic log to publish again.
     pub file: PathBuf,
     /// How much faster than real time (2 is twice as fast).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = super::SPEED)]
     pub speed: f64,
     /// Only packets on these channels.
     #[arg(long = "channel", short, value_name = "SUBJECT")]
@@ -82,9 +82,6 @@ pub fn list(args: LogArgs) -> anyhow::Result<()> {
 }
 
 pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
-    if !(args.speed.is_finite() && args.speed > 0.0) {
-        anyhow::bail!("--speed must be a positive number, not {}", args.speed);
-    }
     let mut client = args.hub.connect()?;
     let stop = super::stop_flag()?;
     let options = ReplayOptions {
