@@ -42,7 +42,8 @@ export function withToken(path) {
 /**
  * One WebSocket to the monitor server at `path` (e.g. `/ws?view=game`), opened
  * again after every close with a doubling backoff (RETRY_MIN_MS to
- * RETRY_MAX_MS), so a restarted monitor finds its tabs back.
+ * RETRY_MAX_MS), so a monitor that comes back finds its tabs back (a new
+ * monitor has a new token: its tabs are refused until opened at its address).
  *
  * `onMessage(msg)` gets each message that parses as a JSON object (anything
  * else is dropped: the page has nothing to do with it); `onOpen()` and
