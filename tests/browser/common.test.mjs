@@ -9,7 +9,7 @@ import { pathToFileURL } from 'node:url';
 import { ROOT } from './lib.mjs';
 
 const common = await import(pathToFileURL(path.join(ROOT, 'crates', 'monitor', 'web', 'common.js')).href);
-const { Transform, esc, serverLink, showBanners, tenth, RETRY_MAX_MS, RETRY_MIN_MS } = common;
+const { Transform, esc, serverLink, showBanners, tenth, withToken, RETRY_MAX_MS, RETRY_MIN_MS } = common;
 
 /** A canvas of `w` x `h` device pixels, its CSS box at (left, top). */
 function fakeCanvas(w, h, left = 0, top = 0, dpr = 1) {
@@ -148,5 +148,14 @@ describe('the link to the monitor server', () => {
     assert.deepEqual(got, [{ t: 'world', step: 3 }, { t: 'hub' }]);
     assert.equal(link.send({ t: 'take_all' }), true);
     assert.deepEqual(s.sent, ['{"t":"take_all"}']);
+  });
+
+  test('the token the page was opened with goes on its WebSocket', () => {
+    globalThis.location = { protocol: 'http:', host: '127.0.0.1:8080', search: '?team=red&token=0a1b' };
+    serverLink('/ws?view=game', { onMessage: () => {} });
+    serverLink('/ws', { onMessage: () => {} });
+    assert.equal(sockets[0].url, 'ws://127.0.0.1:8080/ws?view=game&token=0a1b');
+    assert.equal(sockets[1].url, 'ws://127.0.0.1:8080/ws?token=0a1b');
+    assert.equal(withToken('/'), '/?token=0a1b');
   });
 });

@@ -26,8 +26,8 @@ describe('the game page, playing red against the scripted blue', { concurrency: 
       '--hub-bind', `127.0.0.1:${await freeUdpPort()}`,
       '--monitor-bind', `127.0.0.1:${await freeTcpPort()}`,
     ]);
-    const [, base] = await match.waitFor(/open (http:\/\/127\.0\.0\.1:\d+)\/game/, 60000);
-    url = `${base}/game?team=red`;
+    // As printed: the page's address with the team and the monitor's token.
+    [, url] = await match.waitFor(/open (http:\/\/127\.0\.0\.1:\d+\/game\?team=red&token=[0-9a-f]{32})\s/, 60000);
     browser = await launchBrowser({ width: 1400, height: 900 });
     page = browser.page;
     await page.goto(url);

@@ -113,10 +113,13 @@ export async function startHub(port) {
   return hub;
 }
 
-/** `colony monitor` joined to `hubAddr`, on a free loopback port; resolves with its URL. */
+/**
+ * `colony monitor` joined to `hubAddr`, on a free loopback port; resolves with
+ * the URL it prints (with its token: the page needs it).
+ */
 export async function startMonitor(hubAddr, name = 'monitor') {
   const m = new ColonyProcess(name, ['monitor', '--hub', hubAddr, '--bind', '127.0.0.1:0']);
-  const [, url] = await m.waitFor(/(http:\/\/127\.0\.0\.1:\d+\/)/);
+  const [, url] = await m.waitFor(/(http:\/\/127\.0\.0\.1:\d+\/\?token=[0-9a-f]{32})\s/);
   m.url = url;
   return m;
 }

@@ -6,6 +6,7 @@
 // event, with room for a loaded machine; how soon things happen (the stale
 // banner's delay) is measured by scripts/bench-monitor, not asserted here.
 import assert from 'node:assert/strict';
+import http from 'node:http';
 import { after, before, describe, test } from 'node:test';
 import {
   ColonyProcess, colony, launchBrowser, screenshot, sleep, startHub, startMonitor, until,
@@ -202,6 +203,47 @@ describe('the monitor page, against a live swarm', { concurrency: false }, () =>
       undefined, 30000, 'the minimum priority was not restored');
     const after = await robotsMove(await poses(), 2, 2, 'released, two or more robots do not move again');
     console.log(`# released, the robots moved ${after.map((m) => m.toFixed(1)).join(', ')} cm`);
+  });
+
+  test('closing the tab that took control of all hands every robot back and restores the minimum priority', async () => {
+    const tab = await browser.context.newPage();
+    await tab.goto(monitor.url);
+    await until(tab, () => window.colony.connected && window.colony.robots === 4, undefined, 30000, 'the second tab is not connected');
+    await tab.click('#take-all');
+    await until(page, () => window.colony.held.length === 4 && window.colony.all && window.colony.minPriority === 10,
+      undefined, 30000, 'the other tab did not take all 4 robots with the minimum priority at 10');
+    // The operator closes that tab without pressing release: this page still watches.
+    await tab.close();
+    await until(page, () => window.colony.held.length === 0 && !window.colony.all && window.colony.minPriority === null,
+      undefined, 30000, 'closing the tab that held the robots did not hand them back');
+    const status = await colony(['status', '--hub', hub.addr]);
+    assert.doesNotMatch(status, /minimum priority 10/);
+    const after = await robotsMove(await poses(), 2, 2, 'handed back, two or more robots do not move again');
+    console.log(`# tab closed: the robots moved ${after.map((m) => m.toFixed(1)).join(', ')} cm`);
+  });
+
+  test('a page of another site cannot open the monitor\'s WebSocket, even knowing its token', async () => {
+    const evil = http.createServer((req, res) => {
+      res.writeHead(200, { 'content-type': 'text/html' });
+      res.end('<!doctype html><title>another site</title><p>nothing to see');
+    });
+    await new Promise((resolve) => evil.listen(0, '127.0.0.1', resolve));
+    const tab = await browser.context.newPage();
+    try {
+      await tab.goto(`http://127.0.0.1:${evil.address().port}/`);
+      const wsUrl = monitor.url.replace('http://', 'ws://').replace('/?', '/ws?');
+      const outcome = await tab.evaluate((url) => new Promise((resolve) => {
+        const ws = new WebSocket(url);
+        ws.onopen = () => { ws.send('{"t":"take_all"}'); resolve('opened'); };
+        ws.onerror = () => resolve('refused');
+      }), wsUrl);
+      assert.equal(outcome, 'refused');
+      await monitor.waitFor(/refused a web request.*origin/, 10000);
+      assert.equal(await page.evaluate(() => window.colony.held.length), 0, 'nothing was taken');
+    } finally {
+      await tab.close();
+      evil.close();
+    }
   });
 
   test('killing the hub shows the stale state, and restarting it recovers the page', async () => {

@@ -43,7 +43,7 @@ async function monitorShots() {
   ]);
   let browser;
   try {
-    const [, url] = await demo.waitFor(/open (http:\/\/\S+\/)/);
+    const [, url] = await demo.waitFor(/open (http:\/\/\S+)/);
     browser = await launchBrowser({ width: 1500, height: 940 });
     const { page } = browser;
     await page.goto(url);
@@ -76,10 +76,10 @@ async function gameShot() {
   ]);
   let browser;
   try {
-    const [, base] = await match.waitFor(/open (http:\/\/127\.0\.0\.1:\d+)\/game/, 60000);
+    const [, gameUrl] = await match.waitFor(/open (http:\/\/127\.0\.0\.1:\d+\/game\S*)/, 60000);
     browser = await launchBrowser({ width: 1500, height: 940 });
     const { page } = browser;
-    await page.goto(`${base}/game?team=red`);
+    await page.goto(gameUrl);
     await page.waitForFunction(() => {
       const g = window.colonyGame;
       return g.map && g.state && !g.stale && g.state.squads.some((q) => q.team === 'red');

@@ -313,11 +313,14 @@ fn demo_runs_a_live_swarm_serves_the_monitor_and_stops_by_itself() {
         .split_whitespace()
         .find(|w| w.starts_with("http://"))
         .unwrap_or_else(|| panic!("no URL in {first:?}"));
-    let addr = url.trim_start_matches("http://").trim_end_matches('/');
+    // `http://ADDR/?token=...`: the page needs the token the demo prints.
+    let rest = url.trim_start_matches("http://");
+    let (addr, path) = rest.split_at(rest.find('/').unwrap_or(rest.len()));
+    assert!(path.starts_with("/?token="), "{url}");
     // The monitor answers with its page.
     let mut http = std::net::TcpStream::connect(addr).expect("connect to the monitor");
     http.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
-    write!(http, "GET / HTTP/1.0\r\nHost: {addr}\r\n\r\n").unwrap();
+    write!(http, "GET {path} HTTP/1.0\r\nHost: {addr}\r\n\r\n").unwrap();
     let mut page = String::new();
     http.read_to_string(&mut page).expect("read the page");
     assert!(
@@ -338,6 +341,45 @@ fn demo_runs_a_live_swarm_serves_the_monitor_and_stops_by_itself() {
     assert!(status.success(), "{status}");
     let rest: Vec<String> = rx.iter().collect();
     assert!(rest.iter().any(|l| l.contains("stopped")), "{rest:?}");
+}
+
+#[test]
+fn the_monitor_answers_to_allowed_host_names_and_without_a_token_only_when_told() {
+    use std::io::{BufRead as _, BufReader, Read as _, Write as _};
+    let hub = closed_port();
+    let mut child = colony()
+        .args(["monitor", "--hub", &hub, "--bind", "127.0.0.1:0"])
+        .args(["--no-token", "--allow-host", "robots.lab"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start colony monitor");
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().expect("stdout"))
+        .read_line(&mut line)
+        .expect("the monitor prints its URL");
+    let url = line
+        .split_whitespace()
+        .find(|w| w.starts_with("http://"))
+        .unwrap_or_else(|| panic!("no URL in {line:?}"));
+    assert!(!url.contains("token"), "--no-token: {url}");
+    let addr = url.trim_start_matches("http://").trim_end_matches('/');
+    let port = addr.rsplit(':').next().unwrap();
+    let get = |host: &str| {
+        let mut http = std::net::TcpStream::connect(addr).expect("connect to the monitor");
+        http.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        write!(http, "GET / HTTP/1.0\r\nHost: {host}\r\n\r\n").unwrap();
+        let mut answer = String::new();
+        http.read_to_string(&mut answer).expect("read the answer");
+        answer
+    };
+    let allowed = get(&format!("robots.lab:{port}"));
+    assert!(allowed.starts_with("HTTP/1.0 200"), "{allowed:.300}");
+    let other = get(&format!("evil.example:{port}"));
+    assert!(other.starts_with("HTTP/1.0 403"), "{other:.300}");
+    let _ = child.kill();
+    let _ = child.wait();
 }
 
 #[test]

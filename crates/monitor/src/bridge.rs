@@ -11,7 +11,10 @@
 //!
 //! The web side reads snapshots from `watch` channels (the latest value
 //! only: a slow browser never builds a queue) and sends requests over a
-//! bounded channel, each with a one-shot for its answer.
+//! bounded channel, each with a one-shot for its answer and the page it came
+//! from. When a page's WebSocket closes, its id comes over a channel of its
+//! own (one message per connection, never refused for a full queue), and
+//! what that page held is released.
 
 use std::collections::BTreeSet;
 use std::net::SocketAddr;
@@ -25,7 +28,7 @@ use colony_wire::{Packet, Reply, Request, HUB_SUBJECT};
 use tokio::sync::{oneshot, watch};
 
 use crate::game::{GameView, GAME_CHANNELS};
-use crate::state::{Command, CommandError, MonitorState, CORE_CHANNELS};
+use crate::state::{Command, CommandError, MonitorState, PageId, CORE_CHANNELS};
 
 /// The channel the control client leases, so the hub will answer `status`.
 pub const LEASE_CHANNEL: &str = "colony-monitor";
@@ -47,8 +50,12 @@ const OVERRIDE_EVERY: Duration = Duration::from_millis(80);
 /// The longest the loop sleeps, so browser requests are taken promptly.
 const TICK: Duration = Duration::from_millis(10);
 
-/// A browser's request on its way to the bridge, with where the answer goes.
-pub type Envelope = (Command, oneshot::Sender<Result<String, CommandError>>);
+/// A browser's request on its way to the bridge: the page it came from, and where the answer goes.
+pub type Envelope = (
+    PageId,
+    Command,
+    oneshot::Sender<Result<String, CommandError>>,
+);
 
 /// The bridge's two clients and its state, ready to run on a thread.
 pub struct Bridge {
@@ -123,7 +130,12 @@ impl Bridge {
 
     /// Runs until `stop`, then lets every held robot go, restores the hub's
     /// minimum priority if it raised it, and drops its subscriptions.
-    pub fn run(mut self, requests: Receiver<Envelope>, stop: Arc<AtomicBool>) {
+    pub fn run(
+        mut self,
+        requests: Receiver<Envelope>,
+        closed: Receiver<PageId>,
+        stop: Arc<AtomicBool>,
+    ) {
         for c in CORE_CHANNELS.into_iter().chain(GAME_CHANNELS) {
             self.subscribe(c);
         }
@@ -143,10 +155,14 @@ impl Bridge {
         let mut map_version = 0;
         while !stop.load(Ordering::Relaxed) {
             let now = Instant::now();
-            let wake = [self.data.next_deadline(), self.control.next_deadline()]
-                .into_iter()
-                .flatten()
-                .fold(now + TICK, Instant::min);
+            let wake = [
+                self.data.next_deadline(),
+                self.control.next_deadline(),
+                self.state.next_deadline(),
+            ]
+            .into_iter()
+            .flatten()
+            .fold(now + TICK, Instant::min);
             if let Err(e) = self.data.wait(Some(wake)) {
                 tracing::warn!(error = %e, "waiting on the hub socket failed");
                 std::thread::sleep(TICK);
@@ -178,10 +194,14 @@ impl Bridge {
                     self.subscribe(&subject);
                 }
             }
+            // Closes are read before requests and applied after them: a request a page sent
+            // before it closed is then always carried out first, so it cannot take robots
+            // for a page already gone.
+            let closes: Vec<PageId> = closed.try_iter().collect();
             loop {
                 match requests.try_recv() {
-                    Ok((command, answer)) => {
-                        let result = self.carry_out(now, command);
+                    Ok((page, command, answer)) => {
+                        let result = self.carry_out(now, page, command);
                         let _ = answer.send(result);
                     }
                     Err(TryRecvError::Empty) => break,
@@ -192,6 +212,17 @@ impl Bridge {
                     }
                 }
             }
+            for page in closes {
+                let n = self.state.page_closed(page);
+                if n > 0 {
+                    tracing::info!(
+                        page = page.0,
+                        robots = n,
+                        "a page went away: its robots are released"
+                    );
+                }
+            }
+            self.state.poll(now);
             self.send_requests();
             let ask_now = now >= next_status
                 || (self.state.wants_status()
@@ -277,7 +308,12 @@ impl Bridge {
         }
     }
 
-    fn carry_out(&mut self, now: Instant, command: Command) -> Result<String, CommandError> {
+    fn carry_out(
+        &mut self,
+        now: Instant,
+        page: PageId,
+        command: Command,
+    ) -> Result<String, CommandError> {
         if let Command::Publish(bytes) = &command {
             // Subscribe first, so the hub view shows the packet when it comes back.
             let subjects: Vec<String> = match Packet::parse(bytes) {
@@ -295,6 +331,6 @@ impl Bridge {
                 .publish(&bytes)
                 .map_err(CommandError::Publish)?;
         }
-        self.state.apply(now, command)
+        self.state.apply(now, page, command)
     }
 }

@@ -19,6 +19,11 @@
 //! controllers' 0) every control step, and "take control of all" also raises
 //! the hub's minimum priority to that value, restoring the old one on release.
 //!
+//! The web server answers only to its own host names, refuses WebSockets
+//! from other sites' pages, and (unless told otherwise) needs a random token
+//! that the printed address carries (see [`gate`]). An override belongs to the
+//! page that took it and ends when that page's WebSocket closes.
+//!
 //! The game page (`/game`) is the strategy game's player client: the
 //! battlefield, every robot and squad with its behaviour and planned path,
 //! and squad commands sent on `game.player.<team>` (see [`game`]).
@@ -31,7 +36,9 @@
 //! let monitor = colony_monitor::Monitor::start(&colony_monitor::MonitorConfig {
 //!     hub: "127.0.0.1:7400".into(),
 //!     bind: "127.0.0.1:8080".into(),
+//!     ..Default::default()
 //! })?;
+//! // `http://127.0.0.1:8080/?token=...`: the pages need the token.
 //! println!("open {}", monitor.url());
 //! # monitor.shutdown()?;
 //! # Ok::<(), colony_monitor::MonitorError>(())
@@ -42,6 +49,7 @@
 
 mod bridge;
 pub mod game;
+pub mod gate;
 pub mod protocol;
 mod server;
 pub mod state;

@@ -8,17 +8,22 @@
 //! The game page opens `/ws?view=game` and gets `{"t":"game",...}` and
 //! `{"t":"map",...}` (see [`crate::game`]) instead of world and hub.
 //! Browser to server: the requests of [`crate::protocol`].
+//!
+//! Every request passes [`crate::gate`] first (its own host names, the
+//! WebSocket's origin, the token), and every answer carries headers that keep
+//! the pages out of other sites' frames and the token out of `Referer`.
 
 use std::net::SocketAddr;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{sync_channel, SyncSender, TrySendError};
-use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::{channel, sync_channel, Sender, SyncSender, TrySendError};
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
-use axum::extract::{RawQuery, State};
-use axum::http::header;
+use axum::extract::{ConnectInfo, RawQuery, Request, State};
+use axum::http::{header, HeaderValue, StatusCode};
+use axum::middleware::Next;
 use axum::response::{Html, IntoResponse, Response};
 use axum::routing::get;
 use axum::Router;
@@ -26,7 +31,9 @@ use tokio::sync::{oneshot, watch};
 use tokio::time::Instant;
 
 use crate::bridge::{Bridge, Envelope};
+use crate::gate::{Gate, RefusalLog};
 use crate::protocol::{kind_of, parse_message, ReplyJson, MAX_MESSAGE};
+use crate::state::PageId;
 
 const INDEX_HTML: &str = include_str!("../web/index.html");
 const APP_JS: &str = include_str!("../web/app.js");
@@ -49,6 +56,14 @@ pub struct MonitorConfig {
     pub hub: String,
     /// Where the web server listens, `HOST:PORT` (port 0: any free one).
     pub bind: String,
+    /// Host names the web server answers to besides its address, `localhost`, `127.0.0.1`
+    /// and `[::1]` (each with or without a port; without one, the server's port is meant):
+    /// needed when the page is opened by a name, as through a tunnel or a proxy.
+    pub allow_hosts: Vec<String>,
+    /// Whether the pages and the WebSocket need the random token that [`Monitor::url`]
+    /// carries. Off only where every user of every browser that can reach the port may drive
+    /// the robots.
+    pub token: bool,
 }
 
 impl Default for MonitorConfig {
@@ -56,6 +71,8 @@ impl Default for MonitorConfig {
         MonitorConfig {
             hub: "127.0.0.1:7400".into(),
             bind: "127.0.0.1:8080".into(),
+            allow_hosts: Vec::new(),
+            token: true,
         }
     }
 }
@@ -95,6 +112,10 @@ pub enum MonitorError {
 #[derive(Clone)]
 struct App {
     requests: SyncSender<Envelope>,
+    /// Each page's id, when its WebSocket ends.
+    closed: Sender<PageId>,
+    /// The next page's id.
+    pages: Arc<AtomicU64>,
     world: watch::Receiver<Arc<str>>,
     hub: watch::Receiver<Arc<str>>,
     game: watch::Receiver<Arc<str>>,
@@ -107,6 +128,7 @@ struct App {
 pub struct Monitor {
     addr: SocketAddr,
     hub: SocketAddr,
+    guard: Arc<Guard>,
     stop: Arc<AtomicBool>,
     shutdown_tx: watch::Sender<bool>,
     server: Option<JoinHandle<std::io::Result<()>>>,
@@ -134,23 +156,32 @@ impl Monitor {
         let (bridge, handles) = Bridge::connect(hub)?;
         let stop = Arc::new(AtomicBool::new(false));
         let (requests, requests_rx) = sync_channel(REQUEST_QUEUE);
+        let (closed, closed_rx) = channel();
         let bridge_stop = stop.clone();
         let bridge = std::thread::Builder::new()
             .name("monitor-bridge".into())
-            .spawn(move || bridge.run(requests_rx, bridge_stop))?;
+            .spawn(move || bridge.run(requests_rx, closed_rx, bridge_stop))?;
+        let token = config.token.then(crate::gate::new_token);
+        let guard = Arc::new(Guard {
+            gate: Gate::new(addr, &config.allow_hosts, token),
+            log: Mutex::new(RefusalLog::default()),
+        });
         let (shutdown_tx, shutdown) = watch::channel(false);
         let app = App {
             requests,
+            closed,
+            pages: Arc::new(AtomicU64::new(1)),
             world: handles.world,
             hub: handles.hub,
             game: handles.game,
             map: handles.map,
             shutdown: shutdown.clone(),
         };
+        let server_guard = guard.clone();
         let server = std::thread::Builder::new()
             .name("monitor-server".into())
             .spawn(move || {
-                let result = runtime.block_on(serve(listener, app, shutdown));
+                let result = runtime.block_on(serve(listener, app, server_guard, shutdown));
                 runtime.shutdown_timeout(Duration::from_secs(1));
                 result
             });
@@ -164,6 +195,7 @@ impl Monitor {
         Ok(Monitor {
             addr,
             hub,
+            guard,
             stop,
             shutdown_tx,
             server: Some(server),
@@ -181,9 +213,46 @@ impl Monitor {
         self.hub
     }
 
-    /// The page's address.
+    /// The page's address, with the token when one is needed: the address to print for the
+    /// operator to open.
     pub fn url(&self) -> String {
-        format!("http://{}/", self.addr)
+        self.page_url("/", "")
+    }
+
+    /// The address of the page at `path` (such as `/game`) with `query` (such as `team=red`,
+    /// or empty) and the token when one is needed.
+    pub fn page_url(&self, path: &str, query: &str) -> String {
+        let mut q: Vec<String> = Vec::new();
+        if !query.is_empty() {
+            q.push(query.to_owned());
+        }
+        if let Some(token) = self.guard.gate.token() {
+            q.push(format!("token={token}"));
+        }
+        let q = if q.is_empty() {
+            String::new()
+        } else {
+            format!("?{}", q.join("&"))
+        };
+        // Bound to every address (0.0.0.0): no browser host name is that; loopback always works.
+        let mut addr = self.addr;
+        if addr.ip().is_unspecified() {
+            addr.set_ip(match addr.ip() {
+                std::net::IpAddr::V4(_) => std::net::Ipv4Addr::LOCALHOST.into(),
+                std::net::IpAddr::V6(_) => std::net::Ipv6Addr::LOCALHOST.into(),
+            });
+        }
+        format!("http://{addr}{path}{q}")
+    }
+
+    /// The token the pages need, if one is.
+    pub fn token(&self) -> Option<&str> {
+        self.guard.gate.token()
+    }
+
+    /// Requests refused so far (a foreign host, a foreign origin, no token).
+    pub fn refused(&self) -> u64 {
+        self.guard.log.lock().map_or(0, |log| log.refused())
     }
 
     /// Whether both threads are still running.
@@ -238,9 +307,110 @@ fn resolve(addr: &str) -> Result<SocketAddr, MonitorError> {
         })
 }
 
+/// The gate and its count of refusals, shared by every request.
+struct Guard {
+    gate: Gate,
+    log: Mutex<RefusalLog>,
+}
+
+/// Lets a request through [`Gate`] or answers 403, and adds the security headers to every
+/// answer.
+async fn guarded(
+    State(guard): State<Arc<Guard>>,
+    ConnectInfo(peer): ConnectInfo<SocketAddr>,
+    request: Request,
+    next: Next,
+) -> Response {
+    let headers = request.headers();
+    let uri = request.uri();
+    let header_str = |name| {
+        headers
+            .get(name)
+            .and_then(|v: &HeaderValue| v.to_str().ok())
+    };
+    // An absolute request target (`GET http://host/ HTTP/1.1`) names the host too: then it
+    // must pass as well as the header, whichever the server below would believe.
+    let host = header_str(header::HOST);
+    let authority_ok = uri
+        .authority()
+        .is_none_or(|a| guard.gate.check_host(a.as_str()));
+    let checked = crate::gate::Request {
+        path: uri.path(),
+        query: uri.query(),
+        host,
+        origin: header_str(header::ORIGIN),
+        upgrade: headers.contains_key(header::UPGRADE) || uri.path() == "/ws",
+    };
+    let verdict = if authority_ok {
+        guard.gate.check(&checked)
+    } else {
+        Err(crate::gate::Refusal::Host)
+    };
+    let mut response = match verdict {
+        Ok(()) => next.run(request).await,
+        Err(refusal) => {
+            let line = guard
+                .log
+                .lock()
+                .ok()
+                .and_then(|mut log| log.on_refusal(std::time::Instant::now()));
+            if let Some(unlogged) = line {
+                tracing::warn!(
+                    reason = refusal.as_str(),
+                    %peer,
+                    host = %printable(checked.host.unwrap_or("-")),
+                    origin = %printable(checked.origin.unwrap_or("-")),
+                    path = %printable(checked.path),
+                    also_refused = unlogged,
+                    "refused a web request"
+                );
+            }
+            (
+                StatusCode::FORBIDDEN,
+                [(header::CONTENT_TYPE, "text/plain; charset=utf-8")],
+                refusal.message(),
+            )
+                .into_response()
+        }
+    };
+    let h = response.headers_mut();
+    // Another site may not frame the page (clickjacking the take-control buttons)...
+    h.insert(header::X_FRAME_OPTIONS, HeaderValue::from_static("DENY"));
+    h.insert(
+        header::CONTENT_SECURITY_POLICY,
+        HeaderValue::from_static("frame-ancestors 'none'"),
+    );
+    // ...nor have a response read as another type...
+    h.insert(
+        header::X_CONTENT_TYPE_OPTIONS,
+        HeaderValue::from_static("nosniff"),
+    );
+    // ...nor learn the token from `Referer` when the page links out.
+    h.insert(
+        header::REFERRER_POLICY,
+        HeaderValue::from_static("no-referrer"),
+    );
+    response
+}
+
+/// A header from the network as it may go in a log line: short, and printable ASCII only.
+fn printable(text: &str) -> String {
+    text.chars()
+        .take(100)
+        .map(|c| {
+            if c.is_ascii_graphic() || c == ' ' {
+                c
+            } else {
+                '?'
+            }
+        })
+        .collect()
+}
+
 async fn serve(
     listener: std::net::TcpListener,
     app: App,
+    guard: Arc<Guard>,
     mut shutdown: watch::Receiver<bool>,
 ) -> std::io::Result<()> {
     let listener = tokio::net::TcpListener::from_std(listener)?;
@@ -254,12 +424,16 @@ async fn serve(
         .route("/game.css", get(|| asset("text/css", GAME_CSS)))
         .route("/common.js", get(|| asset("text/javascript", COMMON_JS)))
         .route("/ws", get(ws))
-        .with_state(app);
-    axum::serve(listener, router)
-        .with_graceful_shutdown(async move {
-            let _ = shutdown.wait_for(|s| *s).await;
-        })
-        .await
+        .with_state(app)
+        .layer(axum::middleware::from_fn_with_state(guard, guarded));
+    axum::serve(
+        listener,
+        router.into_make_service_with_connect_info::<SocketAddr>(),
+    )
+    .with_graceful_shutdown(async move {
+        let _ = shutdown.wait_for(|s| *s).await;
+    })
+    .await
 }
 
 async fn index() -> Html<&'static str> {
@@ -354,7 +528,7 @@ fn reply(to: Option<&str>, result: &Result<String, crate::protocol::Refusal>) ->
 }
 
 /// Checks one browser message and hands it to the bridge; the answer is JSON.
-async fn handle(app: &App, text: &str) -> String {
+async fn handle(app: &App, page: PageId, text: &str) -> String {
     let to = kind_of(text);
     let command = match parse_message(text) {
         Ok(c) => c,
@@ -366,7 +540,7 @@ async fn handle(app: &App, text: &str) -> String {
         line: None,
         column: None,
     };
-    match app.requests.try_send((command, tx)) {
+    match app.requests.try_send((page, command, tx)) {
         Ok(()) => {}
         Err(TrySendError::Full(_)) => {
             return reply(
@@ -387,7 +561,26 @@ async fn handle(app: &App, text: &str) -> String {
     reply(to.as_deref(), &answer)
 }
 
+/// Tells the bridge that a page has gone when its session ends, however it ends (the socket
+/// closed or failed, the server stopped, the task was dropped): what the page held is let go.
+struct PageGuard {
+    page: PageId,
+    closed: Sender<PageId>,
+}
+
+impl Drop for PageGuard {
+    fn drop(&mut self) {
+        // The bridge gone means the monitor is stopping, and it lets everything go itself.
+        let _ = self.closed.send(self.page);
+    }
+}
+
 async fn session(mut socket: WebSocket, app: App, view: View) {
+    let page = PageId(app.pages.fetch_add(1, Ordering::Relaxed));
+    let _gone = PageGuard {
+        page,
+        closed: app.closed.clone(),
+    };
     let mut world = app.world.clone();
     let mut hub = app.hub.clone();
     let mut game = app.game.clone();
@@ -419,7 +612,7 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
                     }
                     Some(Ok(_)) => continue,
                 };
-                let answer = handle(&app, text.as_str()).await;
+                let answer = handle(&app, page, text.as_str()).await;
                 if socket.send(Message::Text(answer.into())).await.is_err() {
                     break;
                 }

@@ -33,7 +33,7 @@ pub mod world;
 
 pub use command::{Command, CommandError};
 pub use forge::{check_forged, ForgeError};
-pub use operator::{Mode, MAX_COORD, MAX_HELD, OVERRIDE_PRIORITY};
+pub use operator::{Mode, PageId, MAX_COORD, MAX_HELD, OVERRIDE_PRIORITY};
 pub use steer::{steer, ARRIVED_CM};
 pub use world::{Progress, WorldView};
 
@@ -177,7 +177,8 @@ impl MonitorState {
     /// Takes in a status report received at `now`: rates, channels, and the
     /// minimum-priority step of "take control of all".
     pub fn on_status(&mut self, now: Instant, report: StatusReport) {
-        self.operator.on_min_priority(report.min_priority);
+        self.operator
+            .on_min_priority(now, report.min_priority, report.lease_ms);
         self.hub.on_status(now, report);
     }
 
@@ -197,11 +198,37 @@ impl MonitorState {
         self.operator.wants_status()
     }
 
-    /// Carries out a checked request from the browser at `now`; the answer
+    /// Carries out a checked request from the browser page `page` at `now`; the answer
     /// (or the reason it could not be done) is for the operator to read.
     /// Publishing is the bridge's part: here it only answers.
-    pub fn apply(&mut self, now: Instant, command: Command) -> Result<String, CommandError> {
-        self.operator.apply(now, command, self.world.frame())
+    pub fn apply(
+        &mut self,
+        now: Instant,
+        page: PageId,
+        command: Command,
+    ) -> Result<String, CommandError> {
+        self.operator.apply(now, page, command, self.world.frame())
+    }
+
+    /// Page `page` went away: what it held is let go (see [`operator`]); how many robots.
+    pub fn page_closed(&mut self, page: PageId) -> usize {
+        self.operator.page_closed(page)
+    }
+
+    /// Which page holds robot `id`, if it is held.
+    pub fn holder(&self, id: u32) -> Option<PageId> {
+        self.operator.holder(id)
+    }
+
+    /// Time passes: requests that are due (refreshing a raised minimum priority) are queued
+    /// for [`take_requests`](Self::take_requests).
+    pub fn poll(&mut self, now: Instant) {
+        self.operator.poll(now);
+    }
+
+    /// When [`poll`](Self::poll) next has something to do, if ever.
+    pub fn next_deadline(&self) -> Option<Instant> {
+        self.operator.next_deadline()
     }
 
     /// Lets every robot go and puts the hub's minimum priority back (when the monitor stops).
@@ -260,6 +287,9 @@ mod tests {
     fn ms(t0: Instant, ms: u64) -> Instant {
         t0 + Duration::from_millis(ms)
     }
+
+    /// The page most tests speak for.
+    const PAGE: PageId = PageId(1);
 
     const ONE_PART: &str = "@ <vision> 20\nstep n 7 part 0 parts 1\narena width 187 height 187 corner 15\nsizes robot_length 12.5 robot_width 10.8 gripper_radius 3.6 puck_diameter 6.3\nrobot id 1 x 10 y 0 theta 0 carrying 3\nrobot id 0 x -5 y 2.5 theta 1.57\npuck id 3 kind 1 x 17 y 0\n";
 
@@ -425,10 +455,11 @@ mod tests {
             s.override_packets(t0).is_empty(),
             "nobody held: nothing sent"
         );
-        s.apply(t0, Command::Take(vec![1])).unwrap();
+        s.apply(t0, PAGE, Command::Take(vec![1])).unwrap();
         assert_eq!(s.override_commands(t0), [RadioCommand::new(1, 0.0, 0.0)]);
         s.apply(
             t0,
+            PAGE,
             Command::Drive {
                 ids: None,
                 forward: 0.5,
@@ -448,6 +479,7 @@ mod tests {
         // Robot 1 is at (10, 0) facing +x: a point ahead means drive.
         s.apply(
             t0,
+            PAGE,
             Command::Goto {
                 ids: Some(vec![1]),
                 x: 60.0,
@@ -467,6 +499,7 @@ mod tests {
         let e = s
             .apply(
                 t0,
+                PAGE,
                 Command::Goto {
                     ids: Some(vec![0]),
                     x: 0.0,
@@ -475,12 +508,12 @@ mod tests {
             )
             .unwrap_err();
         assert_eq!(e.to_string(), "no held robot to send: take control first");
-        s.apply(t0, Command::Release(vec![1])).unwrap();
+        s.apply(t0, PAGE, Command::Release(vec![1])).unwrap();
         assert!(
             s.override_packets(t0).is_empty(),
             "released: the AI has it back"
         );
-        let e = s.apply(t0, Command::Release(vec![1])).unwrap_err();
+        let e = s.apply(t0, PAGE, Command::Release(vec![1])).unwrap_err();
         assert_eq!(e.to_string(), "robot 1 not held");
         assert!(
             s.take_requests().is_empty(),
@@ -492,9 +525,10 @@ mod tests {
     fn several_robots_sent_to_one_point_are_spread_around_it() {
         let (mut s, t0) = state();
         s.on_packet(t0, &parse(ONE_PART));
-        s.apply(t0, Command::Take(vec![0, 1])).unwrap();
+        s.apply(t0, PAGE, Command::Take(vec![0, 1])).unwrap();
         s.apply(
             t0,
+            PAGE,
             Command::Goto {
                 ids: None,
                 x: 0.0,
@@ -510,7 +544,7 @@ mod tests {
     fn taking_all_raises_the_minimum_priority_and_release_restores_the_old_one() {
         let (mut s, t0) = state();
         s.on_packet(t0, &parse(ONE_PART));
-        s.apply(t0, Command::TakeAll).unwrap();
+        s.apply(t0, PAGE, Command::TakeAll).unwrap();
         assert_eq!(s.held().len(), 2);
         assert!(s.wants_status());
         assert!(
@@ -528,20 +562,118 @@ mod tests {
             s.take_requests(),
             [Request::MinPriority(Priority(OVERRIDE_PRIORITY))]
         );
-        s.apply(t0, Command::ReleaseAll).unwrap();
+        s.apply(t0, PAGE, Command::ReleaseAll).unwrap();
         assert_eq!(s.take_requests(), [Request::MinPriority(Priority(3))]);
         assert!(s.held().is_empty() && !s.all_held());
         // Already high: left alone, and nothing to restore.
-        s.apply(t0, Command::TakeAll).unwrap();
+        s.apply(t0, PAGE, Command::TakeAll).unwrap();
         s.on_status(t0, report(1, 1, 50));
         assert!(s.take_requests().is_empty());
         assert!(s.shutdown().is_empty());
     }
 
     #[test]
+    fn closing_the_page_that_took_robots_releases_them_and_no_other_pages() {
+        let (mut s, t0) = state();
+        s.on_packet(t0, &parse(ONE_PART));
+        let (a, b) = (PageId(1), PageId(2));
+        s.apply(t0, a, Command::Take(vec![1])).unwrap();
+        s.apply(t0, b, Command::Take(vec![0])).unwrap();
+        assert_eq!((s.holder(1), s.holder(0)), (Some(a), Some(b)));
+        assert_eq!(s.page_closed(PageId(3)), 0, "a page that held nothing");
+        assert_eq!(s.held().len(), 2);
+        assert_eq!(s.page_closed(a), 1);
+        assert_eq!(s.held().keys().copied().collect::<Vec<_>>(), [0]);
+        assert_eq!(
+            s.override_commands(t0),
+            [RadioCommand::new(0, 0.0, 0.0)],
+            "only page b's robot is still commanded"
+        );
+        // Taking a robot another page holds makes it the taker's.
+        s.apply(t0, a, Command::Take(vec![0])).unwrap();
+        assert_eq!(s.page_closed(b), 0);
+        assert_eq!(s.page_closed(a), 1);
+        assert!(s.held().is_empty() && s.override_packets(t0).is_empty());
+        assert!(
+            s.take_requests().is_empty(),
+            "single robots leave the hub alone"
+        );
+    }
+
+    #[test]
+    fn closing_the_page_that_took_all_restores_the_minimum_priority() {
+        let (mut s, t0) = state();
+        s.on_packet(t0, &parse(ONE_PART));
+        let (a, b) = (PageId(1), PageId(2));
+        s.apply(t0, a, Command::TakeAll).unwrap();
+        s.on_status(t0, report(1, 1, 3));
+        assert_eq!(
+            s.take_requests(),
+            [Request::MinPriority(Priority(OVERRIDE_PRIORITY))]
+        );
+        // Another page watching (or driving) does not end it when it closes.
+        s.apply(
+            t0,
+            b,
+            Command::Drive {
+                ids: None,
+                forward: 1.0,
+                turn: 0.0,
+            },
+        )
+        .unwrap();
+        assert_eq!(s.page_closed(b), 0);
+        assert!(s.all_held() && s.take_requests().is_empty());
+        assert_eq!(s.page_closed(a), 2);
+        assert!(s.held().is_empty() && !s.all_held());
+        assert_eq!(
+            s.take_requests(),
+            [Request::MinPriority(Priority(3))],
+            "as if release had been pressed"
+        );
+        // And new robots are no longer taken.
+        s.on_packet(t0, &parse(ONE_PART));
+        assert!(s.held().is_empty());
+        assert!(s.shutdown().is_empty(), "nothing left to restore");
+    }
+
+    #[test]
+    fn a_raised_minimum_priority_is_sent_again_every_third_of_the_lease() {
+        let (mut s, t0) = state();
+        s.on_packet(t0, &parse(ONE_PART));
+        s.apply(t0, PAGE, Command::TakeAll).unwrap();
+        assert_eq!(s.next_deadline(), None, "nothing raised yet");
+        let mut r = report(1, 1, 0);
+        r.lease_ms = 3_000;
+        s.on_status(t0, r);
+        assert_eq!(s.take_requests().len(), 1);
+        assert_eq!(s.next_deadline(), Some(ms(t0, 1000)));
+        s.poll(ms(t0, 900));
+        assert!(s.take_requests().is_empty(), "not due yet");
+        s.poll(ms(t0, 1000));
+        assert_eq!(
+            s.take_requests(),
+            [Request::MinPriority(Priority(OVERRIDE_PRIORITY))]
+        );
+        assert_eq!(s.next_deadline(), Some(ms(t0, 2000)));
+        s.poll(ms(t0, 1900));
+        assert!(s.take_requests().is_empty());
+        // A long lease is still refreshed every 3 s at most.
+        let mut r = report(2, 1, OVERRIDE_PRIORITY);
+        r.lease_ms = 60_000;
+        s.on_status(ms(t0, 1900), r);
+        assert_eq!(s.next_deadline(), Some(ms(t0, 4000)));
+        s.apply(ms(t0, 2000), PAGE, Command::ReleaseAll).unwrap();
+        assert_eq!(s.take_requests(), [Request::MinPriority(Priority(0))]);
+        assert_eq!(s.next_deadline(), None, "released: no more refreshes");
+        s.poll(ms(t0, 10_000));
+        assert!(s.take_requests().is_empty());
+    }
+
+    #[test]
     fn robots_appearing_while_all_are_held_are_held_too() {
         let (mut s, t0) = state();
-        s.apply(t0, Command::TakeAll).unwrap();
+        s.apply(t0, PAGE, Command::TakeAll).unwrap();
         assert!(s.held().is_empty());
         s.on_packet(t0, &parse(ONE_PART));
         assert_eq!(s.held().len(), 2);
@@ -561,9 +693,10 @@ mod tests {
         s.on_packet(t0, &parse("@ <debug> 0\nrobot id 0 state \"SEARCH\"\n"));
         s.on_packet(t0, &parse("@ <debug> 0\ncache id 0 kind 2 x 1.5 y -2\n"));
         s.on_packet(t0, &parse("@ <metrics> 0\nsort step 7 pc 12.5\n"));
-        s.apply(t0, Command::Take(vec![0])).unwrap();
+        s.apply(t0, PAGE, Command::Take(vec![0])).unwrap();
         s.apply(
             t0,
+            PAGE,
             Command::Goto {
                 ids: None,
                 x: 5.0,

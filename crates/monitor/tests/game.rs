@@ -4,162 +4,15 @@
 //! exactly as the game reads it, and a bad one is answered with an error and
 //! publishes nothing.
 
-use std::io::{Read as _, Write as _};
-use std::net::{SocketAddr, TcpStream};
+mod common;
+
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
-use colony_hub::{HubConfig, Server};
-use colony_monitor::{Monitor, MonitorConfig};
-use serde_json::Value;
 
-struct Hub {
-    addr: SocketAddr,
-    stop: Arc<AtomicBool>,
-    thread: Option<std::thread::JoinHandle<std::io::Result<()>>>,
-}
-
-impl Hub {
-    fn start() -> Hub {
-        let mut server = Server::bind("127.0.0.1:0", HubConfig::default()).unwrap();
-        let addr = server.local_addr().unwrap();
-        let stop = Arc::new(AtomicBool::new(false));
-        let s = stop.clone();
-        let thread = Some(std::thread::spawn(move || server.run(&s)));
-        Hub { addr, stop, thread }
-    }
-}
-
-impl Drop for Hub {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
-
-/// Just enough of a WebSocket client (RFC 6455) for a test: text frames
-/// out (masked, as a client must), text frames in, pings answered.
-struct Ws {
-    stream: TcpStream,
-}
-
-impl Ws {
-    fn connect(addr: SocketAddr, path: &str) -> Ws {
-        let mut stream = TcpStream::connect(addr).unwrap();
-        stream
-            .set_read_timeout(Some(Duration::from_secs(5)))
-            .unwrap();
-        write!(
-            stream,
-            "GET {path} HTTP/1.1\r\nHost: {addr}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n\
-             Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n"
-        )
-        .unwrap();
-        let mut head = Vec::new();
-        let mut byte = [0u8];
-        while !head.ends_with(b"\r\n\r\n") {
-            stream.read_exact(&mut byte).unwrap();
-            head.push(byte[0]);
-        }
-        let head = String::from_utf8_lossy(&head);
-        assert!(head.starts_with("HTTP/1.1 101"), "{head}");
-        Ws { stream }
-    }
-
-    fn frame(&mut self, opcode: u8, payload: &[u8]) {
-        let mut f = vec![0x80 | opcode];
-        match payload.len() {
-            n if n < 126 => f.push(0x80 | n as u8),
-            n if n < 65536 => {
-                f.push(0x80 | 126);
-                f.extend_from_slice(&(n as u16).to_be_bytes());
-            }
-            n => {
-                f.push(0x80 | 127);
-                f.extend_from_slice(&(n as u64).to_be_bytes());
-            }
-        }
-        let mask = [0x37, 0xfa, 0x21, 0x3d];
-        f.extend_from_slice(&mask);
-        f.extend(payload.iter().enumerate().map(|(i, b)| b ^ mask[i % 4]));
-        self.stream.write_all(&f).unwrap();
-    }
-
-    fn send(&mut self, text: &str) {
-        self.frame(0x1, text.as_bytes());
-    }
-
-    /// The next text message, as JSON.
-    fn recv(&mut self) -> Value {
-        let mut message = Vec::new();
-        loop {
-            let mut h = [0u8; 2];
-            self.stream.read_exact(&mut h).unwrap();
-            let (fin, opcode) = (h[0] & 0x80 != 0, h[0] & 0x0f);
-            let len = match h[1] & 0x7f {
-                126 => {
-                    let mut b = [0u8; 2];
-                    self.stream.read_exact(&mut b).unwrap();
-                    u16::from_be_bytes(b) as usize
-                }
-                127 => {
-                    let mut b = [0u8; 8];
-                    self.stream.read_exact(&mut b).unwrap();
-                    u64::from_be_bytes(b) as usize
-                }
-                n => n as usize,
-            };
-            let mut payload = vec![0u8; len];
-            self.stream.read_exact(&mut payload).unwrap();
-            match opcode {
-                0x9 => self.frame(0xA, &payload),
-                0x8 => panic!("the server closed the WebSocket"),
-                0x0..=0x2 => {
-                    message.extend_from_slice(&payload);
-                    if fin {
-                        return serde_json::from_slice(&message).unwrap();
-                    }
-                }
-                _ => {}
-            }
-        }
-    }
-
-    /// Reads messages until one satisfies `want`, for at most `within`.
-    fn until(&mut self, within: Duration, what: &str, want: impl Fn(&Value) -> bool) -> Value {
-        let deadline = Instant::now() + within;
-        let mut last = Value::Null;
-        while Instant::now() < deadline {
-            let m = self.recv();
-            if want(&m) {
-                return m;
-            }
-            last = m;
-        }
-        panic!("no {what} within {within:?}; the last message: {last}");
-    }
-}
-
-fn get(addr: SocketAddr, path: &str) -> String {
-    let mut s = TcpStream::connect(addr).unwrap();
-    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
-    write!(s, "GET {path} HTTP/1.0\r\nHost: {addr}\r\n\r\n").unwrap();
-    let mut out = String::new();
-    s.read_to_string(&mut out).unwrap();
-    out
-}
-
-fn monitor(hub: &Hub) -> Monitor {
-    Monitor::start(&MonitorConfig {
-        hub: hub.addr.to_string(),
-        bind: "127.0.0.1:0".into(),
-    })
-    .unwrap()
-}
+use common::{get, monitor, with_token, Hub, Ws};
 
 /// A client subscribed to `channel`, returned once the hub has granted the lease.
 fn subscriber(hub: &Hub, channel: &str) -> UdpClient {
@@ -203,7 +56,7 @@ const EVENT: &str =
 fn game_packets_reach_the_game_page_and_its_squad_commands_reach_the_game() {
     let hub = Hub::start();
     let m = monitor(&hub);
-    let page = get(m.local_addr(), "/game");
+    let page = get(m.local_addr(), &with_token(&m, "/game"));
     assert!(
         page.starts_with("HTTP/1.0 200") && page.contains("<title>colony game</title>"),
         "{page:.300}"
@@ -212,7 +65,7 @@ fn game_packets_reach_the_game_page_and_its_squad_commands_reach_the_game() {
     assert!(js.contains("text/javascript") && js.contains("window.colonyGame"));
     assert!(get(m.local_addr(), "/game.css").contains("text/css"));
 
-    let mut ws = Ws::connect(m.local_addr(), "/ws?view=game");
+    let mut ws = Ws::connect(m.local_addr(), &with_token(&m, "/ws?view=game"));
     // The monitor subscribes as it starts: publish until the page has it all.
     let mut publisher = UdpClient::connect(hub.addr).unwrap();
     let stop = Arc::new(AtomicBool::new(false));
@@ -311,7 +164,7 @@ fn game_packets_reach_the_game_page_and_its_squad_commands_reach_the_game() {
 fn the_system_monitor_page_gets_no_game_messages() {
     let hub = Hub::start();
     let m = monitor(&hub);
-    let mut ws = Ws::connect(m.local_addr(), "/ws");
+    let mut ws = Ws::connect(m.local_addr(), &with_token(&m, "/ws"));
     let mut publisher = UdpClient::connect(hub.addr).unwrap();
     // Watch for 2 s, and on until the page has had a world at all (a busy machine may be slow
     // to send the first), so that "no game message" is checked over a real stream.

@@ -1,65 +1,23 @@
 //! The monitor's web server on loopback, next to a real hub: it serves its
 //! page, script and style from the binary, reports a taken port clearly,
-//! joins the hub as an ordinary client, and stops promptly.
+//! joins the hub as an ordinary client, and stops promptly. It answers only
+//! to its own host names, opens no WebSocket for another site's page, needs
+//! its token, and lets a page's robots go when the page goes.
 
-use std::io::{Read as _, Write as _};
-use std::net::{SocketAddr, TcpStream};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+mod common;
+
 use std::time::{Duration, Instant};
 
-use colony_hub::{HubConfig, Server};
 use colony_monitor::{Monitor, MonitorConfig, MonitorError};
 
-struct Hub {
-    addr: SocketAddr,
-    stop: Arc<AtomicBool>,
-    thread: Option<std::thread::JoinHandle<std::io::Result<()>>>,
-}
-
-impl Hub {
-    fn start() -> Hub {
-        let mut server = Server::bind("127.0.0.1:0", HubConfig::default()).unwrap();
-        let addr = server.local_addr().unwrap();
-        let stop = Arc::new(AtomicBool::new(false));
-        let s = stop.clone();
-        let thread = Some(std::thread::spawn(move || server.run(&s)));
-        Hub { addr, stop, thread }
-    }
-}
-
-impl Drop for Hub {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
-
-fn get(addr: SocketAddr, path: &str) -> String {
-    let mut s = TcpStream::connect(addr).unwrap();
-    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
-    write!(s, "GET {path} HTTP/1.0\r\nHost: {addr}\r\n\r\n").unwrap();
-    let mut out = String::new();
-    s.read_to_string(&mut out).unwrap();
-    out
-}
-
-fn monitor(hub: &Hub) -> Monitor {
-    Monitor::start(&MonitorConfig {
-        hub: hub.addr.to_string(),
-        bind: "127.0.0.1:0".into(),
-    })
-    .unwrap()
-}
+use common::{get, monitor, request, with_token, Hub, Ws};
 
 #[test]
 fn the_page_its_script_and_its_style_are_served_from_the_binary() {
     let hub = Hub::start();
     let m = monitor(&hub);
     assert!(m.url().starts_with("http://127.0.0.1:"));
-    let page = get(m.local_addr(), "/");
+    let page = get(m.local_addr(), &with_token(&m, "/"));
     assert!(page.starts_with("HTTP/1.0 200"), "{page}");
     assert!(page.contains("<title>colony monitor</title>") && page.contains("/app.js"));
     let js = get(m.local_addr(), "/app.js");
@@ -72,9 +30,9 @@ fn the_page_its_script_and_its_style_are_served_from_the_binary() {
         css.contains("text/css") && css.contains(".stale-banner"),
         "{css:.300}"
     );
-    assert!(get(m.local_addr(), "/nothing-here").starts_with("HTTP/1.0 404"));
+    assert!(get(m.local_addr(), &with_token(&m, "/nothing-here")).starts_with("HTTP/1.0 404"));
     // A plain GET on the WebSocket route is refused, not a crash.
-    assert!(!get(m.local_addr(), "/ws").starts_with("HTTP/1.0 200"));
+    assert!(!get(m.local_addr(), &with_token(&m, "/ws")).starts_with("HTTP/1.0 200"));
     assert!(m.is_running());
     m.shutdown().unwrap();
 }
@@ -87,6 +45,7 @@ fn a_taken_port_is_a_clear_error() {
     let e = Monitor::start(&MonitorConfig {
         hub: hub.addr.to_string(),
         bind: taken.clone(),
+        ..MonitorConfig::default()
     })
     .err()
     .expect("a second monitor on the same port fails");
@@ -99,6 +58,7 @@ fn a_taken_port_is_a_clear_error() {
     let bad_hub = Monitor::start(&MonitorConfig {
         hub: "not an address".into(),
         bind: "127.0.0.1:0".into(),
+        ..MonitorConfig::default()
     })
     .err()
     .expect("a hub address that does not resolve fails");
@@ -145,4 +105,243 @@ fn the_monitor_joins_the_hub_as_a_client_and_stops_promptly() {
     // Shutdown ends the bridge and the server (it returning at all is the behaviour; the
     // bound only keeps a hang from stalling the suite).
     assert!(t0.elapsed() < Duration::from_secs(60), "{:?}", t0.elapsed());
+}
+
+/// The value of header `name` in a raw HTTP answer, if it is there.
+fn header<'a>(answer: &'a str, name: &str) -> Option<&'a str> {
+    let head = answer.split("\r\n\r\n").next().unwrap_or("");
+    head.lines().find_map(|l| {
+        let (n, v) = l.split_once(':')?;
+        n.eq_ignore_ascii_case(name).then(|| v.trim())
+    })
+}
+
+#[test]
+fn a_page_of_another_site_cannot_open_the_websocket() {
+    let hub = Hub::start();
+    let m = monitor(&hub);
+    let addr = m.local_addr();
+    let host = addr.to_string();
+    let path = with_token(&m, "/ws");
+    for origin in [
+        "http://evil.example",
+        "null",
+        &format!("http://{host}.evil.example"),
+    ] {
+        let refused = Ws::handshake(addr, &path, &host, Some(origin))
+            .err()
+            .unwrap_or_else(|| panic!("a WebSocket from {origin} was opened"));
+        assert!(
+            refused.starts_with("HTTP/1.1 403") && refused.contains("another site"),
+            "{refused}"
+        );
+    }
+    assert_eq!(m.refused(), 3);
+    // The monitor's own page, by any of its names; and a client that is no page (no Origin).
+    let port = addr.port();
+    for (host, origin) in [
+        (host.clone(), Some(format!("http://{host}"))),
+        (
+            format!("localhost:{port}"),
+            Some(format!("http://localhost:{port}")),
+        ),
+        (host.clone(), None),
+    ] {
+        let mut ws = Ws::handshake(addr, &path, &host, origin.as_deref())
+            .unwrap_or_else(|head| panic!("{host} {origin:?}: {head}"));
+        ws.until(Duration::from_secs(10), "a world snapshot", |v| {
+            v["t"] == "world"
+        });
+    }
+    m.shutdown().unwrap();
+}
+
+#[test]
+fn a_request_for_another_host_name_is_refused() {
+    let hub = Hub::start();
+    let m = monitor(&hub);
+    let addr = m.local_addr();
+    let page = with_token(&m, "/");
+    let port = addr.port();
+    // DNS rebinding: evil.example now points at 127.0.0.1, but the browser still says whose
+    // page it is loading.
+    for host in [
+        format!("evil.example:{port}"),
+        "127.0.0.1".into(),
+        format!("localhost:{}", port + 1),
+    ] {
+        for path in [page.as_str(), "/app.js"] {
+            let answer = request(
+                addr,
+                &format!("GET {path} HTTP/1.0\r\nHost: {host}\r\n\r\n"),
+            );
+            assert!(
+                answer.starts_with("HTTP/1.0 403") && answer.contains("own host names"),
+                "{host} {path}: {answer}"
+            );
+        }
+        let refused = Ws::handshake(addr, &with_token(&m, "/ws"), &host, None).err();
+        assert!(
+            refused.is_some_and(|r| r.starts_with("HTTP/1.1 403")),
+            "{host}"
+        );
+    }
+    let no_host = request(addr, &format!("GET {page} HTTP/1.0\r\n\r\n"));
+    assert!(no_host.starts_with("HTTP/1.0 403"), "{no_host}");
+    let absolute = request(
+        addr,
+        &format!(
+            "GET http://evil.example{page} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
+        ),
+    );
+    assert!(absolute.starts_with("HTTP/1.1 403"), "{absolute}");
+    assert_eq!(m.refused(), 11);
+    let ok = request(
+        addr,
+        &format!("GET {page} HTTP/1.0\r\nHost: localhost:{port}\r\n\r\n"),
+    );
+    assert!(ok.starts_with("HTTP/1.0 200"), "{ok:.300}");
+    m.shutdown().unwrap();
+
+    // A name given with --allow-host is the monitor's too.
+    let m = Monitor::start(&MonitorConfig {
+        hub: hub.addr.to_string(),
+        bind: "127.0.0.1:0".into(),
+        allow_hosts: vec!["robots.lab".into()],
+        ..MonitorConfig::default()
+    })
+    .unwrap();
+    let port = m.local_addr().port();
+    let answer = request(
+        m.local_addr(),
+        &format!(
+            "GET {} HTTP/1.0\r\nHost: robots.lab:{port}\r\n\r\n",
+            with_token(&m, "/")
+        ),
+    );
+    assert!(answer.starts_with("HTTP/1.0 200"), "{answer:.300}");
+    m.shutdown().unwrap();
+}
+
+#[test]
+fn the_pages_and_the_websocket_need_the_token_the_printed_address_carries() {
+    let hub = Hub::start();
+    let m = monitor(&hub);
+    let addr = m.local_addr();
+    let token = m.token().expect("a token by default").to_owned();
+    assert_eq!(token.len(), 32);
+    assert_eq!(m.url(), format!("http://{addr}/?token={token}"));
+    assert_eq!(
+        m.page_url("/game", "team=red"),
+        format!("http://{addr}/game?team=red&token={token}")
+    );
+    for path in [
+        "/",
+        "/game",
+        "/?token=",
+        "/?token=00000000000000000000000000000000",
+    ] {
+        let answer = get(addr, path);
+        assert!(
+            answer.starts_with("HTTP/1.0 403") && answer.contains("token"),
+            "{path}: {answer}"
+        );
+    }
+    let refused = Ws::handshake(addr, "/ws?view=game", &addr.to_string(), None).err();
+    assert!(refused.is_some_and(|r| r.starts_with("HTTP/1.1 403")));
+    // The scripts and styles hold no secret; the page that loads them needs the token.
+    assert!(get(addr, "/common.js").starts_with("HTTP/1.0 200"));
+    let path = m
+        .url()
+        .trim_start_matches(&format!("http://{addr}"))
+        .to_owned();
+    assert!(get(addr, &path).starts_with("HTTP/1.0 200"));
+    m.shutdown().unwrap();
+
+    let open = Monitor::start(&MonitorConfig {
+        hub: hub.addr.to_string(),
+        bind: "127.0.0.1:0".into(),
+        token: false,
+        ..MonitorConfig::default()
+    })
+    .unwrap();
+    assert_eq!(open.token(), None);
+    assert_eq!(open.url(), format!("http://{}/", open.local_addr()));
+    assert!(get(open.local_addr(), "/").starts_with("HTTP/1.0 200"));
+    open.shutdown().unwrap();
+
+    // Bound to every address, the printed address is one a browser may use.
+    let everywhere = Monitor::start(&MonitorConfig {
+        hub: hub.addr.to_string(),
+        bind: "0.0.0.0:0".into(),
+        ..MonitorConfig::default()
+    })
+    .unwrap();
+    let port = everywhere.local_addr().port();
+    let url = everywhere.url();
+    assert!(
+        url.starts_with(&format!("http://127.0.0.1:{port}/?token=")),
+        "{url}"
+    );
+    let loopback = std::net::SocketAddr::from(([127, 0, 0, 1], port));
+    let path = url.trim_start_matches(&format!("http://{loopback}"));
+    assert!(get(loopback, path).starts_with("HTTP/1.0 200"));
+    everywhere.shutdown().unwrap();
+}
+
+#[test]
+fn every_answer_carries_the_security_headers() {
+    let hub = Hub::start();
+    let m = monitor(&hub);
+    let addr = m.local_addr();
+    for answer in [
+        get(addr, &with_token(&m, "/")),
+        get(addr, "/app.js"),
+        get(addr, "/"),
+        request(addr, "GET /app.js HTTP/1.0\r\nHost: evil.example\r\n\r\n"),
+    ] {
+        assert_eq!(
+            header(&answer, "x-frame-options"),
+            Some("DENY"),
+            "{answer:.400}"
+        );
+        assert_eq!(
+            header(&answer, "content-security-policy"),
+            Some("frame-ancestors 'none'")
+        );
+        assert_eq!(header(&answer, "x-content-type-options"), Some("nosniff"));
+        assert_eq!(header(&answer, "referrer-policy"), Some("no-referrer"));
+    }
+    m.shutdown().unwrap();
+}
+
+/// Robot ids the monitor holds, from a world snapshot.
+fn held(world: &serde_json::Value) -> Vec<u64> {
+    world["held"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|v| v.as_u64()).collect())
+        .unwrap_or_default()
+}
+
+#[test]
+fn closing_the_page_that_took_robots_hands_them_back() {
+    let hub = Hub::start();
+    let m = monitor(&hub);
+    let addr = m.local_addr();
+    let path = with_token(&m, "/ws");
+    let mut watcher = Ws::connect(addr, &path);
+    let mut holder = Ws::connect(addr, &path);
+    holder.send(r#"{"t":"take","ids":[5,6]}"#);
+    let reply = holder.until(Duration::from_secs(10), "the reply", |v| v["t"] == "reply");
+    assert_eq!(reply["ok"], true, "{reply}");
+    watcher.until(Duration::from_secs(10), "robots 5 and 6 held", |v| {
+        v["t"] == "world" && held(v) == [5, 6]
+    });
+    // Another page coming and going leaves them held.
+    Ws::connect(addr, &path).close();
+    holder.close();
+    watcher.until(Duration::from_secs(10), "robots 5 and 6 handed back", |v| {
+        v["t"] == "world" && held(v).is_empty()
+    });
+    m.shutdown().unwrap();
 }

@@ -29,9 +29,21 @@ export const RETRY_MIN_MS = 500;
 export const RETRY_MAX_MS = 4000;
 
 /**
+ * `path` with the monitor's token added, as the page was given it (`?token=...`
+ * in its own address, as the monitor prints it): the server refuses the
+ * WebSocket and the pages without it, so another site cannot use them.
+ */
+export function withToken(path) {
+  const token = new URLSearchParams(location.search ?? '').get('token');
+  if (!token) return path;
+  return `${path}${path.includes('?') ? '&' : '?'}token=${encodeURIComponent(token)}`;
+}
+
+/**
  * One WebSocket to the monitor server at `path` (e.g. `/ws?view=game`), opened
  * again after every close with a doubling backoff (RETRY_MIN_MS to
- * RETRY_MAX_MS), so a restarted monitor finds its tabs back.
+ * RETRY_MAX_MS), so a monitor that comes back finds its tabs back (a new
+ * monitor has a new token: its tabs are refused until opened at its address).
  *
  * `onMessage(msg)` gets each message that parses as a JSON object (anything
  * else is dropped: the page has nothing to do with it); `onOpen()` and
@@ -53,7 +65,7 @@ export function serverLink(path, { onOpen = () => {}, onMessage, onClose = () =>
   };
   function connect() {
     const proto = location.protocol === 'https:' ? 'wss:' : 'ws:';
-    socket = new WebSocket(`${proto}//${location.host}${path}`);
+    socket = new WebSocket(`${proto}//${location.host}${withToken(path)}`);
     socket.onopen = () => {
       link.connected = true;
       retryMs = RETRY_MIN_MS;

@@ -8,7 +8,7 @@
 // console and for the browser tests. The socket, the view transform,
 // escaping and the banners are common.js's, shared with the monitor page.
 import {
-  $, Transform, drawText, esc, fitBacking, serverLink, showBanners, showChip, showMessage, tenth,
+  $, Transform, drawText, esc, fitBacking, serverLink, showBanners, showChip, showMessage, tenth, withToken,
 } from './common.js';
 
 const TEAM_COLOURS = { red: '#d63a2f', blue: '#2f6fd6', green: '#23a446', yellow: '#d6a21b' };
@@ -45,6 +45,9 @@ const api = {
   get formation() { return $('formation').value; },
 };
 window.colonyGame = api;
+
+// The system monitor's page needs the token too.
+$('monitor-link').href = withToken('/');
 
 // ---- the connection -------------------------------------------------------
 function connect() {

@@ -67,6 +67,7 @@ fn run_with_hub(
     let monitor = Monitor::start(&MonitorConfig {
         hub: hub_addr.to_string(),
         bind: args.monitor_bind.clone(),
+        ..MonitorConfig::default()
     })
     .map_err(|e| match e {
         colony_monitor::MonitorError::Bind { addr, source } => anyhow::anyhow!(

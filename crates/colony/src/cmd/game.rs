@@ -185,6 +185,7 @@ fn live(
             Monitor::start(&MonitorConfig {
                 hub: hub.to_string(),
                 bind: args.monitor_bind.clone(),
+                ..MonitorConfig::default()
             })
             .map_err(|e| match e {
                 colony_monitor::MonitorError::Bind { addr, source } => anyhow::anyhow!(
@@ -203,17 +204,19 @@ fn live(
     let running = LiveMatch::start(plan, hub, args.speed, &bots, stop)?;
     match &monitor {
         Some(m) => println!(
-            "colony game: {} on {} ({} x {} cells); open {}/game{} (hub {hub}); Ctrl-C stops",
+            "colony game: {} on {} ({} x {} cells); open {} (hub {hub}); Ctrl-C stops",
             plan.rules.mode,
             plan.map.display(),
             plan.field.grid.width(),
             plan.field.grid.height(),
-            m.url().trim_end_matches('/'),
-            if args.player == "none" {
-                String::new()
-            } else {
-                format!("?team={}", args.player)
-            }
+            m.page_url(
+                "/game",
+                &if args.player == "none" {
+                    String::new()
+                } else {
+                    format!("team={}", args.player)
+                }
+            ),
         ),
         None => println!(
             "colony game: {} running (hub {hub}); Ctrl-C stops",

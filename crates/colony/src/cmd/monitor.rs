@@ -15,6 +15,16 @@ pub struct Args {
     /// control of robots, so think before opening it to a network.
     #[arg(long, default_value = "127.0.0.1:8080", value_name = "HOST:PORT")]
     pub bind: String,
+    /// A host name the page may be opened by, besides the bound address,
+    /// localhost, 127.0.0.1 and [::1] (as through a tunnel or a proxy); with
+    /// no port, the monitor's. Requests naming any other host are refused, so
+    /// a web page cannot reach the monitor by DNS rebinding. Repeatable.
+    #[arg(long = "allow-host", value_name = "NAME")]
+    pub allow_host: Vec<String>,
+    /// Serve the pages without the random token the printed address carries:
+    /// then anyone who can reach the port may drive the robots.
+    #[arg(long)]
+    pub no_token: bool,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -22,6 +32,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let monitor = Monitor::start(&MonitorConfig {
         hub: args.hub.addr.clone(),
         bind: args.bind,
+        allow_hosts: args.allow_host,
+        token: !args.no_token,
     })?;
     println!(
         "colony monitor: {} (hub {}); Ctrl-C stops",

@@ -5,7 +5,12 @@
 //! the world lets the operator hold a robot while the others keep sorting
 //! ([`colony_proto::CommandHold`] is the world's side of that rule). "Take control of all" also
 //! raises the hub's minimum priority to that value once a status report has told the old one,
-//! and restores it on release.
+//! re-sends it every third of the hub's lease (the hub lets a raised minimum lapse after one
+//! lease, so a monitor that dies cannot hold the swarm forever), and restores it on release.
+//!
+//! Every hold belongs to the page that took it ([`PageId`]): when that page goes away (its
+//! WebSocket closes: a tab closed, a laptop asleep), what it held is released as if its operator
+//! had pressed release, so no robot stays stopped for an operator who is no longer there.
 
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
@@ -31,6 +36,16 @@ pub const MAX_HELD: usize = 1500;
 pub const MAX_COORD: f64 = 100_000.0;
 /// Robots sent to one point together are spread on a grid this wide (cm).
 const GOTO_SPACING_CM: f64 = 16.0;
+/// The hub's lease until a status report tells it (the hub's default).
+const DEFAULT_LEASE: Duration = Duration::from_secs(10);
+/// A raised minimum priority is refreshed at least this often, however long the lease.
+const MAX_REFRESH: Duration = Duration::from_secs(3);
+
+/// Which browser page (one WebSocket) asked for something: holds are that page's, and end
+/// with it. The web server numbers its connections; tests use any number.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct PageId(pub u64);
+
 /// Commands per radio packet (each line is about 40 bytes: well inside a datagram).
 const COMMANDS_PER_PACKET: usize = 1000;
 
@@ -66,7 +81,11 @@ enum MinPlan {
     /// Raise it once a status report has told the current value.
     WantRaise,
     /// Raised to the override priority; restore `previous` on release.
-    Raised { previous: Priority },
+    Raised {
+        previous: Priority,
+        /// When the raised value was last sent (it lapses at the hub after one lease).
+        sent: Instant,
+    },
     /// It was already at or above the override priority: leave it alone.
     AlreadyHigh,
 }
@@ -75,8 +94,13 @@ enum MinPlan {
 #[derive(Debug, Default)]
 pub struct Override {
     held: BTreeMap<u32, Mode>,
-    all: bool,
+    /// The page that took each held robot (the last one to take it).
+    holders: BTreeMap<u32, PageId>,
+    /// The page that pressed "take control of all", while it is in force.
+    all: Option<PageId>,
     min_plan: MinPlan,
+    /// The hub's lease, from its status reports.
+    lease: Option<Duration>,
     outbox: Vec<Request>,
 }
 
@@ -98,7 +122,12 @@ impl Override {
 
     /// Whether "take control of all" is in force.
     pub fn all_held(&self) -> bool {
-        self.all
+        self.all.is_some()
+    }
+
+    /// Which page holds robot `id`, if it is held.
+    pub fn holder(&self, id: u32) -> Option<PageId> {
+        self.holders.get(&id).copied()
     }
 
     /// Requests for the hub that the override wants sent (minimum priority).
@@ -113,35 +142,95 @@ impl Override {
 
     /// A new complete frame: while all are held, robots appearing in it are held too.
     pub(super) fn on_frame(&mut self, frame: &VisionFrame) {
-        if self.all {
-            self.hold_all(frame);
+        if let Some(page) = self.all {
+            self.hold_all(page, frame);
         }
     }
 
-    fn hold_all(&mut self, frame: &VisionFrame) {
+    fn hold_all(&mut self, page: PageId, frame: &VisionFrame) {
         for r in &frame.robots {
-            if self.held.len() < MAX_HELD {
-                self.held.entry(r.id).or_insert(Mode::Stop);
+            if self.held.len() < MAX_HELD && !self.held.contains_key(&r.id) {
+                self.held.insert(r.id, Mode::Stop);
+                self.holders.insert(r.id, page);
             }
         }
     }
 
-    /// The hub's minimum priority, from a status report: the step of "take control of all".
-    pub(super) fn on_min_priority(&mut self, min: Priority) {
+    /// The hub's minimum priority and lease, from a status report received at `now`: the step
+    /// of "take control of all".
+    pub(super) fn on_min_priority(&mut self, now: Instant, min: Priority, lease_ms: u64) {
+        if lease_ms > 0 {
+            self.lease = Some(Duration::from_millis(lease_ms));
+        }
         match self.min_plan {
             MinPlan::WantRaise if min.0 < OVERRIDE_PRIORITY => {
-                self.min_plan = MinPlan::Raised { previous: min };
+                self.min_plan = MinPlan::Raised {
+                    previous: min,
+                    sent: now,
+                };
                 self.outbox
                     .push(Request::MinPriority(Priority(OVERRIDE_PRIORITY)));
             }
             MinPlan::WantRaise => self.min_plan = MinPlan::AlreadyHigh,
-            // The hub restarted (or someone lowered it): raise it again.
-            MinPlan::Raised { .. } if min.0 < OVERRIDE_PRIORITY => {
+            // The hub restarted, the raise lapsed or someone lowered it: raise it again.
+            MinPlan::Raised { previous, .. } if min.0 < OVERRIDE_PRIORITY => {
+                self.min_plan = MinPlan::Raised {
+                    previous,
+                    sent: now,
+                };
                 self.outbox
                     .push(Request::MinPriority(Priority(OVERRIDE_PRIORITY)));
             }
             _ => {}
         }
+    }
+
+    /// How often a raised minimum priority is sent again: a third of the hub's lease (so one
+    /// lost request does not let it lapse), and at least every [`MAX_REFRESH`].
+    fn refresh_every(&self) -> Duration {
+        (self.lease.unwrap_or(DEFAULT_LEASE) / 3).min(MAX_REFRESH)
+    }
+
+    /// When [`poll`](Self::poll) next has something to do, if ever.
+    pub fn next_deadline(&self) -> Option<Instant> {
+        match self.min_plan {
+            MinPlan::Raised { sent, .. } => Some(sent + self.refresh_every()),
+            _ => None,
+        }
+    }
+
+    /// Time passes: a raised minimum priority is sent again when its refresh is due.
+    pub fn poll(&mut self, now: Instant) {
+        if let MinPlan::Raised { previous, sent } = self.min_plan {
+            if now >= sent + self.refresh_every() {
+                self.min_plan = MinPlan::Raised {
+                    previous,
+                    sent: now,
+                };
+                self.outbox
+                    .push(Request::MinPriority(Priority(OVERRIDE_PRIORITY)));
+            }
+        }
+    }
+
+    /// Page `page` went away: whatever it held is released as if it had pressed release
+    /// (and, if it took all, the hub's minimum priority is restored). Holds of other pages stay.
+    /// Returns how many robots were let go.
+    pub fn page_closed(&mut self, page: PageId) -> usize {
+        let mine: Vec<u32> = self
+            .holders
+            .iter()
+            .filter(|(_, p)| **p == page)
+            .map(|(id, _)| *id)
+            .collect();
+        for id in &mine {
+            self.held.remove(id);
+            self.holders.remove(id);
+        }
+        if self.all == Some(page) {
+            self.end_all();
+        }
+        mine.len()
     }
 
     fn select(&self, ids: &Option<Vec<u32>>) -> Vec<u32> {
@@ -155,10 +244,11 @@ impl Override {
         }
     }
 
-    /// Carries out an override request at `now`, `frame` being the newest world.
+    /// Carries out an override request from `page` at `now`, `frame` being the newest world.
     pub(super) fn apply(
         &mut self,
         now: Instant,
+        page: PageId,
         command: Command,
         frame: &VisionFrame,
     ) -> Result<String, CommandError> {
@@ -174,12 +264,14 @@ impl Override {
                         return Err(CommandError::TooMany);
                     }
                     self.held.entry(*id).or_insert(Mode::Stop);
+                    // Taking a robot another page holds makes it this page's.
+                    self.holders.insert(*id, page);
                 }
                 Ok(format!("holding {}", list(&ids)))
             }
             Command::TakeAll => {
-                self.all = true;
-                self.hold_all(frame);
+                self.all = Some(page);
+                self.hold_all(page, frame);
                 if matches!(self.min_plan, MinPlan::Idle) {
                     self.min_plan = MinPlan::WantRaise;
                 }
@@ -194,8 +286,9 @@ impl Override {
                     if self.held.remove(id).is_some() {
                         released.push(*id);
                     }
+                    self.holders.remove(id);
                 }
-                if self.held.is_empty() && self.all {
+                if self.held.is_empty() && self.all.is_some() {
                     self.release_all();
                 }
                 if released.is_empty() {
@@ -260,8 +353,15 @@ impl Override {
 
     fn release_all(&mut self) {
         self.held.clear();
-        self.all = false;
-        if let MinPlan::Raised { previous } = self.min_plan {
+        self.holders.clear();
+        self.end_all();
+    }
+
+    /// "Take control of all" ends: new robots are no longer held, and the hub's minimum
+    /// priority goes back to what it was.
+    fn end_all(&mut self) {
+        self.all = None;
+        if let MinPlan::Raised { previous, .. } = self.min_plan {
             self.outbox.push(Request::MinPriority(previous));
         }
         self.min_plan = MinPlan::Idle;
@@ -313,7 +413,7 @@ impl Override {
     pub(super) fn json(&self) -> OverrideJson {
         OverrideJson {
             held: self.held.keys().copied().collect(),
-            all: self.all,
+            all: self.all.is_some(),
             min_raised: matches!(self.min_plan, MinPlan::Raised { .. }),
             targets: self
                 .held
