@@ -1,6 +1,7 @@
 // Shared by the browser tests and the screenshot script: the real colony
 // processes (hub, live simulator, monitor) and Debian's headless Chromium.
 import { spawn, execFile } from 'node:child_process';
+import crypto from 'node:crypto';
 import dgram from 'node:dgram';
 import fs from 'node:fs';
 import net from 'node:net';
@@ -103,10 +104,24 @@ export class ColonyProcess {
   }
 }
 
+/**
+ * The key the tests' hubs and monitors share, so the monitor's override may
+ * raise the hub's minimum priority (the hub takes that from a console only).
+ */
+let keyFile;
+function sharedKey() {
+  if (!keyFile) {
+    const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'colony-key-'));
+    keyFile = path.join(dir, 'colony.key');
+    fs.writeFileSync(keyFile, crypto.randomBytes(32).toString('hex') + '\n', { mode: 0o600 });
+  }
+  return keyFile;
+}
+
 /** `colony hub` on a loopback port (a free one unless given). */
 export async function startHub(port) {
   const p = port ?? (await freeUdpPort());
-  const hub = new ColonyProcess('hub', ['hub', '--bind', `127.0.0.1:${p}`]);
+  const hub = new ColonyProcess('hub', ['hub', '--bind', `127.0.0.1:${p}`, '--key', sharedKey()]);
   await hub.waitFor(/addr=/);
   hub.addr = `127.0.0.1:${p}`;
   hub.port = p;
@@ -118,7 +133,7 @@ export async function startHub(port) {
  * the URL it prints (with its token: the page needs it).
  */
 export async function startMonitor(hubAddr, name = 'monitor') {
-  const m = new ColonyProcess(name, ['monitor', '--hub', hubAddr, '--bind', '127.0.0.1:0']);
+  const m = new ColonyProcess(name, ['monitor', '--hub', hubAddr, '--bind', '127.0.0.1:0', '--key', sharedKey()]);
   const [, url] = await m.waitFor(/(http:\/\/127\.0\.0\.1:\d+\/\?token=[0-9a-f]{32})\s/);
   m.url = url;
   return m;

@@ -79,10 +79,17 @@ pub struct Handles {
 }
 
 impl Bridge {
-    /// Makes both clients for the hub at `hub` (nothing is sent yet).
-    pub fn connect(hub: SocketAddr) -> Result<(Bridge, Handles), colony_client::ClientError> {
+    /// Makes both clients for the hub at `hub` (nothing is sent yet); the
+    /// control client signs with `key`, if given, to act as a console.
+    pub fn connect(
+        hub: SocketAddr,
+        key: Option<colony_wire::auth::Key>,
+    ) -> Result<(Bridge, Handles), colony_client::ClientError> {
         let data = UdpClient::connect(hub)?;
-        let control = UdpClient::connect(hub)?;
+        let mut control = UdpClient::connect(hub)?;
+        if let Some(key) = key {
+            control.set_key(key);
+        }
         let now = Instant::now();
         let wall = SystemTime::now()
             .duration_since(UNIX_EPOCH)

@@ -64,6 +64,9 @@ pub struct MonitorConfig {
     /// carries. Off only where every user of every browser that can reach the port may drive
     /// the robots.
     pub token: bool,
+    /// The hub's shared key: the monitor signs what it sends with it, so a
+    /// hub started with `--key` takes its operator requests (`min_priority`).
+    pub key: Option<colony_wire::auth::Key>,
 }
 
 impl Default for MonitorConfig {
@@ -73,6 +76,7 @@ impl Default for MonitorConfig {
             bind: "127.0.0.1:8080".into(),
             allow_hosts: Vec::new(),
             token: true,
+            key: None,
         }
     }
 }
@@ -153,7 +157,7 @@ impl Monitor {
             .thread_name("monitor-web")
             .enable_all()
             .build()?;
-        let (bridge, handles) = Bridge::connect(hub)?;
+        let (bridge, handles) = Bridge::connect(hub, config.key.clone())?;
         let stop = Arc::new(AtomicBool::new(false));
         let (requests, requests_rx) = sync_channel(REQUEST_QUEUE);
         let (closed, closed_rx) = channel();

@@ -43,14 +43,19 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let deadline = super::deadline("--seconds", args.seconds)?;
     let stop = super::stop_flag()?;
-    let hub = HubSite::here_or_elsewhere(None, &HubSpec::new(args.hub_bind.as_str()), &stop)
+    // The demo's hub takes operator requests from the demo's monitor alone:
+    // they share a key made for this run.
+    let key = one_run_key();
+    let mut spec = HubSpec::new(args.hub_bind.as_str());
+    spec.config.key = Some(key.clone());
+    let hub = HubSite::here_or_elsewhere(None, &spec, &stop)
         .map_err(|e| match e {
             StartError::Bind { addr, source } => anyhow::Error::new(source).context(format!(
                 "cannot start the demo's hub on `{addr}` (is a hub already running there? choose another port with --hub-bind)"
             )),
             e => e.into(),
         })?;
-    let result = run_with_hub(&args, &hub.addr(), &stop, deadline);
+    let result = run_with_hub(&args, &hub.addr(), key, &stop, deadline);
     let hub_result = hub.stop();
     result?;
     hub_result.context("the demo's hub failed")?;
@@ -58,15 +63,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// A random key, 256 bits written as hex, that lives as long as this process.
+fn one_run_key() -> colony_wire::auth::Key {
+    let bytes: [u8; 32] = rand::random();
+    let hex: String = bytes.iter().map(|b| format!("{b:02x}")).collect();
+    colony_wire::auth::Key::new(hex.as_bytes()).expect("64 hex digits make a key")
+}
+
 fn run_with_hub(
     args: &Args,
     hub_addr: &str,
+    key: colony_wire::auth::Key,
     stop: &Arc<AtomicBool>,
     deadline: Option<Instant>,
 ) -> anyhow::Result<()> {
     let monitor = Monitor::start(&MonitorConfig {
         hub: hub_addr.to_string(),
         bind: args.monitor_bind.clone(),
+        key: Some(key),
         ..MonitorConfig::default()
     })
     .map_err(|e| match e {

@@ -25,6 +25,10 @@ pub struct Args {
     /// then anyone who can reach the port may drive the robots.
     #[arg(long)]
     pub no_token: bool,
+    /// The hub's shared key (`colony hub --key FILE`): the monitor signs its
+    /// operator requests with it, so the hub takes them as a console's.
+    #[arg(long, value_name = "FILE")]
+    pub key: Option<std::path::PathBuf>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -34,6 +38,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bind: args.bind,
         allow_hosts: args.allow_host,
         token: !args.no_token,
+        key: args.key.as_deref().map(super::read_key).transpose()?,
     })?;
     println!(
         "colony monitor: {} (hub {}); Ctrl-C stops",
