@@ -62,7 +62,8 @@ fn a_cookie_from_the_hub_has_everything_asked_again_at_once_with_it() {
     drain(&mut s);
     let t1 = t0 + Duration::from_millis(5);
     let cookie = Cookie(0xfeed_beef_0000_0001);
-    s.handle_datagram(t1, &Reply::cookie_packet(cookie)).unwrap();
+    s.handle_datagram(t1, &Reply::cookie_packet(cookie))
+        .unwrap();
     assert_eq!(s.cookie(), Some(cookie));
     let again: Vec<Vec<Request>> = std::iter::from_fn(|| s.poll_transmit())
         .map(|d| Request::parse_all(&Packet::parse(&d).unwrap()).unwrap())
@@ -70,18 +71,23 @@ fn a_cookie_from_the_hub_has_everything_asked_again_at_once_with_it() {
     assert_eq!(
         again,
         [
-            vec![Request::Cookie(cookie), Request::Subscribe(subject("vision"))],
+            vec![
+                Request::Cookie(cookie),
+                Request::Subscribe(subject("vision"))
+            ],
             vec![Request::Cookie(cookie), Request::Status],
         ]
     );
     // The same cookie again (the hub refused it for a reason of its own) is no loop.
-    s.handle_datagram(t1, &Reply::cookie_packet(cookie)).unwrap();
+    s.handle_datagram(t1, &Reply::cookie_packet(cookie))
+        .unwrap();
     assert!(s.poll_transmit().is_none());
     // A request made long before a cookie arrives is not repeated.
     s.request(&[Request::UnsubscribeAll]);
     drain(&mut s);
     let late = t1 + Duration::from_secs(10);
-    s.handle_datagram(late, &Reply::cookie_packet(Cookie(7))).unwrap();
+    s.handle_datagram(late, &Reply::cookie_packet(Cookie(7)))
+        .unwrap();
     assert!(drain(&mut s).iter().all(|r| *r != Request::UnsubscribeAll));
 }
 

@@ -60,7 +60,8 @@ fn hub_replies_are_taken_in_and_not_returned_as_data() {
 #[test]
 fn a_cookie_from_the_hub_is_sent_back_with_the_subscription_at_once() {
     let (hub, mut client, addr) = fake_hub();
-    hub.send_to(b"@ <hub> 0\ncookie v 00000000c00c1e5a\n", addr).unwrap();
+    hub.send_to(b"@ <hub> 0\ncookie v 00000000c00c1e5a\n", addr)
+        .unwrap();
     hub.send_to(b"@ <vision> 0\nball x 1\n", addr).unwrap();
     recv_all(&mut client, 1);
     let mut buf = [0u8; 2048];

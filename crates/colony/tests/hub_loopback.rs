@@ -48,7 +48,11 @@ fn fan_out_to_50_subscribers_loses_nothing_at_a_moderate_rate() {
 }
 
 /// A key file for a hub's consoles, kept for the test's length.
-fn key_file() -> (tempfile::TempDir, std::path::PathBuf, colony_wire::auth::Key) {
+fn key_file() -> (
+    tempfile::TempDir,
+    std::path::PathBuf,
+    colony_wire::auth::Key,
+) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("colony.key");
     let bytes = b"a console key for the loopback tests\n";
@@ -67,7 +71,10 @@ fn console_request(console: &mut colony_client::UdpClient, requests: &[Request])
             .unwrap();
         console.recv_reply().unwrap();
     }
-    assert!(console.session().cookie().is_some(), "no cookie from the hub");
+    assert!(
+        console.session().cookie().is_some(),
+        "no cookie from the hub"
+    );
     std::thread::sleep(Duration::from_millis(50));
 }
 
@@ -126,9 +133,14 @@ fn a_min_priority_from_a_process_that_is_no_console_silences_nobody() {
         !g.is_empty()
     });
     assert_eq!(got, ["@ <radio> 0\ncmd from \"ai\"\n"]);
-    let report = colony_client::status::fetch_status(&hub.addr.to_string(), Duration::from_secs(30)).unwrap();
+    let report =
+        colony_client::status::fetch_status(&hub.addr.to_string(), Duration::from_secs(30))
+            .unwrap();
     assert!(
-        report.drops.iter().any(|(r, n)| r == "not_console" && *n >= 1),
+        report
+            .drops
+            .iter()
+            .any(|(r, n)| r == "not_console" && *n >= 1),
         "{:?}",
         report.drops
     );

@@ -155,8 +155,19 @@ mod tests {
         assert!(!v6.contains(&addr("10.0.0.1:9")));
         let mapped: Cidr = "10.0.0.0/8".parse().unwrap();
         assert!(mapped.contains(&addr("[::ffff:10.0.0.1]:9")));
-        assert!("0.0.0.0/0".parse::<Cidr>().unwrap().contains(&addr("8.8.8.8:53")));
-        for bad in ["", "10.0.0.0/33", "10.0.0/8", "host", "::1/129", "1.2.3.4/-1", "1.2.3.4:99999"] {
+        assert!("0.0.0.0/0"
+            .parse::<Cidr>()
+            .unwrap()
+            .contains(&addr("8.8.8.8:53")));
+        for bad in [
+            "",
+            "10.0.0.0/33",
+            "10.0.0/8",
+            "host",
+            "::1/129",
+            "1.2.3.4/-1",
+            "1.2.3.4:99999",
+        ] {
             assert!(bad.parse::<Cidr>().is_err(), "{bad} was read");
         }
     }
@@ -164,7 +175,14 @@ mod tests {
     #[test]
     fn the_hub_itself_and_unreachable_sources_are_no_clients() {
         let local = addr("127.0.0.1:7400");
-        for s in ["127.0.0.1:7400", "127.0.0.2:7400", "127.0.0.1:0", "0.0.0.0:5000", "224.0.0.1:5000", "255.255.255.255:5000"] {
+        for s in [
+            "127.0.0.1:7400",
+            "127.0.0.2:7400",
+            "127.0.0.1:0",
+            "0.0.0.0:5000",
+            "224.0.0.1:5000",
+            "255.255.255.255:5000",
+        ] {
             assert!(is_bad_source(&addr(s), Some(&local)), "{s}");
         }
         for s in ["127.0.0.1:7401", "192.168.1.7:7400", "10.0.0.1:5000"] {

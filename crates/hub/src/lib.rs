@@ -20,8 +20,8 @@ mod cookie;
 mod counters;
 mod local;
 pub mod log;
-pub mod replay;
 mod rate;
+pub mod replay;
 mod routing;
 mod server;
 

@@ -82,6 +82,9 @@ mod tests {
             .map(|p| SocketAddr::new(a.ip(), 2000 + p))
             .filter(|b| t.take(b, t0 + Duration::from_millis(500)))
             .count();
-        assert!(others >= 45, "other sources keep their own buckets: {others}");
+        assert!(
+            others >= 45,
+            "other sources keep their own buckets: {others}"
+        );
     }
 }

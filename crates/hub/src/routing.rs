@@ -234,7 +234,8 @@ impl Hub {
             return Ok((data, Proof::None));
         }
         let signed = key.verify(data).map_err(|_| DropReason::BadAuth)?;
-        let wall = auth::unix_micros(self.wall_at_start + now.saturating_duration_since(self.started));
+        let wall =
+            auth::unix_micros(self.wall_at_start + now.saturating_duration_since(self.started));
         let window = self.config.auth_window.as_micros() as u64;
         if signed.n.abs_diff(wall) > window {
             return Err(DropReason::BadAuth);
@@ -358,8 +359,7 @@ impl Hub {
     /// signed with the key. A raised minimum lasts one lease unless renewed,
     /// so a console that dies hands the robots back.
     fn set_min_priority(&mut self, now: Instant, src: SocketAddr, p: Priority, proof: Proof) {
-        let console =
-            proof == Proof::Key || self.config.consoles.iter().any(|c| c.contains(&src));
+        let console = proof == Proof::Key || self.config.consoles.iter().any(|c| c.contains(&src));
         if !console {
             self.counters.drop(DropReason::NotConsole, 1);
             self.log_operator(now, src, "minimum priority refused: not a console");
@@ -374,7 +374,10 @@ impl Hub {
 
     fn lapse_min_priority(&mut self, now: Instant) {
         if self.min_priority_until.is_some_and(|t| t <= now) {
-            tracing::info!(min_priority = self.min_priority.0, "minimum priority lapsed: its console did not renew it");
+            tracing::info!(
+                min_priority = self.min_priority.0,
+                "minimum priority lapsed: its console did not renew it"
+            );
             self.min_priority = Priority(i32::MIN);
             self.min_priority_until = None;
         }
@@ -383,7 +386,10 @@ impl Hub {
     /// Logs an operator action, at most once a second: a flood of requests
     /// must not become a flood of log lines.
     fn log_operator(&mut self, now: Instant, src: SocketAddr, what: &str) {
-        if self.last_log.is_some_and(|t| now.duration_since(t) < Duration::from_secs(1)) {
+        if self
+            .last_log
+            .is_some_and(|t| now.duration_since(t) < Duration::from_secs(1))
+        {
             self.quiet_logs += 1;
             return;
         }
@@ -462,14 +468,17 @@ impl Hub {
     }
 
     fn status_request(&mut self, now: Instant, src: SocketAddr) {
-        let fresh = self
-            .status_cache
-            .as_ref()
-            .is_some_and(|(at, _)| now.saturating_duration_since(*at) < self.config.status_interval);
+        let fresh = self.status_cache.as_ref().is_some_and(|(at, _)| {
+            now.saturating_duration_since(*at) < self.config.status_interval
+        });
         if !fresh {
             self.status_cache = Some((now, self.status(now).to_packet()));
         }
-        let payload = self.status_cache.as_ref().map(|(_, p)| p.clone()).unwrap_or_default();
+        let payload = self
+            .status_cache
+            .as_ref()
+            .map(|(_, p)| p.clone())
+            .unwrap_or_default();
         self.replies.push_back(Transmit { dest: src, payload });
     }
 

@@ -54,7 +54,12 @@ fn a_subscribe_forged_from_the_hubs_own_address_subscribes_nothing_and_is_not_an
     let now = Instant::now();
     let mut hub = hub_with(HubConfig::default(), now);
     let forged = format!("@ <hub> 0\ncookie v {}\nsubscribe ch loop\n", Cookie::NONE);
-    for src in [addr(HUB), SocketAddr::from(([127, 0, 0, 2], HUB)), addr(0), "255.255.255.255:9".parse().unwrap()] {
+    for src in [
+        addr(HUB),
+        SocketAddr::from(([127, 0, 0, 2], HUB)),
+        addr(0),
+        "255.255.255.255:9".parse().unwrap(),
+    ] {
         assert_eq!(
             hub.handle(now, src, forged.as_bytes()),
             Outcome::Dropped(DropReason::BadSource)
@@ -86,7 +91,12 @@ fn a_forged_subscribe_sends_the_victim_at_most_one_cookie_no_larger_than_the_req
         assert!(sent.len() <= 1);
         for (dest, payload) in sent {
             assert_eq!(dest, victim);
-            assert!(payload.len() <= request.len(), "{} > {}", payload.len(), request.len());
+            assert!(
+                payload.len() <= request.len(),
+                "{} > {}",
+                payload.len(),
+                request.len()
+            );
             let p = Packet::parse(&payload).unwrap();
             assert!(matches!(Reply::parse(&p), Some(Ok(Reply::Cookie(_)))));
         }
@@ -106,7 +116,10 @@ fn a_client_already_leased_cannot_be_given_more_streams_by_a_forger() {
     hub.handle(now, victim, b"@ <hub> 0\nsubscribe ch video\n");
     assert!(forwarded(&mut hub, now, addr(9), b"@ <video> 0\nframe n 1\n").is_empty());
     hub.handle(now, victim, b"@ <hub> 0\nunsubscribe_all\n");
-    assert_eq!(forwarded(&mut hub, now, addr(9), b"@ <small> 0\nx a 1\n"), [victim]);
+    assert_eq!(
+        forwarded(&mut hub, now, addr(9), b"@ <small> 0\nx a 1\n"),
+        [victim]
+    );
 }
 
 fn console_hub(now: Instant) -> Hub {
@@ -127,10 +140,20 @@ fn min_priority_from_a_source_that_is_no_console_is_refused_and_counted() {
     join(&mut hub, now, addr(1), "subscribe ch radio\n");
     join(&mut hub, now, addr(6666), "min_priority value 2147483647\n");
     assert_eq!(hub.drops(DropReason::NotConsole), 1);
-    assert_eq!(forwarded(&mut hub, now, addr(9), b"@ <radio> 0\ncmd id 1\n"), [addr(1)]);
+    assert_eq!(
+        forwarded(&mut hub, now, addr(9), b"@ <radio> 0\ncmd id 1\n"),
+        [addr(1)]
+    );
     // Nor from the console's address without its cookie (forged).
-    hub.handle(now, addr(7000), b"@ <hub> 0\nmin_priority value 2147483647\n");
-    assert_eq!(forwarded(&mut hub, now, addr(9), b"@ <radio> 0\ncmd id 1\n"), [addr(1)]);
+    hub.handle(
+        now,
+        addr(7000),
+        b"@ <hub> 0\nmin_priority value 2147483647\n",
+    );
+    assert_eq!(
+        forwarded(&mut hub, now, addr(9), b"@ <radio> 0\ncmd id 1\n"),
+        [addr(1)]
+    );
     let report = hub.status(now);
     assert!(report.drops.contains(&("not_console".to_owned(), 1)));
 }
@@ -159,7 +182,10 @@ fn a_consoles_raised_minimum_lapses_after_its_lease_unless_renewed() {
     hub.handle_timeout(t3);
     assert_eq!(hub.min_priority().0, i32::MIN);
     join(&mut hub, t3, addr(1), "subscribe ch radio\n"); // its own lease, renewed
-    assert_eq!(forwarded(&mut hub, t3, addr(9), b"@ <radio> 0\ncmd id 1\n"), [addr(1)]);
+    assert_eq!(
+        forwarded(&mut hub, t3, addr(9), b"@ <radio> 0\ncmd id 1\n"),
+        [addr(1)]
+    );
 }
 
 fn key() -> Key {
@@ -190,15 +216,27 @@ fn a_signed_request_makes_any_address_a_console_once_and_only_once() {
     hub.handle(now, console, &request);
     assert_eq!(hub.min_priority().0, 3);
     // The same packet again is a replay.
-    hub.handle(now, console, &signed("min_priority value -2147483648\n", cookie, n));
+    hub.handle(
+        now,
+        console,
+        &signed("min_priority value -2147483648\n", cookie, n),
+    );
     assert_eq!(hub.drops(DropReason::BadAuth), 1);
     assert_eq!(hub.min_priority().0, 3);
     // A wrong key, or a counter far from the clock, is refused.
     let mut forged = format!("@ <hub> 0\ncookie v {cookie}\nmin_priority value 9\n").into_bytes();
-    Key::new(b"not the lab's key, but long enough").unwrap().sign(&mut forged, n + 1);
-    assert_eq!(hub.handle(now, console, &forged), Outcome::Dropped(DropReason::BadAuth));
+    Key::new(b"not the lab's key, but long enough")
+        .unwrap()
+        .sign(&mut forged, n + 1);
+    assert_eq!(
+        hub.handle(now, console, &forged),
+        Outcome::Dropped(DropReason::BadAuth)
+    );
     let stale = signed("min_priority value 9\n", cookie, n - 3_600_000_000);
-    assert_eq!(hub.handle(now, console, &stale), Outcome::Dropped(DropReason::BadAuth));
+    assert_eq!(
+        hub.handle(now, console, &stale),
+        Outcome::Dropped(DropReason::BadAuth)
+    );
     assert_eq!(hub.min_priority().0, 3);
     // Unsigned, the same address is no console.
     join(&mut hub, now, console, "min_priority value 9\n");
@@ -206,7 +244,8 @@ fn a_signed_request_makes_any_address_a_console_once_and_only_once() {
 }
 
 #[test]
-fn with_every_packet_authenticated_an_unsigned_publish_is_dropped_and_a_signed_one_forwarded_bare() {
+fn with_every_packet_authenticated_an_unsigned_publish_is_dropped_and_a_signed_one_forwarded_bare()
+{
     let now = Instant::now();
     let mut hub = hub_with(
         HubConfig {
@@ -284,7 +323,10 @@ fn a_table_full_of_idle_clients_makes_room_and_one_in_use_keeps_its_place() {
     join(&mut hub, t1, addr(1), "subscribe ch x\n");
     let dests = forwarded(&mut hub, t1, addr(9), b"@ <x> 0\nx a 1\n");
     assert!(dests.contains(&addr(1)), "the newcomer got in");
-    assert!(dests.contains(&addr(100)), "the client in use kept its place");
+    assert!(
+        dests.contains(&addr(100)),
+        "the client in use kept its place"
+    );
     assert_eq!(hub.client_count(), 8);
     // A table of clients all heard within the second turns newcomers away.
     for port in 100..108 {
@@ -305,7 +347,10 @@ fn control_requests_beyond_a_sources_rate_are_dropped_and_counted() {
         hub.handle(now, addr(3), flood.as_bytes());
     }
     let cookies = replies(&mut hub).len() as f64;
-    assert!(cookies <= HubConfig::default().control_burst, "{cookies} cookies");
+    assert!(
+        cookies <= HubConfig::default().control_burst,
+        "{cookies} cookies"
+    );
     assert!(hub.drops(DropReason::RateLimited) >= 9_000);
     // Other sources are not held back by it.
     join(&mut hub, now, addr(4), "subscribe ch x\n");
@@ -316,7 +361,9 @@ fn control_requests_beyond_a_sources_rate_are_dropped_and_counted() {
 fn status_with_4096_clients_of_256_subscriptions_costs_one_datagram_of_work() {
     let now = Instant::now();
     let mut hub = hub_with(HubConfig::default(), now);
-    let subs: String = (0..256).map(|i| format!("subscribe ch channel_{i:03}\n")).collect();
+    let subs: String = (0..256)
+        .map(|i| format!("subscribe ch channel_{i:03}\n"))
+        .collect();
     for port in 0..4096u16 {
         join(&mut hub, now, addr(20_000 + port), &subs);
     }

@@ -31,7 +31,10 @@ fn control(hub: &mut Hub, now: Instant, who: SocketAddr, lines: &str) {
 }
 
 fn subscribe(hub: &mut Hub, now: Instant, who: SocketAddr, subjects: &[&str]) {
-    let lines: String = subjects.iter().map(|s| format!("subscribe ch {s}\n")).collect();
+    let lines: String = subjects
+        .iter()
+        .map(|s| format!("subscribe ch {s}\n"))
+        .collect();
     control(hub, now, who, &lines);
 }
 
@@ -270,7 +273,10 @@ fn status_is_answered_only_to_a_source_that_returned_its_cookie() {
     // A cookie is good for its own address only.
     hub.handle(now, addr(6), ask.as_bytes());
     let r = replies(&mut hub);
-    assert!(r.iter().all(|(_, p)| p.len() <= ask.len()), "a cookie at most");
+    assert!(
+        r.iter().all(|(_, p)| p.len() <= ask.len()),
+        "a cookie at most"
+    );
     assert_eq!(hub.drops(DropReason::BadCookie), 1);
 }
 
@@ -306,12 +312,18 @@ fn status_requests_within_the_interval_are_served_from_one_report() {
     }
     let again = replies(&mut hub);
     assert_eq!(again.len(), 10, "each verified request is answered");
-    assert!(again.iter().all(|r| r.1 == first[0].1), "from the one report");
+    assert!(
+        again.iter().all(|r| r.1 == first[0].1),
+        "from the one report"
+    );
     let later = now + Duration::from_millis(150);
     hub.handle(later, addr(1), ask.as_bytes());
     let r = replies(&mut hub);
     let report = StatusReport::from_packet(&Packet::parse(&r[0].1).unwrap()).unwrap();
-    assert_eq!(report.client_count, 2, "a new report once the interval passed");
+    assert_eq!(
+        report.client_count, 2,
+        "a new report once the interval passed"
+    );
 }
 
 #[test]

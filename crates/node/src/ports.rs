@@ -94,7 +94,8 @@ impl Ports {
         // Any instant will do: the hub and the sessions only compare instants
         // and subtract them, so results do not depend on when the bus was made.
         let epoch = Instant::now();
-        hub.consoles.push(Cidr::host(CONSOLE.ip(), Some(CONSOLE.port())));
+        hub.consoles
+            .push(Cidr::host(CONSOLE.ip(), Some(CONSOLE.port())));
         Ports {
             hub: Hub::new(hub, epoch),
             epoch,

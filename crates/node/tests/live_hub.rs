@@ -234,10 +234,15 @@ fn two_nodes_on_one_mio_loop_talk_through_the_hub_and_obey_its_minimum_priority(
     // The hub answers a new address with a cookie; the client asks again with it.
     let asked = Instant::now();
     while console.session().cookie().is_none() && asked.elapsed() < LIMIT {
-        console.wait(Some(Instant::now() + Duration::from_millis(50))).unwrap();
+        console
+            .wait(Some(Instant::now() + Duration::from_millis(50)))
+            .unwrap();
         console.recv_reply().unwrap();
     }
-    assert!(console.session().cookie().is_some(), "the hub sent a cookie");
+    assert!(
+        console.session().cookie().is_some(),
+        "the hub sent a cookie"
+    );
     // Let what was under way before the request arrive.
     until(&mut mux, u32::MAX, Duration::from_millis(200));
     let before = pongs.load(Ordering::Relaxed);

@@ -88,8 +88,8 @@ impl Key {
     }
 
     fn mac(&self, signed: &[u8]) -> [u8; 32] {
-        let mut mac = <Hmac<Sha256> as Mac>::new_from_slice(&self.0)
-            .expect("HMAC takes a key of any length");
+        let mut mac =
+            <Hmac<Sha256> as Mac>::new_from_slice(&self.0).expect("HMAC takes a key of any length");
         mac.update(signed);
         mac.finalize().into_bytes().into()
     }
@@ -267,7 +267,10 @@ mod tests {
         let signed = key().verify(&p).unwrap();
         assert_eq!(signed.body, &body[..]);
         assert_eq!(signed.n, 42);
-        assert!(crate::Packet::parse(&p).is_ok(), "the auth line is a line of the format");
+        assert!(
+            crate::Packet::parse(&p).is_ok(),
+            "the auth line is a line of the format"
+        );
         assert_eq!(strip_auth(&p), Some(&body[..]));
     }
 
@@ -296,7 +299,10 @@ mod tests {
         for i in 0..p.len() {
             let mut bad = p.clone();
             bad[i] ^= 0x01;
-            assert!(key().verify(&bad).is_err(), "byte {i} flipped still verified");
+            assert!(
+                key().verify(&bad).is_err(),
+                "byte {i} flipped still verified"
+            );
         }
         let other = Key::new(b"another key, 16 bytes or more").unwrap();
         assert_eq!(other.verify(&p), Err(AuthError::WrongMac));

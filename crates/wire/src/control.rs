@@ -178,11 +178,11 @@ impl Request {
                         })?;
                         Request::MinPriority(Priority(v))
                     }
-                    "cookie" => Request::Cookie(
-                        Cookie::parse(&line.str("v")?).ok_or(ControlError::BadCookie {
+                    "cookie" => Request::Cookie(Cookie::parse(&line.str("v")?).ok_or(
+                        ControlError::BadCookie {
                             line: line.number(),
-                        })?,
-                    ),
+                        },
+                    )?),
                     other => {
                         return Err(ControlError::Unknown {
                             label: other.to_owned(),

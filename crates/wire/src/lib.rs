@@ -32,7 +32,8 @@ mod subject;
 
 pub use build::{write_quoted, write_token_or_quoted, LineBuilder, PacketBuilder, WireValue};
 pub use control::{
-    hub_packet, ChannelInfo, ClientInfo, ControlError, Cookie, Reply, Request, StatusReport, HUB_SUBJECT,
+    hub_packet, ChannelInfo, ClientInfo, ControlError, Cookie, Reply, Request, StatusReport,
+    HUB_SUBJECT,
 };
 pub use error::{ErrorKind, FieldError, FieldErrorKind, ParseError};
 pub use packet::{Field, Fields, Group, Line, Lines, Packet, Quoted, Subjects, Value};

@@ -1,8 +1,8 @@
 //! Hub control requests and replies: parse, write, round-trip, errors.
 
 use colony_wire::{
-    ChannelInfo, ClientInfo, ControlError, Cookie, FieldError, FieldErrorKind, Packet, Priority, Reply,
-    Request, StatusReport, Subject, HUB_SUBJECT, MAX_PACKET,
+    ChannelInfo, ClientInfo, ControlError, Cookie, FieldError, FieldErrorKind, Packet, Priority,
+    Reply, Request, StatusReport, Subject, HUB_SUBJECT, MAX_PACKET,
 };
 
 fn requests(text: &str) -> Result<Vec<Request>, ControlError> {
@@ -110,7 +110,13 @@ fn cookies_are_sixteen_hex_digits_and_round_trip() {
         Request::parse_all(&Packet::parse(&bytes).unwrap()).unwrap(),
         all
     );
-    for bad in ["123", "0123456789ABCDEF", "0123456789abcdefa", "g123456789abcdef", "\"\""] {
+    for bad in [
+        "123",
+        "0123456789ABCDEF",
+        "0123456789abcdefa",
+        "g123456789abcdef",
+        "\"\"",
+    ] {
         let text = format!("@ <hub> 0\ncookie v {bad}\n");
         assert_eq!(
             requests(&text).unwrap_err(),
