@@ -180,7 +180,8 @@ impl Bus {
 
     /// Sets the hub's minimum priority, as a console does with `min_priority`:
     /// from now on, packets below `p` are dropped (and counted under
-    /// [`DropReason::BelowMinPriority`]).
+    /// [`DropReason::BelowMinPriority`]) for one lease, as on a live hub; call
+    /// it again within the lease to keep it.
     pub fn set_min_priority(&mut self, p: Priority) {
         self.ports.console(self.now, &[Request::MinPriority(p)]);
     }
