@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
 use colony_hub::{DropReason, HubConfig, Server};
-use colony_wire::{Packet, Reply, Request, Subject};
+use colony_wire::{Cookie, Packet, Reply, Request, Subject};
 
 use crate::sys;
 
@@ -75,24 +75,36 @@ impl HubThread {
     }
 }
 
-/// Subscribes a UDP socket (connected to the hub) to `channel` and waits for the lease.
-/// Leaves the socket blocking with no read timeout.
+/// Subscribes a UDP socket (connected to the hub) to `channel`, with the
+/// cookie round trip, and waits for the lease. Leaves the socket blocking
+/// with no read timeout.
 pub fn subscribe_udp(sock: &UdpSocket, channel: &str) -> anyhow::Result<()> {
-    let request = Request::to_packet(&[Request::Subscribe(Subject::new(channel)?)]);
+    let subject = Subject::new(channel)?;
+    let mut cookie = Cookie::NONE;
     sock.set_nonblocking(false)?;
     sock.set_read_timeout(Some(Duration::from_millis(200)))?;
     let mut buf = [0u8; 2048];
     let deadline = Instant::now() + Duration::from_secs(3);
     'attempt: while Instant::now() < deadline {
+        let request =
+            Request::to_packet(&[Request::Cookie(cookie), Request::Subscribe(subject.clone())]);
         sock.send(&request)?;
         loop {
             match sock.recv(&mut buf) {
                 Ok(n) => {
-                    if let Ok(p) = Packet::parse(&buf[..n]) {
-                        if let Some(Ok(Reply::Lease { .. })) = Reply::parse(&p) {
+                    let Ok(p) = Packet::parse(&buf[..n]) else {
+                        continue;
+                    };
+                    match Reply::parse(&p) {
+                        Some(Ok(Reply::Lease { .. })) => {
                             sock.set_read_timeout(None)?;
                             return Ok(());
                         }
+                        Some(Ok(Reply::Cookie(c))) => {
+                            cookie = c;
+                            continue 'attempt;
+                        }
+                        _ => {}
                     }
                 }
                 Err(e)
