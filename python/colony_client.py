@@ -743,6 +743,12 @@ def parse_status(packet):
 #: cookie instead (it did not act on them).
 _RESEND_WITHIN = 2.0
 
+#: A second cookie this soon after the last is not taken.
+_COOKIE_EVERY = 0.25
+
+#: The shortest lease a hub grants, and a client believes (milliseconds).
+MIN_LEASE_MS = 100
+
 #: The cookie a client sends before the hub has given it one.
 NO_COOKIE = "0" * 16
 _COOKIE = re.compile(r"[0-9a-f]{16}")
@@ -844,6 +850,8 @@ class Session:
         # (sent again with a fresh cookie: the hub did not act on them).
         self._clock = now
         self._recent = []
+        self._last_asked = None
+        self._last_cookie = None
 
     def subscriptions(self):
         return [s.subject for s in self._subs]
@@ -873,6 +881,7 @@ class Session:
     def request(self, *lines):
         """Queues a control packet of these request lines (``status``, ...)."""
         self._outbox.append(self.control_packet(*lines))
+        self._last_asked = self._clock
         if not any(_is_subscribe(line) for line in lines):
             clock = self._clock
             self._recent = [(t, l) for (t, l) in self._recent if clock - t < _RESEND_WITHIN]
@@ -956,7 +965,8 @@ class Session:
         if packet.is_control():
             first = packet.lines[0] if packet.lines else (None, {})
             if first[0] == "lease" and isinstance(first[1].get("ms"), int):
-                self.lease_ms = max(first[1]["ms"], 0)
+                # A forged `lease ms 0` must not set the client chattering.
+                self.lease_ms = min(max(first[1]["ms"], MIN_LEASE_MS), 86_400_000)
                 self.leases += 1
                 return "lease", self.lease_ms
             if first[0] == "cookie":
@@ -964,13 +974,22 @@ class Session:
                 cookie = raw.get("v")
                 if cookie is not None and _COOKIE.fullmatch(cookie):
                     self.cookies += 1
-                    if cookie != self.cookie:
+                    # Taken only in answer to something asked lately, and not
+                    # twice within a quarter second: replies forged from the
+                    # hub's address, alternating two cookies, could otherwise
+                    # keep the client resending everything it holds.
+                    asked = self._last_asked is not None and now - self._last_asked < _RESEND_WITHIN
+                    too_soon = self._last_cookie is not None and now - self._last_cookie < _COOKIE_EVERY
+                    if cookie != self.cookie and asked and not too_soon:
                         self.cookie = cookie
-                        self._request_subscriptions(now, self._subs)
+                        self._last_cookie = now
+                        # One-off requests first: an unsubscribe followed by a
+                        # subscribe to the same channel must end subscribed.
                         recent, self._recent = self._recent, []
                         for t, lines in recent:
                             if now - t < _RESEND_WITHIN:
                                 self.request(*lines)
+                        self._request_subscriptions(now, self._subs)
                     return "cookie", cookie
                 return "hub", packet
             if first[0] == "status":

@@ -9,6 +9,12 @@ use colony_wire::{Cookie, Packet, Reply, Request, Subject, MAX_PACKET};
 /// cookie instead: they were sent before the hub knew this address (or
 /// before it restarted), and it did not act on them.
 const RESEND_WITHIN: Duration = Duration::from_secs(2);
+/// A second cookie this soon after the last is not taken: replies forged from
+/// the hub's address, alternating two cookies, could otherwise keep a client
+/// resending everything it holds.
+const COOKIE_EVERY: Duration = Duration::from_millis(250);
+/// The longest lease a client believes.
+const LONGEST_LEASE: Duration = Duration::from_secs(86_400);
 
 /// How often a client talks to the hub to keep its subscriptions.
 #[derive(Debug, Clone)]
@@ -87,6 +93,9 @@ pub struct Session {
     clock: Instant,
     /// One-off requests lately sent, to send again with a fresh cookie.
     recent: Vec<(Instant, Vec<Request>)>,
+    /// When the session last asked the hub anything, and last took a cookie.
+    last_asked: Option<Instant>,
+    last_cookie: Option<Instant>,
 }
 
 /// What a datagram from the hub was.
@@ -112,6 +121,8 @@ impl Session {
             signer: None,
             clock: now,
             recent: Vec::new(),
+            last_asked: None,
+            last_cookie: None,
         }
     }
 
@@ -156,6 +167,7 @@ impl Session {
     fn send_once(&mut self, requests: Vec<Request>) {
         self.outbox.push(self.control(&requests));
         let clock = self.clock;
+        self.last_asked = Some(clock);
         self.recent
             .retain(|(at, _)| clock.saturating_duration_since(*at) < RESEND_WITHIN);
         self.recent.push((clock, requests));
@@ -220,7 +232,11 @@ impl Session {
         let packet = Packet::parse(data)?;
         if let Some(Ok(reply)) = Reply::parse(&packet) {
             match reply {
-                Reply::Lease { ms } => self.lease = Some(Duration::from_millis(ms)),
+                // A forged `lease ms 0` must not set the client spinning.
+                Reply::Lease { ms } => {
+                    let shortest = Duration::from_millis(colony_wire::MIN_LEASE_MS);
+                    self.lease = Some(Duration::from_millis(ms).clamp(shortest, LONGEST_LEASE));
+                }
                 Reply::Cookie(cookie) => self.take_cookie(now, cookie),
                 Reply::Status(_) => {}
             }
@@ -238,17 +254,31 @@ impl Session {
             // its own; asking again at once could only loop.
             return;
         }
-        self.cookie = cookie;
-        for s in &mut self.subs {
-            s.last_request = None;
+        // Taken only in answer to something asked, and not twice in quick
+        // succession: what is resent for a cookie is a burst.
+        let asked = self
+            .last_asked
+            .is_some_and(|t| now.saturating_duration_since(t) < RESEND_WITHIN);
+        let too_soon = self
+            .last_cookie
+            .is_some_and(|t| now.saturating_duration_since(t) < COOKIE_EVERY);
+        if !asked || too_soon {
+            return;
         }
-        self.handle_timeout(now);
+        self.cookie = cookie;
+        self.last_cookie = Some(now);
+        // One-off requests first: an unsubscribe followed by a subscribe to
+        // the same channel must end subscribed.
         let recent = std::mem::take(&mut self.recent);
         for (at, requests) in recent {
             if now.saturating_duration_since(at) < RESEND_WITHIN {
                 self.send_once(requests);
             }
         }
+        for s in &mut self.subs {
+            s.last_request = None;
+        }
+        self.handle_timeout(now);
     }
 
     /// Notes that data arrived for the packet's subjects, and that the hub is alive.
@@ -289,6 +319,9 @@ impl Session {
                 s.subject.clone()
             })
             .collect();
+        if !due.is_empty() {
+            self.last_asked = Some(now);
+        }
         // One control packet carries many subscriptions; split only to fit a datagram.
         let per_packet = (MAX_PACKET - 256) / (16 + colony_wire::MAX_SUBJECT_LEN);
         for chunk in due.chunks(per_packet) {

@@ -71,11 +71,11 @@ fn a_cookie_from_the_hub_has_everything_asked_again_at_once_with_it() {
     assert_eq!(
         again,
         [
+            vec![Request::Cookie(cookie), Request::Status],
             vec![
                 Request::Cookie(cookie),
                 Request::Subscribe(subject("vision"))
             ],
-            vec![Request::Cookie(cookie), Request::Status],
         ]
     );
     // The same cookie again (the hub refused it for a reason of its own) is no loop.
@@ -86,9 +86,39 @@ fn a_cookie_from_the_hub_has_everything_asked_again_at_once_with_it() {
     s.request(&[Request::UnsubscribeAll]);
     drain(&mut s);
     let late = t1 + Duration::from_secs(10);
+    s.subscribe(late, subject("radio"));
+    sent(&mut s, late);
     s.handle_datagram(late, &Reply::cookie_packet(Cookie(7)))
         .unwrap();
+    assert_eq!(s.cookie(), Some(Cookie(7)));
     assert!(drain(&mut s).iter().all(|r| *r != Request::UnsubscribeAll));
+}
+
+#[test]
+fn forged_cookies_and_leases_cannot_set_a_client_spinning() {
+    let t0 = Instant::now();
+    let mut s = Session::new(ClientConfig::default(), t0);
+    s.subscribe(t0, subject("vision"));
+    sent(&mut s, t0);
+    // Two cookies alternating, as fast as a forger can send them: one taken
+    // per quarter second, so one resend per quarter second at most.
+    let mut resent = 0;
+    for i in 0..1000u64 {
+        let at = t0 + Duration::from_millis(i);
+        s.handle_datagram(at, &Reply::cookie_packet(Cookie(1 + i % 2)))
+            .unwrap();
+        resent += drain(&mut s).len();
+    }
+    assert!(resent <= 4, "{resent} requests resent in one second");
+    // A cookie nobody asked for (nothing sent lately) is not taken.
+    let quiet = t0 + Duration::from_secs(60);
+    s.handle_datagram(quiet, &Reply::cookie_packet(Cookie(99)))
+        .unwrap();
+    assert_ne!(s.cookie(), Some(Cookie(99)));
+    // `lease ms 0` is read as the shortest lease a hub grants.
+    s.handle_datagram(quiet, b"@ <hub> 0\nlease ms 0\n")
+        .unwrap();
+    assert!(s.refresh_interval() >= Duration::from_millis(30));
 }
 
 #[test]

@@ -26,18 +26,24 @@ impl FromStr for Cidr {
     fn from_str(s: &str) -> Result<Cidr, CidrError> {
         let err = || CidrError { text: s.to_owned() };
         if let Ok(addr) = s.parse::<SocketAddr>() {
-            return Ok(Cidr::host(addr.ip(), Some(addr.port())));
+            return Ok(Cidr::host(canonical(addr.ip()), Some(addr.port())));
         }
         let (ip, bits) = match s.split_once('/') {
             Some((ip, bits)) => (ip, Some(bits)),
             None => (s, None),
         };
-        let ip: IpAddr = ip.parse().map_err(|_| err())?;
-        let max = if ip.is_ipv4() { 32 } else { 128 };
-        let prefix = match bits {
+        let written: IpAddr = ip.parse().map_err(|_| err())?;
+        let max = if written.is_ipv4() { 32 } else { 128 };
+        let mut prefix = match bits {
             None => max,
             Some(b) => b.parse::<u8>().ok().filter(|&b| b <= max).ok_or_else(err)?,
         };
+        // An IPv4-mapped range (`::ffff:10.0.0.0/104`) is the IPv4 range it
+        // maps; its prefix counts the 96 bits of the mapping too.
+        let ip = canonical(written);
+        if ip.is_ipv4() && written.is_ipv6() {
+            prefix = prefix.checked_sub(96).ok_or_else(err)?;
+        }
         Ok(Cidr {
             net: mask(ip, prefix),
             prefix,
@@ -58,6 +64,7 @@ impl fmt::Display for Cidr {
 impl Cidr {
     /// One address, and optionally one port of it.
     pub fn host(ip: IpAddr, port: Option<u16>) -> Cidr {
+        let ip = canonical(ip);
         Cidr {
             net: ip,
             prefix: if ip.is_ipv4() { 32 } else { 128 },
@@ -93,12 +100,16 @@ fn mask(ip: IpAddr, prefix: u8) -> IpAddr {
     match canonical(ip) {
         IpAddr::V4(v4) => {
             let bits = u32::from(v4);
-            let m = u32::MAX.checked_shl(32 - u32::from(prefix)).unwrap_or(0);
+            let m = u32::MAX
+                .checked_shl(32u32.saturating_sub(u32::from(prefix)))
+                .unwrap_or(0);
             IpAddr::V4((bits & m).into())
         }
         IpAddr::V6(v6) => {
             let bits = u128::from(v6);
-            let m = u128::MAX.checked_shl(128 - u32::from(prefix)).unwrap_or(0);
+            let m = u128::MAX
+                .checked_shl(128u32.saturating_sub(u32::from(prefix)))
+                .unwrap_or(0);
             IpAddr::V6((bits & m).into())
         }
     }
@@ -197,6 +208,19 @@ mod tests {
         #[test]
         fn reading_a_range_never_panics(s in "\\PC{0,40}") {
             let _ = s.parse::<Cidr>();
+        }
+
+        #[test]
+        fn an_ipv6_range_holds_only_its_own_network(a in any::<u128>(), bits in 0u8..=128, other in any::<u128>()) {
+            let ip = IpAddr::V6(a.into());
+            let c: Cidr = format!("{ip}/{bits}").parse().unwrap();
+            prop_assert!(c.contains(&SocketAddr::new(ip, 1)));
+            let o = IpAddr::V6(other.into());
+            let same = bits == 0 || (a ^ other) >> (128 - u32::from(bits)) == 0;
+            let mapped = |x: u128| std::net::Ipv6Addr::from(x).to_ipv4_mapped().is_some();
+            if !mapped(a) && !mapped(other) {
+                prop_assert_eq!(c.contains(&SocketAddr::new(o, 1)), same);
+            }
         }
 
         #[test]

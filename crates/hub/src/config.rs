@@ -45,7 +45,7 @@ pub struct HubConfig {
 
 /// The shortest lease: a client refreshes three times a lease, and below
 /// this a hub and its clients would spend their time on refreshes.
-pub const MIN_LEASE: Duration = Duration::from_millis(100);
+pub const MIN_LEASE: Duration = Duration::from_millis(colony_wire::MIN_LEASE_MS);
 
 impl Default for HubConfig {
     fn default() -> Self {

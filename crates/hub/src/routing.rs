@@ -16,10 +16,18 @@ use crate::cookie::CookieJar;
 use crate::counters::{Counters, DropReason};
 use crate::rate::RateTable;
 
-/// A client silent this long may be displaced by a new one when the table is full.
-const IDLE_EVICT: Duration = Duration::from_secs(1);
 /// Senders whose replay windows the hub keeps.
 const MAX_SIGNERS: usize = 4096;
+/// Requests one control packet may carry: more than a client ever sends at
+/// once (its subscriptions are capped well below), so that one packet's work
+/// stays bounded.
+const MAX_REQUESTS: usize = 1024;
+/// Replies waiting to be sent, in bytes: beyond this, new ones are dropped
+/// (and counted) rather than queued.
+const MAX_REPLY_BYTES: usize = 8 << 20;
+/// The longest lease, signature window and status interval a hub takes:
+/// anything longer is a mistake, and would overflow instants.
+const LONGEST: Duration = Duration::from_secs(86_400);
 
 /// A datagram the hub wants sent: a reply to a control request.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -101,10 +109,13 @@ pub struct Hub {
     min_priority_until: Option<Instant>,
     counters: Counters,
     cookies: CookieJar,
+    /// Proven requests, per source.
     rates: RateTable,
+    /// Cookies handed to unproven sources, per source, in a table of their
+    /// own: a forger cannot spend a real client's rate.
+    challenges: RateTable,
     signers: HashMap<SocketAddr, ReplayWindow>,
-    /// The wall clock at `started`: signed packets carry wall-clock counters.
-    wall_at_start: SystemTime,
+    reply_bytes: usize,
     /// The status report last built, and when: served again until it is
     /// `status_interval` old.
     status_cache: Option<(Instant, Vec<u8>)>,
@@ -123,9 +134,12 @@ impl Hub {
     /// A hub with no clients, started at `now`.
     pub fn new(mut config: HubConfig, now: Instant) -> Hub {
         // Below this, a hub and its clients would do little but refresh.
-        config.lease = config.lease.max(crate::config::MIN_LEASE);
+        config.lease = config.lease.clamp(crate::config::MIN_LEASE, LONGEST);
+        config.auth_window = config.auth_window.min(LONGEST);
+        config.status_interval = config.status_interval.min(LONGEST);
         let next_sweep = now + sweep_interval(&config);
         let rates = RateTable::new(config.control_rate, config.control_burst);
+        let challenges = RateTable::new(config.control_rate, config.control_burst);
         Hub {
             started: now,
             clients: HashMap::new(),
@@ -136,8 +150,9 @@ impl Hub {
             cookies: CookieJar::new(now),
             rates,
             config,
+            challenges,
             signers: HashMap::new(),
-            wall_at_start: SystemTime::now(),
+            reply_bytes: 0,
             status_cache: None,
             quiet_logs: 0,
             last_log: None,
@@ -187,7 +202,7 @@ impl Hub {
         if !self.config.allow.is_empty() && !self.config.allow.iter().any(|c| c.contains(&src)) {
             return self.dropped(DropReason::NotAllowed);
         }
-        let (data, proof) = match self.authenticate(now, src, data) {
+        let (data, proof) = match self.authenticate(src, data) {
             Ok(checked) => checked,
             Err(reason) => return self.dropped(reason),
         };
@@ -198,9 +213,6 @@ impl Hub {
                 return self.dropped(DropReason::Malformed);
             }
         };
-        if let Some(client) = self.clients.get_mut(&src) {
-            client.last_heard = now;
-        }
         if packet.has_subject(HUB_SUBJECT) {
             return self.control(now, src, &packet, data.len(), proof);
         }
@@ -223,7 +235,6 @@ impl Hub {
     /// hub that asks for none.
     fn authenticate<'d>(
         &mut self,
-        now: Instant,
         src: SocketAddr,
         data: &'d [u8],
     ) -> Result<(&'d [u8], Proof), DropReason> {
@@ -234,9 +245,10 @@ impl Hub {
             return Ok((data, Proof::None));
         }
         let signed = key.verify(data).map_err(|_| DropReason::BadAuth)?;
-        let wall =
-            auth::unix_micros(self.wall_at_start + now.saturating_duration_since(self.started));
-        let window = self.config.auth_window.as_micros() as u64;
+        // The wall clock of this moment, not of the hub's start: a clock set
+        // by NTP after the hub started must not refuse every signature.
+        let wall = auth::unix_micros(SystemTime::now());
+        let window = u64::try_from(self.config.auth_window.as_micros()).unwrap_or(u64::MAX);
         if signed.n.abs_diff(wall) > window {
             return Err(DropReason::BadAuth);
         }
@@ -293,11 +305,9 @@ impl Hub {
         len: usize,
         proof: Proof,
     ) -> Outcome<'_> {
-        if !self.rates.take(&src, now) {
-            return self.dropped(DropReason::RateLimited);
-        }
         let requests = match Request::parse_all(packet) {
-            Ok(r) => r,
+            Ok(r) if r.len() <= MAX_REQUESTS => r,
+            Ok(_) => return self.dropped(DropReason::BadControl),
             Err(e) => {
                 tracing::debug!(%src, error = %e, "bad control request");
                 return self.dropped(DropReason::BadControl);
@@ -316,43 +326,71 @@ impl Hub {
         let acts = requests.iter().any(|r| !matches!(r, Request::Cookie(_)));
         if !proven {
             if acts {
-                if cookie.is_some_and(|c| c != Cookie::NONE) {
-                    self.counters.drop(DropReason::BadCookie, 1);
-                }
-                let reply = Reply::cookie_packet(self.cookies.issue(&src, now));
-                // Never more than was sent: a forged source must not turn the
-                // hub into an amplifier.
-                if reply.len() <= len {
-                    self.replies.push_back(Transmit {
-                        dest: src,
-                        payload: reply,
-                    });
-                }
+                self.challenge(now, src, cookie, len);
             }
             return Outcome::Control;
         }
+        // Checked only once the source is proven, so that a forger cannot
+        // spend a real client's rate.
+        if !self.rates.take(&src, now) {
+            return self.dropped(DropReason::RateLimited);
+        }
+        if let Some(client) = self.clients.get_mut(&src) {
+            client.last_heard = now;
+        }
         let mut subscribed = false;
+        let mut room_made = false;
+        let mut status_sent = false;
         for request in requests {
             match request {
-                Request::Subscribe(subject) => match self.subscribe(now, src, subject) {
-                    Ok(()) => subscribed = true,
-                    Err(reason) => self.counters.drop(reason, 1),
-                },
+                Request::Subscribe(subject) => {
+                    match self.subscribe(now, src, subject, &mut room_made) {
+                        Ok(()) => subscribed = true,
+                        Err(reason) => self.counters.drop(reason, 1),
+                    }
+                }
                 Request::Unsubscribe(subject) => self.unsubscribe(src, &subject),
                 Request::UnsubscribeAll => self.forget(src),
                 Request::MinPriority(p) => self.set_min_priority(now, src, p, proof),
-                Request::Status => self.status_request(now, src),
-                Request::Cookie(_) => {}
+                // One report per packet, however many lines ask.
+                Request::Status if !status_sent => {
+                    status_sent = true;
+                    self.status_request(now, src);
+                }
+                Request::Status | Request::Cookie(_) => {}
             }
         }
         if subscribed {
             let lease = Reply::lease_packet(self.config.lease.as_millis() as u64);
-            self.replies.push_back(Transmit {
-                dest: src,
-                payload: lease,
-            });
+            self.reply(src, lease);
         }
         Outcome::Control
+    }
+
+    /// Answers an unproven request with the cookie for its source: never
+    /// more than it sent, so a forged source cannot make the hub an amplifier.
+    fn challenge(&mut self, now: Instant, src: SocketAddr, cookie: Option<Cookie>, len: usize) {
+        if cookie.is_some_and(|c| c != Cookie::NONE) {
+            self.counters.drop(DropReason::BadCookie, 1);
+        }
+        if !self.challenges.take(&src, now) {
+            self.counters.drop(DropReason::RateLimited, 1);
+            return;
+        }
+        let reply = Reply::cookie_packet(self.cookies.issue(&src, now));
+        if reply.len() <= len {
+            self.reply(src, reply);
+        }
+    }
+
+    /// Queues a reply, unless the queue is already as long as it may grow.
+    fn reply(&mut self, dest: SocketAddr, payload: Vec<u8>) {
+        if self.reply_bytes + payload.len() > MAX_REPLY_BYTES {
+            self.counters.drop(DropReason::RateLimited, 1);
+            return;
+        }
+        self.reply_bytes += payload.len();
+        self.replies.push_back(Transmit { dest, payload });
     }
 
     /// An operator's request: from a console (by address, with a cookie) or
@@ -403,9 +441,15 @@ impl Hub {
         now: Instant,
         src: SocketAddr,
         subject: Subject,
+        room_made: &mut bool,
     ) -> Result<(), DropReason> {
         if !self.clients.contains_key(&src) && self.clients.len() >= self.config.max_clients {
-            self.make_room(now)?;
+            // A table scan at most once a packet, however many lines ask.
+            if *room_made {
+                return Err(DropReason::TooManyClients);
+            }
+            *room_made = true;
+            self.make_room(now, src)?;
         }
         let max_subs = self.config.max_subscriptions;
         let client = self.clients.entry(src).or_insert_with(|| Client {
@@ -428,22 +472,42 @@ impl Hub {
         Ok(())
     }
 
-    /// With the table full, a proven newcomer displaces the client heard from
-    /// least lately, if that one has been silent a while: a restarted robot
-    /// can always join, while clients in active use keep their place.
-    fn make_room(&mut self, now: Instant) -> Result<(), DropReason> {
+    /// With the table full, a proven newcomer takes the place of a client
+    /// that has not renewed anything for half a lease (a live one renews every
+    /// third); failing that, of the idlest client of the address that holds
+    /// the most places, if that address holds more than the newcomer's. So a
+    /// restarted robot can always join, and one host with many ports cannot
+    /// keep everyone else out.
+    fn make_room(&mut self, now: Instant, newcomer: SocketAddr) -> Result<(), DropReason> {
+        let idle_after = self.config.lease / 2;
         let idlest = self
             .clients
             .iter()
             .min_by_key(|(_, c)| c.last_heard)
-            .filter(|(_, c)| now.saturating_duration_since(c.last_heard) >= IDLE_EVICT)
-            .map(|(a, _)| *a);
-        match idlest {
-            Some(addr) => {
+            .map(|(a, c)| (*a, c.last_heard));
+        if let Some((addr, heard)) = idlest {
+            if now.saturating_duration_since(heard) >= idle_after {
+                self.forget(addr);
+                return Ok(());
+            }
+        }
+        let mut per_host: HashMap<std::net::IpAddr, (usize, Instant, SocketAddr)> = HashMap::new();
+        for (addr, c) in &self.clients {
+            let e = per_host
+                .entry(addr.ip())
+                .or_insert((0, c.last_heard, *addr));
+            e.0 += 1;
+            if c.last_heard < e.1 {
+                (e.1, e.2) = (c.last_heard, *addr);
+            }
+        }
+        let mine = per_host.get(&newcomer.ip()).map_or(0, |e| e.0);
+        match per_host.values().max_by_key(|e| e.0) {
+            Some(&(count, _, addr)) if count > mine + 1 => {
                 self.forget(addr);
                 Ok(())
             }
-            None => Err(DropReason::TooManyClients),
+            _ => Err(DropReason::TooManyClients),
         }
     }
 
@@ -479,7 +543,7 @@ impl Hub {
             .as_ref()
             .map(|(_, p)| p.clone())
             .unwrap_or_default();
-        self.replies.push_back(Transmit { dest: src, payload });
+        self.reply(src, payload);
     }
 
     /// The hub's state as the `status` request reports it. Its cost is
@@ -545,7 +609,9 @@ impl Hub {
 
     /// The next reply to send, if any.
     pub fn poll_transmit(&mut self) -> Option<Transmit> {
-        self.replies.pop_front()
+        let t = self.replies.pop_front()?;
+        self.reply_bytes -= t.payload.len();
+        Some(t)
     }
 
     /// When the hub next needs [`handle_timeout`](Self::handle_timeout).

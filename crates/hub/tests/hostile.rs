@@ -317,9 +317,13 @@ fn a_table_full_of_idle_clients_makes_room_and_one_in_use_keeps_its_place() {
     for port in 100..108 {
         join(&mut hub, t0, addr(port), "subscribe ch x\n");
     }
-    // One of them stays in use; the others fall silent.
-    let t1 = t0 + Duration::from_secs(3);
-    hub.handle(t1, addr(100), b"@ <x> 0\nalive a 1\n");
+    // One renews its lease as a live client does; the others fall silent for
+    // more than half a lease. Publishing is no renewal: anyone can forge it.
+    let t1 = t0 + Duration::from_secs(6);
+    join(&mut hub, t1, addr(100), "subscribe ch x\n");
+    for port in 101..108 {
+        hub.handle(t1, addr(port), b"@ <x> 0\nalive a 1\n");
+    }
     join(&mut hub, t1, addr(1), "subscribe ch x\n");
     let dests = forwarded(&mut hub, t1, addr(9), b"@ <x> 0\nx a 1\n");
     assert!(dests.contains(&addr(1)), "the newcomer got in");
@@ -328,14 +332,71 @@ fn a_table_full_of_idle_clients_makes_room_and_one_in_use_keeps_its_place() {
         "the client in use kept its place"
     );
     assert_eq!(hub.client_count(), 8);
-    // A table of clients all heard within the second turns newcomers away.
-    for port in 100..108 {
-        hub.handle(t1, addr(port), b"@ <x> 0\nalive a 1\n");
+    // With every client renewing, a newcomer from the same host is turned away...
+    for port in (100..108).chain([1]) {
+        join(&mut hub, t1, addr(port), "subscribe ch x\n");
     }
-    hub.handle(t1, addr(1), b"@ <x> 0\nalive a 1\n");
     let before = hub.drops(DropReason::TooManyClients);
     join(&mut hub, t1, addr(2), "subscribe ch x\n");
     assert_eq!(hub.drops(DropReason::TooManyClients), before + 1);
+    // ...but one from another host takes a place of the host that holds them all.
+    let robot = SocketAddr::from(([10, 0, 0, 7], 5000));
+    join(&mut hub, t1, robot, "subscribe ch x\n");
+    assert!(forwarded(&mut hub, t1, addr(9), b"@ <x> 0\nx a 1\n").contains(&robot));
+    assert_eq!(hub.client_count(), 8);
+}
+
+#[test]
+fn a_forger_cannot_spend_a_real_clients_rate() {
+    let now = Instant::now();
+    let mut hub = hub_with(HubConfig::default(), now);
+    let robot = addr(4000);
+    let cookie = join(&mut hub, now, robot, "subscribe ch radio\n");
+    for _ in 0..10_000 {
+        hub.handle(now, robot, b"@ <hub> 0\nstatus\n");
+        hub.handle(
+            now,
+            robot,
+            b"@ <hub> 0\ncookie v 0123456789abcdef\nstatus\n",
+        );
+    }
+    replies(&mut hub);
+    // The robot's own refreshes, with its cookie, still go through.
+    let before = hub.drops(DropReason::RateLimited);
+    let refresh = format!("@ <hub> 0\ncookie v {cookie}\nsubscribe ch radio\n");
+    for _ in 0..10 {
+        hub.handle(now, robot, refresh.as_bytes());
+    }
+    assert_eq!(hub.drops(DropReason::RateLimited), before);
+    assert_eq!(replies(&mut hub).len(), 10, "a lease for each");
+    assert_eq!(
+        forwarded(&mut hub, now, addr(9), b"@ <radio> 0\ncmd id 1\n"),
+        [robot]
+    );
+}
+
+#[test]
+fn one_packet_gets_one_status_report_however_many_lines_ask() {
+    let now = Instant::now();
+    let mut hub = hub_with(HubConfig::default(), now);
+    let who = addr(4000);
+    let cookie = join(&mut hub, now, who, "subscribe ch radio\n");
+    replies(&mut hub);
+    let mut ask = format!("@ <hub> 0\ncookie v {cookie}\n");
+    for _ in 0..1000 {
+        ask.push_str("status\n");
+    }
+    hub.handle(now, who, ask.as_bytes());
+    assert_eq!(replies(&mut hub).len(), 1);
+    // And a packet of more requests than any client sends does nothing at all.
+    let mut flood = format!("@ <hub> 0\ncookie v {cookie}\n");
+    for i in 0..2000 {
+        flood.push_str(&format!("subscribe ch c{i}\n"));
+    }
+    assert_eq!(
+        hub.handle(now, who, flood.as_bytes()),
+        Outcome::Dropped(DropReason::BadControl)
+    );
 }
 
 #[test]

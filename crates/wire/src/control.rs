@@ -25,6 +25,10 @@ use crate::build::write_quoted;
 use crate::error::FieldError;
 use crate::{Packet, PacketBuilder, Priority, Subject, MAX_PACKET};
 
+/// The shortest lease a hub grants, and a client believes: below it, hub and
+/// clients would do little but refresh.
+pub const MIN_LEASE_MS: u64 = 100;
+
 /// The reserved subject that carries control requests and the hub's replies.
 pub const HUB_SUBJECT: &str = "hub";
 

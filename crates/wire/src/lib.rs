@@ -33,7 +33,7 @@ mod subject;
 pub use build::{write_quoted, write_token_or_quoted, LineBuilder, PacketBuilder, WireValue};
 pub use control::{
     hub_packet, ChannelInfo, ClientInfo, ControlError, Cookie, Reply, Request, StatusReport,
-    HUB_SUBJECT,
+    HUB_SUBJECT, MIN_LEASE_MS,
 };
 pub use error::{ErrorKind, FieldError, FieldErrorKind, ParseError};
 pub use packet::{Field, Fields, Group, Line, Lines, Packet, Quoted, Subjects, Value};
