@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
 use colony_hub::{DropReason, HubConfig, Server};
-use colony_wire::{Packet, Reply, Request, Subject};
+use colony_wire::Subject;
 
 use crate::sys;
 
@@ -24,6 +24,8 @@ pub struct HubThread {
 /// What the hub counted, read after it stopped.
 pub struct HubDrops {
     pub send_failed: u64,
+    pub send_full: u64,
+    pub receive_overflow: u64,
     pub total: u64,
 }
 
@@ -70,29 +72,44 @@ impl HubThread {
         let hub = server.hub();
         Ok(HubDrops {
             send_failed: hub.drops(DropReason::SendFailed),
+            send_full: hub.drops(DropReason::SendFull),
+            receive_overflow: hub.drops(DropReason::ReceiveOverflow),
             total: DropReason::ALL.iter().map(|&r| hub.drops(r)).sum(),
         })
     }
 }
 
 /// Subscribes a UDP socket (connected to the hub) to `channel` and waits for the lease.
-/// Leaves the socket blocking with no read timeout.
+/// A hub that first answers with a cookie (return routability) gets the
+/// request again with that cookie. Leaves the socket blocking with no read timeout.
 pub fn subscribe_udp(sock: &UdpSocket, channel: &str) -> anyhow::Result<()> {
-    let request = Request::to_packet(&[Request::Subscribe(Subject::new(channel)?)]);
+    Subject::new(channel)?;
     sock.set_nonblocking(false)?;
     sock.set_read_timeout(Some(Duration::from_millis(200)))?;
     let mut buf = [0u8; 2048];
+    let mut cookie: Option<String> = None;
     let deadline = Instant::now() + Duration::from_secs(3);
     'attempt: while Instant::now() < deadline {
-        sock.send(&request)?;
+        let mut request = String::from("@ <hub> 0\n");
+        if let Some(c) = &cookie {
+            request.push_str(&format!("cookie v {c}\n"));
+        }
+        request.push_str(&format!("subscribe ch {channel}\n"));
+        sock.send(request.as_bytes())?;
         loop {
             match sock.recv(&mut buf) {
                 Ok(n) => {
-                    if let Ok(p) = Packet::parse(&buf[..n]) {
-                        if let Some(Ok(Reply::Lease { .. })) = Reply::parse(&p) {
-                            sock.set_read_timeout(None)?;
-                            return Ok(());
-                        }
+                    let text = String::from_utf8_lossy(&buf[..n]);
+                    if !text.starts_with("@ <hub>") {
+                        continue;
+                    }
+                    if text.contains("\nlease ") {
+                        sock.set_read_timeout(None)?;
+                        return Ok(());
+                    }
+                    if let Some(c) = text.split("cookie v ").nth(1) {
+                        cookie = Some(c.trim().to_owned());
+                        continue 'attempt;
                     }
                 }
                 Err(e)
