@@ -20,8 +20,6 @@ pub const HUB: &str = "colony hub";
 pub const RELAY: &str = "raw UDP relay (floor)";
 /// The name of the GSO experiment's row.
 pub const RELAY_GSO: &str = "raw UDP relay with GSO (experiment)";
-/// A subsection the tool never writes and always keeps: the hand-written analysis.
-const ANALYSIS: &str = "### Analysis";
 
 /// Targets from the issue.
 const ADDED_P99_TARGET_US: f64 = 5.0;
@@ -281,8 +279,8 @@ pub fn render(r: &Report<'_>) -> String {
         w,
         "Measured with `{}`, which builds `cargo build --release -p colony-bench`, starts and \
          stops its own Mosquitto, runs `target/release/hub-bench` and rewrites this section, \
-         except a hand-written `### Analysis` at its end, which it keeps (the rest of the file \
-         is kept too).\n",
+         except subsections written by hand (such as `### Analysis`), which it keeps at its \
+         end (the rest of the file is kept too).\n",
         r.command
     );
     let _ = writeln!(
@@ -643,8 +641,10 @@ fn limits(w: &mut String, r: &Report<'_>) {
     let _ = writeln!(w);
 }
 
-/// Replaces the `## Hub on loopback` section of a markdown file (up to the
-/// next `## ` heading) with `section`, or appends it; creates the file if need be.
+/// Replaces the section under `heading` of a markdown file (up to the next
+/// `## ` heading) with `section`, or appends it; creates the file if need
+/// be. Subsections written by hand (any `### ` heading `section` lacks, such
+/// as `### Analysis`) are kept after it.
 pub fn write_section(path: &Path, heading: &str, section: &str) -> std::io::Result<()> {
     let old = match std::fs::read_to_string(path) {
         Ok(t) => t,
@@ -667,18 +667,25 @@ fn splice(old: &str, heading: &str, section: &str) -> String {
         .iter()
         .position(|l| l.starts_with("## "))
         .map_or(lines.len(), |i| start + 1 + i);
-    // A hand-written `### Analysis` at the end of the old section is kept.
-    let analysis = lines[start + 1..end]
-        .iter()
-        .position(|l| l.starts_with(ANALYSIS))
-        .map(|i| lines[start + 1 + i..end].concat());
+    // Hand-written subsections (`### Analysis`, and any other whose heading
+    // the new section does not have) are kept, in their order.
+    let mut kept = String::new();
+    let mut keeping = false;
+    for l in &lines[start + 1..end] {
+        if l.starts_with("### ") {
+            keeping = !section.lines().any(|s| s == l.trim_end());
+        }
+        if keeping {
+            kept.push_str(l);
+        }
+    }
     let mut out: String = lines[..start].concat();
     out.push_str(section);
-    if let Some(a) = analysis {
+    if !kept.is_empty() {
         if !out.ends_with("\n\n") {
             out.push('\n');
         }
-        out.push_str(a.trim_end());
+        out.push_str(kept.trim_end());
         out.push('\n');
     }
     if end < lines.len() {
@@ -703,13 +710,15 @@ mod tests {
             "# Benchmarks\n\n## Wire parsing\n\nfast\n\n## Hub on loopback\n\nnew\n\n## Later\n\nkeep\n"
         );
         let kept = splice(
-            "## Hub on loopback\n\nold\n\n### Analysis\n\nwhy\n\n## Next\n",
+            "## Hub on loopback\n\nold\n\n### Targets\n\nold\n\n### Restarts\n\nby hand\n\n\
+             ### Analysis\n\nwhy\n\n## Next\n",
             HEADING,
-            "## Hub on loopback\n\nnew\n\n",
+            "## Hub on loopback\n\nnew\n\n### Targets\n\nnew\n\n",
         );
         assert_eq!(
             kept,
-            "## Hub on loopback\n\nnew\n\n### Analysis\n\nwhy\n\n## Next\n"
+            "## Hub on loopback\n\nnew\n\n### Targets\n\nnew\n\n### Restarts\n\nby hand\n\n\
+             ### Analysis\n\nwhy\n\n## Next\n"
         );
         let appended = splice(
             "# Benchmarks\n\n## Wire parsing\n\nfast\n",
