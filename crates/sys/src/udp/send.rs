@@ -563,4 +563,40 @@ mod tests {
         assert_eq!(report.sent, 1);
         assert_eq!(read(&to, 1), [b"hello".to_vec()]);
     }
+
+    #[test]
+    fn a_kernel_that_refuses_gso_gets_each_datagram_alone_from_then_on() {
+        let from = socket();
+        // Linux refuses GSO on a socket that sends without UDP checksums
+        // (EINVAL), as a device without checksum offload would (EIO).
+        let on: libc::c_int = 1;
+        // SAFETY: `on` is a live c_int and the length passed is its size,
+        // as SO_NO_CHECK reads; the socket is open.
+        let r = unsafe {
+            libc::setsockopt(
+                std::os::fd::AsRawFd::as_raw_fd(&from),
+                libc::SOL_SOCKET,
+                libc::SO_NO_CHECK,
+                (&on as *const libc::c_int).cast(),
+                std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+            )
+        };
+        assert_eq!(r, 0);
+        let to = socket();
+        let dest = [to.local_addr().unwrap()];
+        let data: Vec<Vec<u8>> = (0..10u8).map(|i| vec![i; 30]).collect();
+        let mut plan = SendPlan::new();
+        for i in 0..data.len() {
+            plan.push(i, &dest);
+        }
+        let mut sender = Sender::new(true);
+        let report = sender.send(&from, &plan, |i| &data[i]);
+        assert_eq!(report.sent, 10);
+        assert!(!sender.gso(), "GSO still on after the kernel refused it");
+        assert_eq!(read(&to, 10), data);
+        // And the next send goes without trying GSO.
+        let report = sender.send(&from, &plan, |i| &data[i]);
+        assert_eq!(report.sent, 10);
+        assert_eq!(read(&to, 10), data);
+    }
 }
