@@ -28,6 +28,8 @@ pub struct RecvBatch<const N: usize> {
     /// Each datagram's control messages (the kernel's drop counter).
     control: Vec<[u64; CONTROL_WORDS]>,
     kernel_drops: Option<u32>,
+    #[cfg(target_os = "linux")]
+    scratch: imp::RecvScratch,
 }
 
 impl<const N: usize> RecvBatch<N> {
@@ -41,6 +43,8 @@ impl<const N: usize> RecvBatch<N> {
             count: 0,
             control: vec![[0; CONTROL_WORDS]; N],
             kernel_drops: None,
+            #[cfg(target_os = "linux")]
+            scratch: imp::RecvScratch::new(N),
         }
     }
 
@@ -146,47 +150,75 @@ mod imp {
         }
     }
 
+    /// The C structures `recvmmsg` is handed, made (zeroed) once with the
+    /// batch rather than on every call.
+    pub(super) struct RecvScratch {
+        names: Vec<libc::sockaddr_storage>,
+        iovs: Vec<libc::iovec>,
+        hdrs: Vec<libc::mmsghdr>,
+    }
+
+    // SAFETY: the raw pointers inside `iovs` and `hdrs` are set right before
+    // each `recvmmsg` and used only by the kernel during it; between calls
+    // nothing dereferences them, so moving the scratch to another thread
+    // shares nothing.
+    unsafe impl Send for RecvScratch {}
+
+    impl RecvScratch {
+        pub(super) fn new(n: usize) -> RecvScratch {
+            // SAFETY: all-zero bytes are a valid value for these plain C
+            // structs (null pointers and zero lengths).
+            let (name, iov, hdr) = unsafe { (zeroed(), zeroed(), zeroed()) };
+            RecvScratch {
+                names: vec![name; n],
+                iovs: vec![iov; n],
+                hdrs: vec![hdr; n],
+            }
+        }
+    }
+
     pub(super) fn recv<const N: usize>(
         sock: &UdpSocket,
         batch: &mut RecvBatch<N>,
     ) -> io::Result<usize> {
         let slot = batch.slot;
-        // SAFETY: all-zero bytes are a valid value for these plain C structs
-        // (null pointers and zero lengths), and every pointer is set below
-        // before the kernel reads it.
-        let mut names: [libc::sockaddr_storage; N] = unsafe { zeroed() };
-        // SAFETY: as above.
-        let mut iovs: [libc::iovec; N] = unsafe { zeroed() };
-        // SAFETY: as above.
-        let mut hdrs: [libc::mmsghdr; N] = unsafe { zeroed() };
+        let s = &mut batch.scratch;
+        // Each vector holds N entries (made so in `new`); pointers into them
+        // are taken once, and offset with wrapping_add inside them.
+        let names = s.names.as_mut_ptr();
+        let iovs = s.iovs.as_mut_ptr();
         let control = batch.control.as_mut_ptr();
-        for (i, chunk) in batch.buf.chunks_exact_mut(slot).enumerate().take(N) {
-            iovs[i] = libc::iovec {
-                iov_base: chunk.as_mut_ptr().cast(),
-                iov_len: slot,
-            };
-            let h = &mut hdrs[i].msg_hdr;
-            h.msg_name = (&mut names[i] as *mut libc::sockaddr_storage).cast();
+        let buf = batch.buf.as_mut_ptr();
+        for (i, iov) in s.iovs.iter_mut().enumerate().take(N) {
+            iov.iov_base = buf.wrapping_add(i * slot).cast();
+            iov.iov_len = slot;
+        }
+        for (i, m) in s.hdrs.iter_mut().enumerate().take(N) {
+            // Every field the kernel reads or writes back is set again: the
+            // name's and the control buffer's room, and the flags.
+            m.msg_len = 0;
+            let h = &mut m.msg_hdr;
+            h.msg_name = names.wrapping_add(i).cast();
             h.msg_namelen = size_of::<libc::sockaddr_storage>() as libc::socklen_t;
-            h.msg_iov = &mut iovs[i];
+            h.msg_iov = iovs.wrapping_add(i);
             h.msg_iovlen = 1;
-            // `control` holds N buffers (made so in `new`); `wrapping_add`
-            // stays inside it.
             h.msg_control = control.wrapping_add(i).cast();
             h.msg_controllen = CONTROL_WORDS * 8;
+            h.msg_flags = 0;
         }
-        // SAFETY: `hdrs` holds N headers, each pointing at its own iovec
-        // (`slot` bytes inside `batch.buf`, which is `slot * N` long), its
-        // own sockaddr_storage with its true size and its own control buffer
-        // of `CONTROL_WORDS * 8` bytes; all of them live on this stack frame
-        // or in `batch`, which outlive the call, and no other reference to
-        // those buffers exists while it runs. The socket is borrowed, so its
-        // descriptor is open.
+        let count = N.min(s.hdrs.len());
+        // SAFETY: `hdrs` holds `count` headers, each pointing at its own
+        // iovec (`slot` bytes inside `batch.buf`, which is `slot * N` long),
+        // its own sockaddr_storage with its true size and its own control
+        // buffer of `CONTROL_WORDS * 8` bytes; all of them live in `batch`,
+        // which outlives the call, and no other reference to those buffers
+        // exists while it runs. The socket is borrowed, so its descriptor is
+        // open.
         let r = unsafe {
             libc::recvmmsg(
                 sock.as_raw_fd(),
-                hdrs.as_mut_ptr(),
-                N as libc::c_uint,
+                s.hdrs.as_mut_ptr(),
+                count as libc::c_uint,
                 libc::MSG_DONTWAIT,
                 std::ptr::null_mut(),
             )
@@ -198,7 +230,8 @@ mod imp {
                 _ => Err(e),
             };
         }
-        let n = (r as usize).min(N);
+        let n = (r as usize).min(count);
+        let (hdrs, names) = (&s.hdrs, &s.names);
         for i in 0..n {
             let truncated = hdrs[i].msg_hdr.msg_flags & libc::MSG_TRUNC != 0;
             // A datagram longer than its slot keeps `slot` bytes, so the
