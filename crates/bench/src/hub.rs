@@ -24,6 +24,8 @@ pub struct HubThread {
 /// What the hub counted, read after it stopped.
 pub struct HubDrops {
     pub send_failed: u64,
+    pub send_full: u64,
+    pub receive_overflow: u64,
     pub total: u64,
 }
 
@@ -70,6 +72,8 @@ impl HubThread {
         let hub = server.hub();
         Ok(HubDrops {
             send_failed: hub.drops(DropReason::SendFailed),
+            send_full: hub.drops(DropReason::SendFull),
+            receive_overflow: hub.drops(DropReason::ReceiveOverflow),
             total: DropReason::ALL.iter().map(|&r| hub.drops(r)).sum(),
         })
     }

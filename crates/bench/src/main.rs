@@ -83,6 +83,14 @@ struct Args {
     /// Run the latency part only (for profiling).
     #[arg(long)]
     latency_only: bool,
+    /// Skip the latency part (it always uses 100-byte packets).
+    #[arg(long)]
+    no_latency: bool,
+    /// Packet lengths in the throughput runs: `fixed` (100 bytes) or `mixed`
+    /// (60 to 400, differing from packet to packet). A mixed run writes its
+    /// own section of BENCHMARKS.md.
+    #[arg(long, value_enum, default_value = "fixed")]
+    lengths: payload::Lengths,
     /// Also write the report into this markdown file, replacing its
     /// `## Hub on loopback` section (or adding one) and keeping the rest.
     #[arg(long)]
@@ -200,6 +208,9 @@ fn main() -> anyhow::Result<()> {
     let pids: Vec<u32> = brokers.iter().map(|(_, b)| b.pid()).collect();
     let foreign = sys::Foreign::start(&pids);
     let mut lat = Vec::new();
+    if args.no_latency {
+        placements.clear();
+    }
     for &(placement, broker_cpu) in &placements {
         sys::pin_self(Some(&[0]))?;
         for (_, b) in &brokers {
@@ -313,6 +324,7 @@ fn main() -> anyhow::Result<()> {
         window: args.window,
         recv_threads: args.recv_threads,
         rcvbuf: args.rcvbuf,
+        lengths: args.lengths,
         placement: match (args.throughput_pin, machine.cores >= 2) {
             (Pin::Split, true) => {
                 "The broker runs on CPU 1 and the publisher and receivers on CPU 0, so each \
@@ -326,7 +338,7 @@ fn main() -> anyhow::Result<()> {
     drop(brokers);
     print!("{text}");
     if let Some(path) = &args.markdown {
-        report::write_section(path, &text)
+        report::write_section(path, report::heading(args.lengths), &text)
             .with_context(|| format!("writing {}", path.display()))?;
         eprintln!("wrote {}", path.display());
     }
@@ -359,7 +371,7 @@ fn hub_fanout(
         subscribe_udp(&sock, payload::CHANNEL)?;
         subs.push(Box::new(UdpSub::new(sock)?));
     }
-    let mut publisher = UdpPub::new(hub.addr)?;
+    let mut publisher = UdpPub::new(hub.addr, ctx.args.lengths)?;
     let run = ctx.run(&mut publisher, subs, &|| hub.cpu(), true)?;
     let drops = hub.stop()?;
     Ok((run, drops))
@@ -372,7 +384,10 @@ fn mqtt_fanout(ctx: &Ctx<'_>, broker: &mqtt::Mosquitto, n: usize) -> anyhow::Res
         conn.subscribe(payload::CHANNEL)?;
         subs.push(Box::new(MqttSub::new(conn)?));
     }
-    let mut publisher = MqttPub::new(mqtt::Conn::connect(broker.addr, &format!("bench-pub-{n}"))?);
+    let mut publisher = MqttPub::new(
+        mqtt::Conn::connect(broker.addr, &format!("bench-pub-{n}"))?,
+        ctx.args.lengths,
+    );
     let pid = broker.pid();
     Ok(ctx.run(&mut publisher, subs, &|| sys::process_cpu(pid), false)?)
 }
@@ -395,7 +410,7 @@ fn relay_fanout(ctx: &Ctx<'_>, n: usize, gso: bool) -> anyhow::Result<Fanout> {
         sock.connect(relay.addr)?;
         subs.push(Box::new(UdpSub::new(sock)?));
     }
-    let mut publisher = UdpPub::new(relay.addr)?;
+    let mut publisher = UdpPub::new(relay.addr, ctx.args.lengths)?;
     let run = ctx.run(&mut publisher, subs, &|| relay.cpu(), true)?;
     relay.stop()?;
     Ok(run)

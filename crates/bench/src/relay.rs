@@ -68,7 +68,7 @@ impl RelayThread {
 }
 
 fn relay(sock: &UdpSocket, dests: &[SocketAddr], gso: bool, stop: &AtomicBool) -> io::Result<()> {
-    let mut repeater = Repeater::new(dests, gso)?;
+    let mut repeater = Repeater::new(dests, gso);
     let mut batch = RecvBatch::new(SLOT);
     let mut epoll = sys::Epoll::new()?;
     epoll.add(sock, 0)?;

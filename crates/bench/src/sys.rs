@@ -11,8 +11,8 @@ pub use colony_sys::wait::Epoll;
 
 /// Datagrams moved per `recvmmsg`/`sendmmsg` call on the measuring side.
 pub const BATCH: usize = 64;
-/// Receive slot: the 100-byte packet fits; anything longer is truncated and rejected.
-pub const SLOT: usize = 128;
+/// Receive slot: every benchmark packet (400 bytes at most) fits; anything longer is truncated and rejected.
+pub const SLOT: usize = 512;
 
 /// Buffers for receiving a batch of small datagrams.
 pub type RecvBatch = colony_sys::udp::RecvBatch<BATCH>;

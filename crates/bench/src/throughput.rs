@@ -18,7 +18,7 @@ use std::thread::{self, Thread};
 use std::time::{Duration, Instant};
 
 use crate::mqtt;
-use crate::payload::{self, Packet};
+use crate::payload::{self, Lengths, Packet};
 use crate::sys::{self, RecvBatch, BATCH};
 
 /// How long the publisher waits on a full window with no progress before it
@@ -102,12 +102,12 @@ pub struct UdpPub {
 }
 
 impl UdpPub {
-    pub fn new(hub: SocketAddr) -> io::Result<UdpPub> {
+    pub fn new(hub: SocketAddr, lengths: Lengths) -> io::Result<UdpPub> {
         let sock = UdpSocket::bind("127.0.0.1:0")?;
         sock.connect(hub)?;
         Ok(UdpPub {
             sock,
-            packets: vec![Packet::new(); BATCH],
+            packets: vec![Packet::with(lengths); BATCH],
         })
     }
 }
@@ -118,7 +118,7 @@ impl Publisher for UdpPub {
         for (i, p) in self.packets[..n].iter_mut().enumerate() {
             p.stamp(first + i as u64);
         }
-        let msgs: Vec<&[u8]> = self.packets[..n].iter().map(|p| &p.bytes()[..]).collect();
+        let msgs: Vec<&[u8]> = self.packets[..n].iter().map(|p| p.bytes()).collect();
         sys::send_batch(&self.sock, &msgs)
     }
 }
@@ -189,10 +189,10 @@ pub struct MqttPub {
 }
 
 impl MqttPub {
-    pub fn new(conn: mqtt::Conn) -> MqttPub {
+    pub fn new(conn: mqtt::Conn, lengths: Lengths) -> MqttPub {
         MqttPub {
             stream: conn.stream,
-            packet: Packet::new(),
+            packet: Packet::with(lengths),
             out: Vec::with_capacity(BATCH * 128),
         }
     }
@@ -470,7 +470,7 @@ mod tests {
             subscribe_udp(&sock, payload::CHANNEL).unwrap();
             subs.push(Box::new(UdpSub::new(sock).unwrap()));
         }
-        let mut publisher = UdpPub::new(hub.addr).unwrap();
+        let mut publisher = UdpPub::new(hub.addr, Lengths::Fixed).unwrap();
         let none = || None;
         let probe = CpuProbe {
             broker: &none,

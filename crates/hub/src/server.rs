@@ -7,10 +7,10 @@ use std::time::{Duration, Instant, SystemTime};
 
 use crate::log::LogWriter;
 use colony_sys::buffers::{self, Buffer};
-use colony_sys::udp::{send_to_many, RecvBatch};
+use colony_sys::udp::{self, RecvBatch, SendPlan, Sender};
 use colony_sys::wait::wait_readable;
 
-use crate::{DropReason, Hub, HubConfig, Outcome};
+use crate::{is_bad_source, DropReason, Hub, HubConfig, Outcome, Transmit};
 
 /// The hub on a UDP socket. It owns its loop only inside [`Server::run`];
 /// [`Server::poll`] does one round for a caller with a loop of its own.
@@ -19,10 +19,32 @@ pub struct Server {
     hub: Hub,
     log: Option<LogWriter>,
     batch: RecvBatch<BATCH>,
+    /// The address the socket is bound to: never a destination.
+    local: SocketAddr,
+    /// Where each datagram of the batch in hand goes; its deliveries leave
+    /// in one `sendmmsg`.
+    plan: SendPlan,
+    sender: Sender,
+    /// The hub's replies caused by the batch in hand; the plan names reply
+    /// `i` as datagram `BATCH + i`.
+    replies: Vec<Transmit>,
+    /// One forward's destinations, checked.
+    dests: Vec<SocketAddr>,
+    /// How much of each datagram of the batch is forwarded.
+    lens: [usize; BATCH],
+    /// The kernel's count of receive-buffer drops at the last reading.
+    kernel_drops: u32,
 }
 
-/// Datagrams taken per receive call.
-const BATCH: usize = 32;
+/// Datagrams taken per receive call; also the longest run one GSO send can
+/// carry (the kernel takes 64 segments). The slots' memory is touched only
+/// as far as datagrams fill it.
+const BATCH: usize = 64;
+/// Receive calls per [`Server::poll`]: after this many full batches (256
+/// datagrams, well under a millisecond of work) the round ends, so the
+/// log is flushed, leases expire and the stop flag is read however fast
+/// datagrams arrive.
+const BATCHES_PER_POLL: usize = 4;
 /// Room for the largest UDP payload, plus one byte to notice anything larger.
 const SLOT: usize = colony_wire::MAX_PACKET + 1;
 
@@ -45,11 +67,24 @@ impl Server {
                 "small socket buffer: raise net.core.rmem_max, or bursts will be dropped"
             );
         }
+        if let Err(e) = udp::count_kernel_drops(&socket) {
+            tracing::warn!(error = %e, "the kernel will not count receive drops; status cannot show them");
+        }
+        let local = socket.local_addr()?;
+        let mut hub = Hub::new(config, Instant::now());
+        hub.set_local_addr(local);
         Ok(Server {
             socket,
-            hub: Hub::new(config, Instant::now()),
+            hub,
             log: None,
             batch: RecvBatch::new(SLOT),
+            local,
+            plan: SendPlan::new(),
+            sender: Sender::new(true),
+            replies: Vec::new(),
+            dests: Vec::new(),
+            lens: [0; BATCH],
+            kernel_drops: 0,
         })
     }
 
@@ -80,18 +115,24 @@ impl Server {
         Ok(())
     }
 
-    /// Waits at most `max_wait` for datagrams, handles every one that is
-    /// waiting, sends what they cause, and runs the hub's timers. Returns how
-    /// many datagrams it handled.
+    /// Waits at most `max_wait` for datagrams, handles those waiting (at
+    /// most a bounded number, so that a flood cannot hold the loop), sends
+    /// what they cause, flushes the log and runs the hub's timers. Returns
+    /// how many datagrams it handled.
     pub fn poll(&mut self, max_wait: Duration) -> io::Result<usize> {
         let mut handled = 0;
-        loop {
+        for _ in 0..BATCHES_PER_POLL {
             let n = self.batch.recv(&self.socket)?;
+            self.count_kernel_drops();
             if n == 0 {
                 break;
             }
             handled += n;
             self.handle_batch();
+            if n < BATCH {
+                // A short batch emptied the socket.
+                break;
+            }
         }
         if let Some(log) = &mut self.log {
             // One flush per round: a crash loses at most the round in hand,
@@ -114,10 +155,33 @@ impl Server {
         Ok(handled)
     }
 
+    /// Counts the datagrams the kernel dropped at the socket since the last
+    /// reading.
+    fn count_kernel_drops(&mut self) {
+        if let Some(total) = self.batch.kernel_drops() {
+            let new = total.wrapping_sub(self.kernel_drops);
+            self.kernel_drops = total;
+            if new > 0 {
+                self.hub
+                    .record_drops(DropReason::ReceiveOverflow, u64::from(new));
+            }
+        }
+    }
+
+    /// Hands each datagram of the batch to the hub, then sends everything
+    /// the batch caused (forwards and replies) in one go, each destination
+    /// getting its datagrams in the order they arrived.
     fn handle_batch(&mut self) {
         let now = Instant::now();
         let wall = SystemTime::now();
-        for (src, data) in self.batch.iter() {
+        self.plan.clear();
+        self.replies.clear();
+        let mut bad = 0u64;
+        for i in 0..self.batch.len() {
+            let Some(src) = self.batch.source(i) else {
+                continue;
+            };
+            let data = self.batch.get(i);
             let outcome = self.hub.handle(now, src, data);
             if outcome.accepted() {
                 if let Some(log) = &mut self.log {
@@ -128,20 +192,58 @@ impl Server {
                     }
                 }
             }
-            let failed = match outcome {
-                Outcome::Forward { len, dests } => send_to_many(&self.socket, &data[..len], dests),
-                Outcome::Control | Outcome::Dropped(_) => 0,
-            };
-            if failed > 0 {
-                self.hub.record_drops(DropReason::SendFailed, failed as u64);
+            if let Outcome::Forward { len, dests } = outcome {
+                // Less any authentication line, which the hub has checked.
+                self.lens[i] = len;
+                // Copied out of the hub (it reuses its list for the next
+                // packet), leaving out any address that is no client.
+                self.dests.clear();
+                for d in dests {
+                    if is_client_addr(*d, self.local) {
+                        self.dests.push(*d);
+                    } else {
+                        bad += 1;
+                    }
+                }
+                self.plan.push(i, &self.dests);
             }
             while let Some(t) = self.hub.poll_transmit() {
-                if send_to_many(&self.socket, &t.payload, &[t.dest]) > 0 {
-                    self.hub.record_drops(DropReason::SendFailed, 1);
+                if !is_client_addr(t.dest, self.local) {
+                    bad += 1;
+                    continue;
                 }
+                self.plan.push(BATCH + self.replies.len(), &[t.dest]);
+                self.replies.push(t);
             }
         }
+        if bad > 0 {
+            self.hub.record_drops(DropReason::BadSource, bad);
+        }
+        let (batch, replies, lens) = (&self.batch, &self.replies, &self.lens);
+        let report = self.sender.send(&self.socket, &self.plan, |i| {
+            if i < BATCH {
+                &batch.get(i)[..lens[i]]
+            } else {
+                replies.get(i - BATCH).map_or(&[][..], |t| &t.payload[..])
+            }
+        });
+        if report.full > 0 {
+            self.hub
+                .record_drops(DropReason::SendFull, report.full as u64);
+        }
+        if report.failed > 0 {
+            self.hub
+                .record_drops(DropReason::SendFailed, report.failed as u64);
+        }
     }
+}
+
+/// Whether the hub may send to `dest`: never to its own socket (that would
+/// feed its own output back to it, for ever), nor to an address that can be
+/// no client. The hub's table should hold no such address; this is the last
+/// line of defence.
+fn is_client_addr(dest: SocketAddr, local: SocketAddr) -> bool {
+    !is_bad_source(&dest, Some(&local))
 }
 
 /// Asks for `bytes` of receive and send buffer: a hub takes bursts from many
@@ -160,4 +262,83 @@ fn enlarge_buffers(sock: &UdpSocket, bytes: usize) -> usize {
         }
     }
     size(Buffer::Receive)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Subscribes `client` to `channel` through `server`, polling it by
+    /// hand; answers a cookie challenge if the hub makes one.
+    fn subscribe(server: &mut Server, client: &UdpSocket, channel: &str) {
+        let hub = server.local_addr().unwrap();
+        client
+            .set_read_timeout(Some(Duration::from_millis(20)))
+            .unwrap();
+        let mut cookie = colony_wire::Cookie::NONE.to_string();
+        for _ in 0..100 {
+            let req = format!("@ <hub> 0\ncookie v {cookie}\nsubscribe ch {channel}\n");
+            client.send_to(req.as_bytes(), hub).unwrap();
+            server.poll(Duration::from_millis(10)).unwrap();
+            let mut buf = [0; 2048];
+            let Ok(n) = client.recv(&mut buf) else {
+                continue;
+            };
+            let reply = String::from_utf8_lossy(&buf[..n]).into_owned();
+            if reply.contains("lease") {
+                return;
+            }
+            if let Some(c) = reply.split("cookie v ").nth(1) {
+                c.trim().clone_into(&mut cookie);
+            }
+        }
+        panic!("no lease for {channel}");
+    }
+
+    #[test]
+    fn a_subscription_in_the_hubs_own_name_causes_no_storm() {
+        let mut server = Server::bind("127.0.0.1:0", HubConfig::default()).unwrap();
+        let hub = server.local_addr().unwrap();
+        let sub = UdpSocket::bind("127.0.0.1:0").unwrap();
+        subscribe(&mut server, &sub, "storm");
+        // A forged subscription with the hub's own address as its source
+        // (on a network, one spoofed datagram), put straight into the hub
+        // whatever the hub's own checks make of it.
+        let _ = server
+            .hub
+            .handle(Instant::now(), hub, b"@ <hub> 0\nsubscribe ch storm\n");
+        let publisher = UdpSocket::bind("127.0.0.1:0").unwrap();
+        publisher.send_to(b"@ <storm> 0\nx a 1\n", hub).unwrap();
+        let mut handled = 0;
+        let deadline = Instant::now() + Duration::from_millis(300);
+        while Instant::now() < deadline {
+            handled += server.poll(Duration::from_millis(10)).unwrap();
+        }
+        // The one published packet, and nothing the hub sent itself.
+        assert_eq!(handled, 1);
+        assert!(server.hub().drops(DropReason::BadSource) >= 1);
+        let mut buf = [0; 64];
+        let n = sub.recv(&mut buf).unwrap();
+        assert_eq!(&buf[..n], b"@ <storm> 0\nx a 1\n");
+        sub.set_nonblocking(true).unwrap();
+        assert!(sub.recv(&mut buf).is_err(), "a second copy arrived");
+    }
+
+    #[test]
+    fn the_hub_sends_to_no_address_that_can_be_no_client() {
+        let local: SocketAddr = "127.0.0.1:7400".parse().unwrap();
+        let any: SocketAddr = "0.0.0.0:7400".parse().unwrap();
+        let ok = |d: &str, l| is_client_addr(d.parse().unwrap(), l);
+        assert!(ok("127.0.0.1:5000", local));
+        assert!(ok("[::1]:5000", local));
+        assert!(!ok("127.0.0.1:7400", local));
+        assert!(!ok("127.0.0.1:0", local));
+        assert!(!ok("0.0.0.0:5000", local));
+        assert!(!ok("255.255.255.255:5000", local));
+        assert!(!ok("224.0.0.1:5000", local));
+        assert!(!ok("[::]:5000", local));
+        assert!(!ok("[ff02::1]:5000", local));
+        assert!(!ok("127.0.0.1:7400", any));
+        assert!(ok("127.0.0.1:7401", any));
+    }
 }

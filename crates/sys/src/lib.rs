@@ -2,7 +2,8 @@
 //! client and benchmarks, and the only `unsafe` code in colony's networking.
 //!
 //! - [`udp`]: many datagrams per system call (`recvmmsg`/`sendmmsg` on
-//!   Linux, one at a time elsewhere), and UDP generic segmentation offload.
+//!   Linux, one at a time elsewhere), UDP generic segmentation offload,
+//!   and the kernel's count of datagrams dropped at a full receive buffer.
 //! - [`wait`]: readiness waits, `poll` on one socket and an `epoll` set.
 //! - [`buffers`]: a socket's kernel buffer sizes.
 //! - [`thread`] and [`process`]: CPU affinity, thread ids, clock ticks and a

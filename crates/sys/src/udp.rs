@@ -1,10 +1,19 @@
 //! Many datagrams per system call: `recvmmsg` and `sendmmsg` on Linux, one
-//! datagram at a time elsewhere; and, for the benchmarks' UDP floor, UDP
-//! generic segmentation offload (a run of datagrams handed to the kernel as
-//! one and split where it is delivered).
+//! datagram at a time elsewhere; UDP generic segmentation offload (a run of
+//! equal-length datagrams for one destination handed to the kernel as one
+//! send, split only where it is delivered); and the kernel's count of the
+//! datagrams it dropped because a socket's receive buffer was full.
 
 use std::io;
 use std::net::{SocketAddr, UdpSocket};
+
+mod send;
+pub use send::{Loss, Repeater, SendPlan, SendReport, Sender};
+
+/// Bytes of control-message room per received datagram: one `SO_RXQ_OVFL`
+/// message (`CMSG_SPACE(4)`, 24 bytes on 64-bit Linux) with room to spare,
+/// as 8-byte words so the buffer is aligned for a `cmsghdr`.
+const CONTROL_WORDS: usize = 4;
 
 /// Buffers for one batch of up to `N` received datagrams, each given `slot`
 /// bytes. A datagram longer than its slot comes back `slot` bytes long (its
@@ -16,6 +25,11 @@ pub struct RecvBatch<const N: usize> {
     lens: [usize; N],
     addrs: [Option<SocketAddr>; N],
     count: usize,
+    /// Each datagram's control messages (the kernel's drop counter).
+    control: Vec<[u64; CONTROL_WORDS]>,
+    kernel_drops: Option<u32>,
+    #[cfg(target_os = "linux")]
+    scratch: imp::RecvScratch,
 }
 
 impl<const N: usize> RecvBatch<N> {
@@ -27,6 +41,10 @@ impl<const N: usize> RecvBatch<N> {
             lens: [0; N],
             addrs: [None; N],
             count: 0,
+            control: vec![[0; CONTROL_WORDS]; N],
+            kernel_drops: None,
+            #[cfg(target_os = "linux")]
+            scratch: imp::RecvScratch::new(N),
         }
     }
 
@@ -49,27 +67,50 @@ impl<const N: usize> RecvBatch<N> {
         &self.buf[i * self.slot..i * self.slot + self.lens[i]]
     }
 
+    /// The source of datagram `i` of the last receive (`None` if it is no
+    /// IP address, or `i` is past the batch).
+    pub fn source(&self, i: usize) -> Option<SocketAddr> {
+        if i < self.count {
+            self.addrs[i]
+        } else {
+            None
+        }
+    }
+
     /// The datagrams of the last receive, with their sources (one whose
     /// source is not an IP address is left out).
     pub fn iter(&self) -> impl Iterator<Item = (SocketAddr, &[u8])> {
         (0..self.count).filter_map(move |i| Some((self.addrs[i]?, self.get(i))))
     }
 
+    /// The socket's count of datagrams the kernel dropped for want of
+    /// receive buffer, as it stood when the last datagram of the last
+    /// receive was queued; `None` unless [`count_kernel_drops`] was turned on
+    /// for the socket and the last receive took a datagram queued after the
+    /// first drop (Linux leaves the count out while it is 0). The count is
+    /// cumulative over the socket's life and wraps at `u32::MAX`: subtract
+    /// the previous reading (with `wrapping_sub`) for the drops in between.
+    pub fn kernel_drops(&self) -> Option<u32> {
+        self.kernel_drops
+    }
+
     /// Receives up to `N` waiting datagrams without blocking; returns how
     /// many (0 when none is waiting or a signal interrupted the call).
     pub fn recv(&mut self, sock: &UdpSocket) -> io::Result<usize> {
         self.count = 0;
+        self.kernel_drops = None;
         let n = imp::recv(sock, self)?;
         self.count = n;
         Ok(n)
     }
 }
 
-/// Sends `payload` to every destination, without blocking; returns how many
-/// could not be sent (a full buffer, an unreachable address): each of those
-/// is dropped, and the rest still go.
-pub fn send_to_many(sock: &UdpSocket, payload: &[u8], dests: &[SocketAddr]) -> usize {
-    imp::send_to_many(sock, payload, dests)
+/// Asks the kernel to report, with each datagram received on `sock`, how
+/// many it has dropped so far because the socket's receive buffer was full
+/// (`SO_RXQ_OVFL`); [`RecvBatch::kernel_drops`] reads it. Linux only: other
+/// systems answer `Unsupported`.
+pub fn count_kernel_drops(sock: &UdpSocket) -> io::Result<()> {
+    imp::count_kernel_drops(sock)
 }
 
 /// Sends each datagram of `msgs` on a connected socket, in as few calls as
@@ -84,45 +125,100 @@ mod imp {
     use super::*;
     use std::mem::{size_of, zeroed};
     use std::net::{Ipv4Addr, Ipv6Addr, SocketAddrV4, SocketAddrV6};
-    use std::os::fd::AsRawFd;
+    use std::os::fd::{AsRawFd, RawFd};
 
-    /// The most datagrams one `sendmmsg` call is given.
-    const SEND_CHUNK: usize = 64;
+    /// The most messages one `sendmmsg` takes (`UIO_MAXIOV`); more is `EINVAL`.
+    const MAX_VLEN: usize = 1024;
+
+    pub(super) fn count_kernel_drops(sock: &UdpSocket) -> io::Result<()> {
+        let on: libc::c_int = 1;
+        // SAFETY: `on` is a live c_int and the length passed is its size, as
+        // SO_RXQ_OVFL reads; the descriptor is borrowed, so it is open.
+        let r = unsafe {
+            libc::setsockopt(
+                sock.as_raw_fd(),
+                libc::SOL_SOCKET,
+                libc::SO_RXQ_OVFL,
+                (&on as *const libc::c_int).cast(),
+                size_of::<libc::c_int>() as libc::socklen_t,
+            )
+        };
+        if r == 0 {
+            Ok(())
+        } else {
+            Err(io::Error::last_os_error())
+        }
+    }
+
+    /// The C structures `recvmmsg` is handed, made (zeroed) once with the
+    /// batch rather than on every call.
+    pub(super) struct RecvScratch {
+        names: Vec<libc::sockaddr_storage>,
+        iovs: Vec<libc::iovec>,
+        hdrs: Vec<libc::mmsghdr>,
+    }
+
+    // SAFETY: the raw pointers inside `iovs` and `hdrs` are set right before
+    // each `recvmmsg` and used only by the kernel during it; between calls
+    // nothing dereferences them, so moving the scratch to another thread
+    // shares nothing.
+    unsafe impl Send for RecvScratch {}
+
+    impl RecvScratch {
+        pub(super) fn new(n: usize) -> RecvScratch {
+            // SAFETY: all-zero bytes are a valid value for these plain C
+            // structs (null pointers and zero lengths).
+            let (name, iov, hdr) = unsafe { (zeroed(), zeroed(), zeroed()) };
+            RecvScratch {
+                names: vec![name; n],
+                iovs: vec![iov; n],
+                hdrs: vec![hdr; n],
+            }
+        }
+    }
 
     pub(super) fn recv<const N: usize>(
         sock: &UdpSocket,
         batch: &mut RecvBatch<N>,
     ) -> io::Result<usize> {
         let slot = batch.slot;
-        // SAFETY: all-zero bytes are a valid value for these plain C structs
-        // (null pointers and zero lengths), and every pointer is set below
-        // before the kernel reads it.
-        let mut names: [libc::sockaddr_storage; N] = unsafe { zeroed() };
-        // SAFETY: as above.
-        let mut iovs: [libc::iovec; N] = unsafe { zeroed() };
-        // SAFETY: as above.
-        let mut hdrs: [libc::mmsghdr; N] = unsafe { zeroed() };
-        for (i, chunk) in batch.buf.chunks_exact_mut(slot).enumerate() {
-            iovs[i] = libc::iovec {
-                iov_base: chunk.as_mut_ptr().cast(),
-                iov_len: slot,
-            };
-            hdrs[i].msg_hdr.msg_name = (&mut names[i] as *mut libc::sockaddr_storage).cast();
-            hdrs[i].msg_hdr.msg_namelen = size_of::<libc::sockaddr_storage>() as libc::socklen_t;
-            hdrs[i].msg_hdr.msg_iov = &mut iovs[i];
-            hdrs[i].msg_hdr.msg_iovlen = 1;
+        let s = &mut batch.scratch;
+        // Each vector holds N entries (made so in `new`); pointers into them
+        // are taken once, and offset with wrapping_add inside them.
+        let names = s.names.as_mut_ptr();
+        let iovs = s.iovs.as_mut_ptr();
+        let control = batch.control.as_mut_ptr();
+        let buf = batch.buf.as_mut_ptr();
+        for (i, iov) in s.iovs.iter_mut().enumerate().take(N) {
+            iov.iov_base = buf.wrapping_add(i * slot).cast();
+            iov.iov_len = slot;
         }
-        // SAFETY: `hdrs` holds N headers, each pointing at its own iovec
-        // (`slot` bytes inside `batch.buf`, which is `slot * N` long) and its
-        // own sockaddr_storage with its true size; all of them live on this
-        // stack frame or in `batch`, which outlive the call, and no other
-        // reference to those buffers exists while it runs. The socket is
-        // borrowed, so its descriptor is open.
+        for (i, m) in s.hdrs.iter_mut().enumerate().take(N) {
+            // Every field the kernel reads or writes back is set again: the
+            // name's and the control buffer's room, and the flags.
+            m.msg_len = 0;
+            let h = &mut m.msg_hdr;
+            h.msg_name = names.wrapping_add(i).cast();
+            h.msg_namelen = size_of::<libc::sockaddr_storage>() as libc::socklen_t;
+            h.msg_iov = iovs.wrapping_add(i);
+            h.msg_iovlen = 1;
+            h.msg_control = control.wrapping_add(i).cast();
+            h.msg_controllen = CONTROL_WORDS * 8;
+            h.msg_flags = 0;
+        }
+        let count = N.min(s.hdrs.len());
+        // SAFETY: `hdrs` holds `count` headers, each pointing at its own
+        // iovec (`slot` bytes inside `batch.buf`, which is `slot * N` long),
+        // its own sockaddr_storage with its true size and its own control
+        // buffer of `CONTROL_WORDS * 8` bytes; all of them live in `batch`,
+        // which outlives the call, and no other reference to those buffers
+        // exists while it runs. The socket is borrowed, so its descriptor is
+        // open.
         let r = unsafe {
             libc::recvmmsg(
                 sock.as_raw_fd(),
-                hdrs.as_mut_ptr(),
-                N as libc::c_uint,
+                s.hdrs.as_mut_ptr(),
+                count as libc::c_uint,
                 libc::MSG_DONTWAIT,
                 std::ptr::null_mut(),
             )
@@ -134,7 +230,8 @@ mod imp {
                 _ => Err(e),
             };
         }
-        let n = r as usize;
+        let n = (r as usize).min(count);
+        let (hdrs, names) = (&s.hdrs, &s.names);
         for i in 0..n {
             let truncated = hdrs[i].msg_hdr.msg_flags & libc::MSG_TRUNC != 0;
             // A datagram longer than its slot keeps `slot` bytes, so the
@@ -145,130 +242,113 @@ mod imp {
                 (hdrs[i].msg_len as usize).min(slot)
             };
             batch.addrs[i] = from_sockaddr(&names[i]);
+            if let Some(d) = drop_counter(&hdrs[i].msg_hdr) {
+                batch.kernel_drops = Some(d);
+            }
         }
         Ok(n)
     }
 
-    pub(super) fn send_to_many(sock: &UdpSocket, payload: &[u8], dests: &[SocketAddr]) -> usize {
-        let mut failed = 0;
-        for chunk in dests.chunks(SEND_CHUNK) {
-            // SAFETY: all-zero is valid for these C structs, as in `recv`.
-            let mut names: [libc::sockaddr_storage; SEND_CHUNK] = unsafe { zeroed() };
-            let mut iov = libc::iovec {
-                iov_base: payload.as_ptr() as *mut libc::c_void,
-                iov_len: payload.len(),
-            };
-            // SAFETY: as above.
-            let mut hdrs: [libc::mmsghdr; SEND_CHUNK] = unsafe { zeroed() };
-            for (i, dest) in chunk.iter().enumerate() {
-                let len = to_sockaddr(dest, &mut names[i]);
-                hdrs[i].msg_hdr.msg_name = (&mut names[i] as *mut libc::sockaddr_storage).cast();
-                hdrs[i].msg_hdr.msg_namelen = len;
-                hdrs[i].msg_hdr.msg_iov = &mut iov;
-                hdrs[i].msg_hdr.msg_iovlen = 1;
-            }
-            let mut start = 0;
-            while start < chunk.len() {
-                // SAFETY: headers `start..chunk.len()` are initialised above and
-                // point at `names` and at `iov`, which points at `payload`; the
-                // kernel only reads through them (sendmmsg never writes to the
-                // payload, so casting its pointer to *mut is harmless), and all
-                // of them outlive the call.
-                let r = unsafe {
-                    libc::sendmmsg(
-                        sock.as_raw_fd(),
-                        hdrs.as_mut_ptr().add(start),
-                        (chunk.len() - start) as libc::c_uint,
-                        libc::MSG_DONTWAIT,
-                    )
-                };
-                if r < 0 {
-                    let e = io::Error::last_os_error();
-                    if e.kind() == io::ErrorKind::Interrupted {
-                        continue;
-                    }
-                    // The first datagram failed (buffer full, unreachable
-                    // address): drop it and go on with the rest.
-                    failed += 1;
-                    start += 1;
-                } else {
-                    start += r as usize;
+    /// The `SO_RXQ_OVFL` count among a received message's control messages.
+    fn drop_counter(msg: &libc::msghdr) -> Option<u32> {
+        if msg.msg_flags & libc::MSG_CTRUNC != 0 {
+            return None;
+        }
+        // SAFETY: `msg` is a header the kernel filled in: `msg_control` points
+        // at this datagram's buffer (CONTROL_WORDS * 8 bytes, aligned for a
+        // cmsghdr) and `msg_controllen` says how much of it the kernel wrote,
+        // so CMSG_FIRSTHDR and CMSG_NXTHDR return headers inside it or null;
+        // the counter is a u32 right after its header, read unaligned.
+        unsafe {
+            let mut c = libc::CMSG_FIRSTHDR(msg);
+            while !c.is_null() {
+                if (*c).cmsg_level == libc::SOL_SOCKET
+                    && (*c).cmsg_type == libc::SO_RXQ_OVFL
+                    && (*c).cmsg_len as usize >= libc::CMSG_LEN(4) as usize
+                {
+                    return Some(std::ptr::read_unaligned(libc::CMSG_DATA(c).cast::<u32>()));
                 }
+                c = libc::CMSG_NXTHDR(msg, c);
             }
         }
-        failed
+        None
+    }
+
+    /// The one `sendmmsg` loop: sends every header of `hdrs`, at most
+    /// `UIO_MAXIOV` per call, retrying a call a signal interrupted. When the
+    /// kernel refuses the first message of a call, `on_error` is given its
+    /// index, the header and the error; it answers whether to go on with the
+    /// next (the refused one is then skipped). Returns how many headers were
+    /// dealt with: all of them, or the index of the one it stopped at.
+    pub(super) fn send_all(
+        fd: RawFd,
+        hdrs: &mut [libc::mmsghdr],
+        mut on_error: impl FnMut(usize, &libc::mmsghdr, io::Error) -> bool,
+    ) -> usize {
+        let mut start = 0;
+        while start < hdrs.len() {
+            let vlen = (hdrs.len() - start).min(MAX_VLEN);
+            // SAFETY: headers `start..start + vlen` lie inside `hdrs`; the
+            // caller made each point at live names, iovecs, payloads and
+            // control buffers that outlive this call, which the kernel only
+            // reads (sendmmsg writes nothing but each header's `msg_len`,
+            // inside `hdrs`, which is borrowed mutably).
+            let r = unsafe {
+                libc::sendmmsg(
+                    fd,
+                    hdrs.as_mut_ptr().add(start),
+                    vlen as libc::c_uint,
+                    libc::MSG_DONTWAIT,
+                )
+            };
+            if r > 0 {
+                start += r as usize;
+                continue;
+            }
+            let e = if r == 0 {
+                // Never seen for vlen > 0; a refusal rather than a spin.
+                io::Error::from(io::ErrorKind::WriteZero)
+            } else {
+                io::Error::last_os_error()
+            };
+            if e.kind() == io::ErrorKind::Interrupted {
+                continue;
+            }
+            if !on_error(start, &hdrs[start], e) {
+                return start;
+            }
+            start += 1;
+        }
+        start
     }
 
     pub(super) fn send_connected(sock: &UdpSocket, msgs: &[&[u8]]) -> io::Result<usize> {
-        let mut sent = 0;
-        for chunk in msgs.chunks(SEND_CHUNK) {
-            // SAFETY: all-zero is valid for these C structs, as in `recv`.
-            let mut iovs: [libc::iovec; SEND_CHUNK] = unsafe { zeroed() };
-            // SAFETY: as above.
-            let mut hdrs: [libc::mmsghdr; SEND_CHUNK] = unsafe { zeroed() };
-            for (i, m) in chunk.iter().enumerate() {
-                iovs[i] = libc::iovec {
-                    iov_base: m.as_ptr() as *mut libc::c_void,
-                    iov_len: m.len(),
-                };
-                hdrs[i].msg_hdr.msg_iov = &mut iovs[i];
-                hdrs[i].msg_hdr.msg_iovlen = 1;
-            }
-            let mut start = 0;
-            while start < chunk.len() {
-                // SAFETY: headers `start..chunk.len()` point at live iovecs
-                // that point at the caller's buffers; the kernel only reads
-                // them, and a null name sends to the connected peer.
-                let r = unsafe {
-                    libc::sendmmsg(
-                        sock.as_raw_fd(),
-                        hdrs.as_mut_ptr().add(start),
-                        (chunk.len() - start) as libc::c_uint,
-                        0,
-                    )
-                };
-                if r < 0 {
-                    let e = io::Error::last_os_error();
-                    match e.kind() {
-                        io::ErrorKind::Interrupted => continue,
-                        io::ErrorKind::WouldBlock => return Ok(sent),
-                        _ => return Err(e),
-                    }
-                }
-                start += r as usize;
-                sent += r as usize;
-            }
+        let mut iovs: Vec<libc::iovec> = msgs
+            .iter()
+            .map(|m| libc::iovec {
+                iov_base: m.as_ptr() as *mut libc::c_void,
+                iov_len: m.len(),
+            })
+            .collect();
+        // SAFETY: all-zero is a valid mmsghdr (null pointers, zero lengths);
+        // a null name sends to the connected peer.
+        let mut hdrs: Vec<libc::mmsghdr> = vec![unsafe { zeroed() }; msgs.len()];
+        let base = iovs.as_mut_ptr();
+        for (i, h) in hdrs.iter_mut().enumerate() {
+            h.msg_hdr.msg_iov = base.wrapping_add(i);
+            h.msg_hdr.msg_iovlen = 1;
         }
-        Ok(sent)
-    }
-
-    pub(super) fn to_sockaddr(
-        addr: &SocketAddr,
-        out: &mut libc::sockaddr_storage,
-    ) -> libc::socklen_t {
-        match addr {
-            SocketAddr::V4(a) => {
-                let sin = sockaddr_in(a);
-                // SAFETY: sockaddr_storage is larger than and aligned for every
-                // sockaddr type, which is what it exists for, and `out` is a
-                // live, exclusive reference.
-                unsafe { std::ptr::write((out as *mut libc::sockaddr_storage).cast(), sin) };
-                size_of::<libc::sockaddr_in>() as libc::socklen_t
+        let mut error = None;
+        let sent = send_all(sock.as_raw_fd(), &mut hdrs, |_, _, e| {
+            if e.kind() != io::ErrorKind::WouldBlock {
+                error = Some(e);
             }
-            SocketAddr::V6(a) => {
-                let sin6 = libc::sockaddr_in6 {
-                    sin6_family: libc::AF_INET6 as libc::sa_family_t,
-                    sin6_port: a.port().to_be(),
-                    sin6_flowinfo: a.flowinfo(),
-                    sin6_addr: libc::in6_addr {
-                        s6_addr: a.ip().octets(),
-                    },
-                    sin6_scope_id: a.scope_id(),
-                };
-                // SAFETY: as above.
-                unsafe { std::ptr::write((out as *mut libc::sockaddr_storage).cast(), sin6) };
-                size_of::<libc::sockaddr_in6>() as libc::socklen_t
-            }
+            false
+        });
+        drop(iovs);
+        match error {
+            Some(e) if sent == 0 => Err(e),
+            _ => Ok(sent),
         }
     }
 
@@ -280,6 +360,18 @@ mod imp {
                 s_addr: u32::from_ne_bytes(a.ip().octets()),
             },
             sin_zero: [0; 8],
+        }
+    }
+
+    pub(super) fn sockaddr_in6(a: &SocketAddrV6) -> libc::sockaddr_in6 {
+        libc::sockaddr_in6 {
+            sin6_family: libc::AF_INET6 as libc::sa_family_t,
+            sin6_port: a.port().to_be(),
+            sin6_flowinfo: a.flowinfo(),
+            sin6_addr: libc::in6_addr {
+                s6_addr: a.ip().octets(),
+            },
+            sin6_scope_id: a.scope_id(),
         }
     }
 
@@ -317,6 +409,10 @@ mod imp {
 mod imp {
     use super::*;
 
+    pub(super) fn count_kernel_drops(_sock: &UdpSocket) -> io::Result<()> {
+        Err(io::Error::from(io::ErrorKind::Unsupported))
+    }
+
     pub(super) fn recv<const N: usize>(
         sock: &UdpSocket,
         batch: &mut RecvBatch<N>,
@@ -345,13 +441,6 @@ mod imp {
         Ok(n)
     }
 
-    pub(super) fn send_to_many(sock: &UdpSocket, payload: &[u8], dests: &[SocketAddr]) -> usize {
-        dests
-            .iter()
-            .filter(|d| sock.send_to(payload, d).is_err())
-            .count()
-    }
-
     pub(super) fn send_connected(sock: &UdpSocket, msgs: &[&[u8]]) -> io::Result<usize> {
         let mut sent = 0;
         for m in msgs {
@@ -364,11 +453,6 @@ mod imp {
         Ok(sent)
     }
 }
-
-#[cfg(target_os = "linux")]
-mod segments;
-#[cfg(target_os = "linux")]
-pub use segments::Repeater;
 
 #[cfg(test)]
 mod tests {
@@ -423,20 +507,6 @@ mod tests {
     }
 
     #[test]
-    fn one_payload_goes_to_every_destination() {
-        let (a, b) = pair();
-        let (c, d) = pair();
-        let dests = [b.local_addr().unwrap(), d.local_addr().unwrap()];
-        assert_eq!(send_to_many(&a, b"hi", &dests), 0);
-        for s in [&b, &d] {
-            let mut batch = RecvBatch::<2>::new(16);
-            recv_all(s, &mut batch, 1);
-            assert_eq!(batch.get(0), b"hi");
-        }
-        drop(c);
-    }
-
-    #[test]
     fn a_connected_socket_sends_a_batch_in_order() {
         let (a, b) = pair();
         a.connect(b.local_addr().unwrap()).unwrap();
@@ -450,5 +520,29 @@ mod tests {
             seen.extend((0..batch.len()).map(|i| batch.get(i)[0]));
         }
         assert_eq!(seen, (0..100).collect::<Vec<u8>>());
+    }
+
+    #[test]
+    fn the_kernel_reports_datagrams_dropped_for_want_of_buffer() {
+        let (a, b) = pair();
+        count_kernel_drops(&b).unwrap();
+        crate::buffers::set_size(&b, crate::buffers::Buffer::Receive, 4096, false).unwrap();
+        let to = b.local_addr().unwrap();
+        // Far more than a 4 KiB buffer holds, and nobody reading.
+        for _ in 0..200 {
+            a.send_to(&[1; 100], to).unwrap();
+        }
+        let mut batch = RecvBatch::<64>::new(128);
+        recv_all(&b, &mut batch, 1);
+        while batch.recv(&b).unwrap() > 0 {}
+        // The count comes with datagrams queued after the drops.
+        a.send_to(&[1; 100], to).unwrap();
+        recv_all(&b, &mut batch, 1);
+        let before = batch.kernel_drops().unwrap();
+        assert!(before > 0, "nothing dropped");
+        a.send_to(&[1; 100], to).unwrap();
+        recv_all(&b, &mut batch, 1);
+        // Nothing was dropped since: the count stands where it stood.
+        assert_eq!(batch.kernel_drops(), Some(before));
     }
 }

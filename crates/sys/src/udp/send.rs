@@ -1,0 +1,602 @@
+//! Sending many datagrams to many destinations in as few system calls as
+//! Linux allows: a [`SendPlan`] says which datagram goes where, a [`Sender`]
+//! hands the whole plan to the kernel in one `sendmmsg` (per `UIO_MAXIOV`
+//! messages), with each run of equal-length datagrams for one destination
+//! as one UDP GSO message (`UDP_SEGMENT`) where the kernel takes it.
+
+use std::io;
+use std::net::{SocketAddr, UdpSocket};
+use std::ops::Range;
+
+use super::RecvBatch;
+
+/// What became of the deliveries of one [`Sender::send`].
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+pub struct SendReport {
+    /// Datagrams the kernel took.
+    pub sent: usize,
+    /// Datagrams dropped because the socket's send buffer (or the device
+    /// queue) was full: [`Loss::Full`].
+    pub full: usize,
+    /// Datagrams dropped for any other reason: [`Loss::Failed`].
+    pub failed: usize,
+}
+
+/// Why the kernel refused a datagram.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Loss {
+    /// No room just now (`EAGAIN`, `EWOULDBLOCK`, `ENOBUFS`): the sender is
+    /// faster than the way out, and the next datagram may well go.
+    Full,
+    /// Anything else: an unreachable network, a refused or invalid address.
+    Failed,
+}
+
+impl Loss {
+    /// Sorts a send error into its kind of loss.
+    pub fn of(err: &io::Error) -> Loss {
+        if err.kind() == io::ErrorKind::WouldBlock || err.raw_os_error() == Some(libc::ENOBUFS) {
+            Loss::Full
+        } else {
+            Loss::Failed
+        }
+    }
+}
+
+/// Datagrams that share one list of destinations, in order.
+#[derive(Debug, Clone)]
+struct Group {
+    payloads: Range<usize>,
+    dests: Range<usize>,
+}
+
+/// Which datagram goes to which destinations: the work of one
+/// [`Sender::send`]. Datagrams are named by an index the caller resolves
+/// when it sends (a slot of its receive batch, say), so a plan borrows
+/// nothing and keeps its memory from one batch to the next.
+///
+/// Each destination gets its datagrams in the order they were pushed.
+#[derive(Debug, Default)]
+pub struct SendPlan {
+    payloads: Vec<usize>,
+    dests: Vec<SocketAddr>,
+    #[cfg(target_os = "linux")]
+    names: Vec<imp::Name>,
+    groups: Vec<Group>,
+    deliveries: usize,
+}
+
+impl SendPlan {
+    /// An empty plan.
+    pub fn new() -> SendPlan {
+        SendPlan::default()
+    }
+
+    /// Empties the plan, keeping its memory.
+    pub fn clear(&mut self) {
+        self.payloads.clear();
+        self.dests.clear();
+        #[cfg(target_os = "linux")]
+        self.names.clear();
+        self.groups.clear();
+        self.deliveries = 0;
+    }
+
+    /// Adds datagram `payload` (the caller's index) for each of `dests`.
+    /// A datagram for the same destinations as the one pushed before it
+    /// joins its group, which is what lets a run of them go out as one GSO
+    /// message per destination.
+    pub fn push(&mut self, payload: usize, dests: &[SocketAddr]) {
+        if dests.is_empty() {
+            return;
+        }
+        self.deliveries += dests.len();
+        self.payloads.push(payload);
+        if let Some(g) = self.groups.last_mut() {
+            if self.dests[g.dests.clone()] == *dests {
+                g.payloads.end += 1;
+                return;
+            }
+        }
+        let first = self.dests.len();
+        self.dests.extend_from_slice(dests);
+        #[cfg(target_os = "linux")]
+        self.names.extend(dests.iter().map(imp::Name::new));
+        self.groups.push(Group {
+            payloads: self.payloads.len() - 1..self.payloads.len(),
+            dests: first..self.dests.len(),
+        });
+    }
+
+    /// How many datagrams the plan sends, counting one per destination.
+    pub fn deliveries(&self) -> usize {
+        self.deliveries
+    }
+
+    /// Whether the plan sends nothing.
+    pub fn is_empty(&self) -> bool {
+        self.deliveries == 0
+    }
+}
+
+/// Sends [`SendPlan`]s. It keeps its buffers from one send to the next and
+/// writes only the entries each send uses; it remembers when the kernel
+/// refused GSO, and sends one datagram per message from then on.
+pub struct Sender {
+    gso: bool,
+    #[cfg(target_os = "linux")]
+    scratch: imp::Scratch,
+}
+
+impl Sender {
+    /// A sender; with `gso`, runs of equal-length datagrams for one
+    /// destination go out as one GSO message (Linux only; ignored elsewhere).
+    pub fn new(gso: bool) -> Sender {
+        Sender {
+            gso: gso && cfg!(target_os = "linux"),
+            #[cfg(target_os = "linux")]
+            scratch: imp::Scratch::default(),
+        }
+    }
+
+    /// Whether GSO is in use (it goes off for good when the kernel refuses it).
+    pub fn gso(&self) -> bool {
+        self.gso
+    }
+
+    /// Sends every delivery of `plan` without blocking, `payload(i)` giving
+    /// the bytes of the datagram the plan calls `i`. A delivery the kernel
+    /// refuses is dropped and counted, and the rest still go.
+    pub fn send<'a>(
+        &mut self,
+        sock: &UdpSocket,
+        plan: &SendPlan,
+        payload: impl Fn(usize) -> &'a [u8],
+    ) -> SendReport {
+        if plan.is_empty() {
+            return SendReport::default();
+        }
+        #[cfg(target_os = "linux")]
+        {
+            imp::send(&mut self.scratch, &mut self.gso, sock, plan, payload)
+        }
+        #[cfg(not(target_os = "linux"))]
+        {
+            let mut report = SendReport::default();
+            for g in &plan.groups {
+                for &p in &plan.payloads[g.payloads.clone()] {
+                    for d in &plan.dests[g.dests.clone()] {
+                        match sock.send_to(payload(p), d) {
+                            Ok(_) => report.sent += 1,
+                            Err(e) if Loss::of(&e) == Loss::Full => report.full += 1,
+                            Err(_) => report.failed += 1,
+                        }
+                    }
+                }
+            }
+            report
+        }
+    }
+}
+
+/// Repeats every datagram of a [`RecvBatch`] to a fixed list of
+/// destinations with one [`Sender`]: what a perfect UDP hub could reach, for
+/// the benchmarks' floor. With `gso`, each run of equal-length datagrams
+/// goes out as one send per destination.
+pub struct Repeater {
+    dests: Vec<SocketAddr>,
+    plan: SendPlan,
+    sender: Sender,
+}
+
+impl Repeater {
+    /// A repeater to `dests`.
+    pub fn new(dests: &[SocketAddr], gso: bool) -> Repeater {
+        Repeater {
+            dests: dests.to_vec(),
+            plan: SendPlan::new(),
+            sender: Sender::new(gso),
+        }
+    }
+
+    /// Sends the batch's datagrams to every destination, without blocking;
+    /// a datagram the kernel refuses is dropped, as the hub does.
+    pub fn repeat<const N: usize>(&mut self, sock: &UdpSocket, batch: &RecvBatch<N>) -> SendReport {
+        self.plan.clear();
+        for i in 0..batch.len() {
+            self.plan.push(i, &self.dests);
+        }
+        self.sender.send(sock, &self.plan, |i| batch.get(i))
+    }
+}
+
+#[cfg(target_os = "linux")]
+mod imp {
+    use super::*;
+    use std::mem::{size_of, zeroed};
+    use std::os::fd::AsRawFd;
+
+    use crate::udp::imp::{send_all, sockaddr_in, sockaddr_in6};
+
+    /// Bytes of the control message that carries `UDP_SEGMENT` (a u16):
+    /// `CMSG_SPACE(2)` on 64-bit Linux.
+    const CMSG_BYTES: usize = 24;
+    /// `UDP_SEGMENT` from linux/udp.h.
+    const UDP_SEGMENT: libc::c_int = 103;
+    /// The most segments one GSO send may carry (`UDP_MAX_SEGMENTS` is 64
+    /// on older kernels).
+    const MAX_SEGMENTS: usize = 64;
+    /// The most payload one GSO send may carry: an IPv4 datagram's limit.
+    const MAX_GSO_BYTES: usize = 65_507;
+    /// The longest datagram sent with GSO: one that fits a 1,500-byte link
+    /// over IPv6. The kernel refuses segments longer than the path's MTU
+    /// (`EINVAL`), which would turn GSO off for good; longer datagrams are
+    /// rare on colony's links and go out one per message.
+    const MAX_SEGMENT: usize = 1_452;
+
+    /// A destination as the kernel reads it. `repr(C)` with the address
+    /// first, so a pointer to a `Name` is a pointer to its sockaddr.
+    #[derive(Clone, Copy)]
+    #[repr(C)]
+    pub(super) struct Name {
+        // Read only by the kernel, through `msg_name`.
+        #[allow(dead_code)]
+        addr: Addr,
+        len: libc::socklen_t,
+    }
+
+    #[derive(Clone, Copy)]
+    #[repr(C)]
+    union Addr {
+        v4: libc::sockaddr_in,
+        v6: libc::sockaddr_in6,
+    }
+
+    impl std::fmt::Debug for Name {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.debug_struct("Name").field("len", &self.len).finish()
+        }
+    }
+
+    impl Name {
+        pub(super) fn new(addr: &SocketAddr) -> Name {
+            match addr {
+                SocketAddr::V4(a) => Name {
+                    addr: Addr { v4: sockaddr_in(a) },
+                    len: size_of::<libc::sockaddr_in>() as libc::socklen_t,
+                },
+                SocketAddr::V6(a) => Name {
+                    addr: Addr {
+                        v6: sockaddr_in6(a),
+                    },
+                    len: size_of::<libc::sockaddr_in6>() as libc::socklen_t,
+                },
+            }
+        }
+    }
+
+    /// The C structures one send hands the kernel, kept between sends.
+    #[derive(Default)]
+    pub(super) struct Scratch {
+        iovs: Vec<libc::iovec>,
+        hdrs: Vec<libc::mmsghdr>,
+        /// How many datagrams each header carries.
+        segments: Vec<usize>,
+        cmsgs: Vec<[u64; 4]>,
+        /// Runs of datagrams sent as one message: `(first, end, group)`.
+        units: Vec<(usize, usize, usize)>,
+    }
+
+    // SAFETY: the raw pointers inside `iovs` and `hdrs` are written at the
+    // start of each `send` and read only by the kernel during it; between
+    // sends they are stale numbers that nothing dereferences. So moving a
+    // `Scratch` to another thread shares nothing.
+    unsafe impl Send for Scratch {}
+
+    pub(super) fn send<'a>(
+        s: &mut Scratch,
+        gso: &mut bool,
+        sock: &UdpSocket,
+        plan: &SendPlan,
+        payload: impl Fn(usize) -> &'a [u8],
+    ) -> SendReport {
+        s.iovs.clear();
+        s.iovs.extend(plan.payloads.iter().map(|&p| {
+            let d = payload(p);
+            libc::iovec {
+                iov_base: d.as_ptr() as *mut libc::c_void,
+                iov_len: d.len(),
+            }
+        }));
+        // Units: one datagram each, or with GSO a run of equal-length
+        // datagrams of one group, which the kernel splits at delivery.
+        s.units.clear();
+        let mut messages = 0;
+        let mut runs = 0;
+        for (g, group) in plan.groups.iter().enumerate() {
+            let mut i = group.payloads.start;
+            while i < group.payloads.end {
+                let len = s.iovs[i].iov_len;
+                let mut end = i + 1;
+                if *gso && (1..=MAX_SEGMENT).contains(&len) {
+                    while end < group.payloads.end
+                        && s.iovs[end].iov_len == len
+                        && end - i < MAX_SEGMENTS
+                        && (end - i + 1) * len <= MAX_GSO_BYTES
+                    {
+                        end += 1;
+                    }
+                }
+                if end - i > 1 {
+                    runs += 1;
+                }
+                messages += group.dests.len();
+                s.units.push((i, end, g));
+                i = end;
+            }
+        }
+        // Grow the buffers only; entries in use are written in full below.
+        if s.hdrs.len() < messages {
+            // SAFETY: all-zero is a valid mmsghdr (null pointers, zero lengths).
+            s.hdrs.resize(messages, unsafe { zeroed() });
+        }
+        if s.cmsgs.len() < runs {
+            s.cmsgs.resize(runs, [0; 4]);
+        }
+        let mut c = 0;
+        for &(first, end, _) in &s.units {
+            if end - first > 1 {
+                set_segment_size(&mut s.cmsgs[c], s.iovs[first].iov_len);
+                c += 1;
+            }
+        }
+        // Pointers are taken once, after every write to these vectors, and
+        // offset with wrapping_add inside them.
+        let iovs = s.iovs.as_mut_ptr();
+        let cmsgs = s.cmsgs.as_mut_ptr();
+        let names = plan.names.as_ptr();
+        s.segments.clear();
+        let (mut h, mut c) = (0, 0);
+        for &(first, end, g) in &s.units {
+            let segments = end - first;
+            let control = if segments > 1 {
+                c += 1;
+                cmsgs.wrapping_add(c - 1).cast::<libc::c_void>()
+            } else {
+                std::ptr::null_mut()
+            };
+            for d in plan.groups[g].dests.clone() {
+                let m = &mut s.hdrs[h];
+                m.msg_len = 0;
+                let msg = &mut m.msg_hdr;
+                // The kernel only reads the name on a send; a `Name` starts
+                // with its sockaddr.
+                msg.msg_name = names.wrapping_add(d) as *mut libc::c_void;
+                msg.msg_namelen = plan.names[d].len;
+                // The kernel reads `segments` iovecs from here.
+                msg.msg_iov = iovs.wrapping_add(first);
+                msg.msg_iovlen = segments;
+                msg.msg_control = control;
+                msg.msg_controllen = if segments > 1 { CMSG_BYTES } else { 0 };
+                msg.msg_flags = 0;
+                s.segments.push(segments);
+                h += 1;
+            }
+        }
+        let mut report = SendReport::default();
+        let segments = &s.segments;
+        let fd = sock.as_raw_fd();
+        send_all(fd, &mut s.hdrs[..messages], |k, hdr, e| {
+            let n = segments.get(k).copied().unwrap_or(1);
+            let refused_gso = matches!(e.raw_os_error(), Some(libc::EIO | libc::EINVAL));
+            if n > 1 && refused_gso {
+                // This path (its device, or its MTU) takes no GSO: send the
+                // run one datagram at a time, and never try GSO again.
+                *gso = false;
+                one_by_one(fd, hdr, &mut report);
+            } else {
+                match Loss::of(&e) {
+                    Loss::Full => report.full += n,
+                    Loss::Failed => report.failed += n,
+                }
+            }
+            true
+        });
+        report.sent = plan.deliveries - report.full - report.failed;
+        report
+    }
+
+    /// Sends each datagram of a GSO message on its own.
+    fn one_by_one(fd: libc::c_int, hdr: &libc::mmsghdr, report: &mut SendReport) {
+        for i in 0..hdr.msg_hdr.msg_iovlen {
+            // SAFETY: all-zero is a valid msghdr; the fields set point where
+            // `hdr`'s do (its name, one of its iovecs), which `send` keeps
+            // alive and which the kernel only reads.
+            let mut msg: libc::msghdr = unsafe { zeroed() };
+            msg.msg_name = hdr.msg_hdr.msg_name;
+            msg.msg_namelen = hdr.msg_hdr.msg_namelen;
+            msg.msg_iov = hdr.msg_hdr.msg_iov.wrapping_add(i);
+            msg.msg_iovlen = 1;
+            loop {
+                // SAFETY: `msg` is a valid header as said above, and the
+                // descriptor is the borrowed socket's.
+                let r = unsafe { libc::sendmsg(fd, &msg, libc::MSG_DONTWAIT) };
+                if r >= 0 {
+                    break;
+                }
+                let e = io::Error::last_os_error();
+                if e.kind() == io::ErrorKind::Interrupted {
+                    continue;
+                }
+                match Loss::of(&e) {
+                    Loss::Full => report.full += 1,
+                    Loss::Failed => report.failed += 1,
+                }
+                break;
+            }
+        }
+    }
+
+    /// Writes a `UDP_SEGMENT` control message for segments of `size` bytes.
+    fn set_segment_size(buf: &mut [u64; 4], size: usize) {
+        // SAFETY: CMSG_SPACE is a pure computation.
+        debug_assert_eq!(unsafe { libc::CMSG_SPACE(2) } as usize, CMSG_BYTES);
+        // SAFETY: `buf` is 32 bytes, 8-byte aligned, which holds one cmsghdr
+        // (16 bytes) and its 2 data bytes; the header is written through the
+        // pointer CMSG_FIRSTHDR gives for a msghdr describing exactly `buf`
+        // (never null: CMSG_BYTES is at least a cmsghdr), and the data with
+        // an unaligned write.
+        unsafe {
+            let mut msg: libc::msghdr = zeroed();
+            msg.msg_control = buf.as_mut_ptr().cast();
+            msg.msg_controllen = CMSG_BYTES;
+            let c = libc::CMSG_FIRSTHDR(&msg);
+            (*c).cmsg_level = libc::SOL_UDP;
+            (*c).cmsg_type = UDP_SEGMENT;
+            (*c).cmsg_len = libc::CMSG_LEN(2) as usize;
+            std::ptr::write_unaligned(libc::CMSG_DATA(c).cast::<u16>(), size as u16);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    fn socket() -> UdpSocket {
+        let s = UdpSocket::bind("127.0.0.1:0").unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        s
+    }
+
+    fn read(s: &UdpSocket, n: usize) -> Vec<Vec<u8>> {
+        (0..n)
+            .map(|_| {
+                let mut buf = [0; 2048];
+                let len = s.recv(&mut buf).unwrap();
+                buf[..len].to_vec()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_full_buffer_is_told_apart_from_other_refusals() {
+        let e = |n| io::Error::from_raw_os_error(n);
+        assert_eq!(Loss::of(&e(libc::EAGAIN)), Loss::Full);
+        assert_eq!(Loss::of(&e(libc::EWOULDBLOCK)), Loss::Full);
+        assert_eq!(Loss::of(&e(libc::ENOBUFS)), Loss::Full);
+        assert_eq!(Loss::of(&e(libc::ECONNREFUSED)), Loss::Failed);
+        assert_eq!(Loss::of(&e(libc::ENETUNREACH)), Loss::Failed);
+        assert_eq!(Loss::of(&e(libc::EINVAL)), Loss::Failed);
+    }
+
+    #[test]
+    fn each_destination_gets_its_datagrams_in_order_with_and_without_gso() {
+        for gso in [false, true] {
+            let from = socket();
+            let subs: Vec<UdpSocket> = (0..3).map(|_| socket()).collect();
+            let a: Vec<SocketAddr> = subs.iter().map(|s| s.local_addr().unwrap()).collect();
+            // Runs of equal lengths, a change of lengths, and a change of
+            // destinations between them.
+            let data: Vec<Vec<u8>> = (0..200u8)
+                .map(|i| vec![i; if i < 100 { 20 } else { 20 + usize::from(i % 3) }])
+                .collect();
+            let mut plan = SendPlan::new();
+            for i in 0..data.len() {
+                if i % 50 < 40 {
+                    plan.push(i, &a);
+                } else {
+                    plan.push(i, &a[1..]);
+                }
+            }
+            let mut sender = Sender::new(gso);
+            let report = sender.send(&from, &plan, |i| &data[i]);
+            assert_eq!(report.sent, plan.deliveries(), "gso {gso}");
+            // Loopback takes GSO: it was not turned off on the way.
+            assert_eq!(sender.gso(), gso);
+            let only_first: Vec<Vec<u8>> = data
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| i % 50 < 40)
+                .map(|(_, d)| d.clone())
+                .collect();
+            assert_eq!(read(&subs[0], only_first.len()), only_first, "gso {gso}");
+            for s in &subs[1..] {
+                assert_eq!(read(s, data.len()), data, "gso {gso}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_plan_larger_than_one_system_call_is_sent_whole() {
+        let from = socket();
+        let subs: Vec<UdpSocket> = (0..11).map(|_| socket()).collect();
+        let dests: Vec<SocketAddr> = subs.iter().map(|s| s.local_addr().unwrap()).collect();
+        let data: Vec<Vec<u8>> = (0..100u32).map(|i| i.to_be_bytes().to_vec()).collect();
+        let mut plan = SendPlan::new();
+        for i in 0..data.len() {
+            plan.push(i, &dests);
+        }
+        // Without GSO each delivery is a message: 1,100, more than one
+        // sendmmsg takes (UIO_MAXIOV, 1,024); 100 small datagrams fit a
+        // default receive buffer.
+        let mut sender = Sender::new(false);
+        let report = sender.send(&from, &plan, |i| &data[i]);
+        assert_eq!(report.sent, 1100);
+        for s in &subs {
+            assert_eq!(read(s, 100), data);
+        }
+    }
+
+    #[test]
+    fn a_refused_destination_is_counted_and_the_rest_still_go() {
+        let from = socket();
+        let to = socket();
+        // Port 0 is no destination: the kernel refuses it (EINVAL).
+        let dests = ["127.0.0.1:0".parse().unwrap(), to.local_addr().unwrap()];
+        let mut plan = SendPlan::new();
+        plan.push(0, &dests);
+        let mut sender = Sender::new(true);
+        let report = sender.send(&from, &plan, |_| b"hello");
+        assert_eq!(report.failed, 1);
+        assert_eq!(report.sent, 1);
+        assert_eq!(read(&to, 1), [b"hello".to_vec()]);
+    }
+
+    #[test]
+    fn a_kernel_that_refuses_gso_gets_each_datagram_alone_from_then_on() {
+        let from = socket();
+        // Linux refuses GSO on a socket that sends without UDP checksums
+        // (EINVAL), as a device without checksum offload would (EIO).
+        let on: libc::c_int = 1;
+        // SAFETY: `on` is a live c_int and the length passed is its size,
+        // as SO_NO_CHECK reads; the socket is open.
+        let r = unsafe {
+            libc::setsockopt(
+                std::os::fd::AsRawFd::as_raw_fd(&from),
+                libc::SOL_SOCKET,
+                libc::SO_NO_CHECK,
+                (&on as *const libc::c_int).cast(),
+                std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+            )
+        };
+        assert_eq!(r, 0);
+        let to = socket();
+        let dest = [to.local_addr().unwrap()];
+        let data: Vec<Vec<u8>> = (0..10u8).map(|i| vec![i; 30]).collect();
+        let mut plan = SendPlan::new();
+        for i in 0..data.len() {
+            plan.push(i, &dest);
+        }
+        let mut sender = Sender::new(true);
+        let report = sender.send(&from, &plan, |i| &data[i]);
+        assert_eq!(report.sent, 10);
+        assert!(!sender.gso(), "GSO still on after the kernel refused it");
+        assert_eq!(read(&to, 10), data);
+        // And the next send goes without trying GSO.
+        let report = sender.send(&from, &plan, |i| &data[i]);
+        assert_eq!(report.sent, 10);
+        assert_eq!(read(&to, 10), data);
+    }
+}
