@@ -368,19 +368,26 @@ fn malformed_tasks_and_bids_over_the_hub_do_not_disturb_an_auction() {
     let id = s.announce(user, goto("mobile", 30.0));
     let mut forger = colony_client::UdpClient::connect(s.hub_addr).unwrap();
     let subject = format!("murdoch.user.{id}.1");
-    for bad in [
+    let bad = [
         format!("@ <{subject}> 0\nbid task {id} bidder forger score lots\n"),
         format!("@ <{subject}> 0\nbid task {id} bidder forger score nan\n"),
         format!("@ <{subject}> 0\naward task {id} winner poor\n"),
         "@ <mobile> <idle> 0\ntask name x id 1 negotiation murdoch.f.1.1 deadline_ms 0 length_s 1 announcer f\n".into(),
-    ] {
-        forger.publish(bad.as_bytes()).unwrap();
-    }
-    let ok = run_until(
-        &mut s.mux,
-        Duration::from_secs(3),
-        |m| matches!(m.node(good), Some(Part::Robot(a)) if a.mode() == AgentMode::Working),
-    );
+    ];
+    // The forger sends again every 50 ms until the announcer has seen its
+    // bids: the announcer's lease on the negotiation subject may still be on
+    // its way (a cookie round trip) when the first ones arrive.
+    let mut sent: Option<Instant> = None;
+    let ok = run_until(&mut s.mux, Duration::from_secs(10), |m| {
+        let rejected = matches!(m.node(user), Some(Part::User(a)) if a.stats().rejected >= 2);
+        if !rejected && sent.is_none_or(|t| t.elapsed() >= Duration::from_millis(50)) {
+            for b in &bad {
+                forger.publish(b.as_bytes()).unwrap();
+            }
+            sent = Some(Instant::now());
+        }
+        rejected && matches!(m.node(good), Some(Part::Robot(a)) if a.mode() == AgentMode::Working)
+    });
     assert!(ok);
     assert_eq!(winner_of(&mut s, user, id).as_deref(), Some("good"));
     assert!(s.user_mut(user).stats().rejected >= 2);

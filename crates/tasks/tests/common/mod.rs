@@ -80,7 +80,16 @@ pub fn run_until<N: Node>(
     false
 }
 
-/// Lets every member settle its subscriptions with the hub.
+/// Lets every member settle its subscriptions with the hub: until each one
+/// that subscribes has done the cookie round trip and holds a lease (a
+/// generous limit, not a deadline), and a little more for what is in flight.
 pub fn settle<N: Node>(mux: &mut Mux<N>) {
+    let leased = run_until(mux, Duration::from_secs(30), |m| {
+        m.iter_mut().all(|(_, link, _)| {
+            let session = link.client().session();
+            session.subscriptions().next().is_none() || session.lease().is_some()
+        })
+    });
+    assert!(leased, "members still without a lease after 30 s");
     run_until(mux, Duration::from_millis(100), |_| false);
 }
