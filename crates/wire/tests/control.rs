@@ -147,7 +147,7 @@ fn unknown_request_is_rejected_with_its_label_and_line() {
     );
     assert_eq!(
         e.to_string(),
-        "line 4: unknown request `subscribe_all` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority)"
+        "line 4: unknown request `subscribe_all` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority, cookie)"
     );
 }
 
