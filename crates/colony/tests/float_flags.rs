@@ -3,37 +3,10 @@
 
 mod common;
 
-use std::io::Read as _;
-use std::process::Stdio;
-use std::time::{Duration, Instant};
-
-use common::colony;
-
 /// Runs `colony args`, killing it if it has not ended within a generous
 /// wait, and returns its exit code (None: it had to be killed) and stderr.
 fn run_bounded(args: &[&str]) -> (Option<i32>, String) {
-    let mut child = colony()
-        .args(args)
-        .env("COLONY_LOG", "warn")
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run colony");
-    let deadline = Instant::now() + Duration::from_secs(20);
-    let code = loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            break status.code();
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            break None;
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    let mut err = String::new();
-    let _ = child.stderr.take().unwrap().read_to_string(&mut err);
+    let (code, _, err) = common::run_bounded(args, "warn");
     (code, err)
 }
 

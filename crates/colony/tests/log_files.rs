@@ -4,7 +4,7 @@
 
 mod common;
 
-use std::io::{BufRead as _, BufReader, Read as _};
+use std::io::{BufRead as _, BufReader};
 use std::net::{SocketAddr, UdpSocket};
 use std::path::{Path, PathBuf};
 use std::process::{Output, Stdio};
@@ -53,36 +53,7 @@ fn corrupt_log(dir: &Path) -> (PathBuf, u64) {
 
 /// Runs `colony args` to its end, killing it after a generous wait.
 fn run_bounded(args: &[&str]) -> (Option<i32>, String, String) {
-    let mut child = colony()
-        .args(args)
-        .env("COLONY_LOG", "info")
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run colony");
-    let mut out = child.stdout.take().unwrap();
-    let mut err = child.stderr.take().unwrap();
-    let reader = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = out.read_to_string(&mut s);
-        s
-    });
-    let deadline = Instant::now() + Duration::from_secs(20);
-    let code = loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            break status.code();
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            break None;
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    let mut e = String::new();
-    let _ = err.read_to_string(&mut e);
-    (code, reader.join().unwrap(), e)
+    common::run_bounded(args, "info")
 }
 
 #[test]

@@ -120,3 +120,40 @@ pub fn subscribed(hub: SocketAddr, subjects: &[&str]) -> UdpClient {
     }
     c
 }
+
+/// Runs `colony args` to its end with `COLONY_LOG=log`, killing it if it has
+/// not ended within a generous wait; returns its exit code (None: it had to be
+/// killed), stdout and stderr.
+pub fn run_bounded(args: &[&str], log: &str) -> (Option<i32>, String, String) {
+    use std::io::Read as _;
+    let mut child = colony()
+        .args(args)
+        .env("COLONY_LOG", log)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run colony");
+    let mut out = child.stdout.take().unwrap();
+    let mut err = child.stderr.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = out.read_to_string(&mut s);
+        s
+    });
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let code = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status.code();
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let mut e = String::new();
+    let _ = err.read_to_string(&mut e);
+    (code, reader.join().unwrap(), e)
+}
