@@ -44,6 +44,17 @@ fn corrupt_length(path: &Path, offset: u64) {
     std::fs::write(path, bytes).unwrap();
 }
 
+/// Cuts the last `n` bytes off, as a crash in the middle of a write does.
+fn tear_tail(path: &Path, n: u64) {
+    let len = std::fs::metadata(path).unwrap().len();
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(path)
+        .unwrap()
+        .set_len(len - n)
+        .unwrap();
+}
+
 fn corrupt_log(dir: &Path) -> (PathBuf, u64) {
     let path = dir.join("traffic.clog");
     let offsets = write_log(&path, 10);
@@ -153,13 +164,7 @@ fn no_colour_codes_go_to_a_pipe() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("torn.clog");
     write_log(&path, 3);
-    let len = std::fs::metadata(&path).unwrap().len();
-    std::fs::OpenOptions::new()
-        .write(true)
-        .open(&path)
-        .unwrap()
-        .set_len(len - 5)
-        .unwrap();
+    tear_tail(&path, 5);
     let (seen, mut child) = hub_stderr_until_listening(&["--log", path.to_str().unwrap()]);
     let _ = child.kill();
     let _ = child.wait();
@@ -173,13 +178,7 @@ fn the_hub_cuts_a_torn_tail_and_keeps_every_whole_record() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("torn.clog");
     let offsets = write_log(&path, 6);
-    let len = std::fs::metadata(&path).unwrap().len();
-    std::fs::OpenOptions::new()
-        .write(true)
-        .open(&path)
-        .unwrap()
-        .set_len(len - 5)
-        .unwrap();
+    tear_tail(&path, 5);
     let hub = HubProcess::start(&["--log", path.to_str().unwrap()]);
     drop(hub);
     assert_eq!(std::fs::metadata(&path).unwrap().len(), offsets[5]);

@@ -410,8 +410,13 @@ impl Hub {
         self.min_priority_until = (p != Priority(i32::MIN)).then(|| now + self.config.lease);
     }
 
+    /// Whether a raised minimum priority has outlived its lease by `now`.
+    fn min_priority_lapsed(&self, now: Instant) -> bool {
+        self.min_priority_until.is_some_and(|t| t <= now)
+    }
+
     fn lapse_min_priority(&mut self, now: Instant) {
-        if self.min_priority_until.is_some_and(|t| t <= now) {
+        if self.min_priority_lapsed(now) {
             tracing::info!(
                 min_priority = self.min_priority.0,
                 "minimum priority lapsed: its console did not renew it"
@@ -578,9 +583,10 @@ impl Hub {
                 subscriptions,
             });
         }
-        let min_priority = match self.min_priority_until {
-            Some(t) if t <= now => Priority(i32::MIN),
-            _ => self.min_priority,
+        let min_priority = if self.min_priority_lapsed(now) {
+            Priority(i32::MIN)
+        } else {
+            self.min_priority
         };
         StatusReport {
             uptime_ms: ms(now.saturating_duration_since(self.started)),
