@@ -1,5 +1,6 @@
 //! Every floating-point flag is range-checked: an absurd value is a usage
 //! error naming the flag (exit 2), never a panic (101), a spin or a hang.
+//! Other absurd arguments (a key file that never ends) fail cleanly too.
 
 mod common;
 
@@ -95,4 +96,14 @@ fn sane_values_are_still_taken() {
     drop(hub);
     let (code, err) = run_bounded(&["status", "--hub", "127.0.0.1:9", "--timeout", "0.2"]);
     assert_eq!(code, Some(1), "{err}");
+}
+
+#[test]
+fn a_key_file_that_never_ends_is_refused_not_read_into_memory() {
+    let (code, _, err) = common::run_bounded(
+        &["hub", "--bind", "127.0.0.1:0", "--key", "/dev/zero"],
+        "warn",
+    );
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("longer than"), "{err}");
 }

@@ -170,8 +170,24 @@ pub fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
 
 /// Reads a shared key from a file, with an error that names the file.
 pub fn read_key(path: &std::path::Path) -> anyhow::Result<colony_wire::auth::Key> {
-    let bytes = std::fs::read(path)
-        .map_err(|e| anyhow::anyhow!("cannot read the key file `{}`: {e}", path.display()))?;
+    use std::io::Read as _;
+    // A key is a few dozen bytes; a bounded read keeps `--key /dev/zero`
+    // from filling memory.
+    const MAX_KEY_FILE: u64 = 4096;
+    let cannot =
+        |e: std::io::Error| anyhow::anyhow!("cannot read the key file `{}`: {e}", path.display());
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .map_err(cannot)?
+        .take(MAX_KEY_FILE + 1)
+        .read_to_end(&mut bytes)
+        .map_err(cannot)?;
+    if bytes.len() as u64 > MAX_KEY_FILE {
+        anyhow::bail!(
+            "the key file `{}` is longer than {MAX_KEY_FILE} bytes: is it a key?",
+            path.display()
+        );
+    }
     colony_wire::auth::Key::new(&bytes)
         .map_err(|e| anyhow::anyhow!("the key file `{}`: {e}", path.display()))
 }
