@@ -1018,11 +1018,19 @@ def _is_subscribe(line):
 # --------------------------------------------------------------------------- authentication
 
 
+#: The longest key file read (a key is a few dozen bytes).
+_MAX_KEY_FILE = 4096
+
+
 def read_key(path):
     """The key in a file, as ``colony hub --key FILE`` reads it: the file's bytes
     with trailing whitespace (blank, tab, line ends, form feed) trimmed."""
     with open(path, "rb") as f:
-        key = f.read().rstrip(b" \t\r\n\x0c")
+        # Bounded, as colony's own reader: `/dev/zero` must not fill memory.
+        key = f.read(_MAX_KEY_FILE + 1)
+    if len(key) > _MAX_KEY_FILE:
+        raise ValueError("key file {} is longer than {} bytes: is it a key?".format(path, _MAX_KEY_FILE))
+    key = key.rstrip(b" \t\r\n\x0c")
     if not key:
         raise ValueError("key file {} is empty".format(path))
     return key

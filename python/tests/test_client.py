@@ -1012,6 +1012,9 @@ class Authentication(unittest.TestCase):
             g.write(b" \n")
         with self.assertRaises(ValueError):
             cc.read_key(f.name)
+        # A file that never ends is refused, not read into memory.
+        with self.assertRaises(ValueError):
+            cc.read_key("/dev/zero")
 
 
 # =========================================================================== client vs a fake hub
