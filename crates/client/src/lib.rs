@@ -38,7 +38,7 @@ mod udp;
 mod tokio_client;
 
 pub use session::{ClientConfig, HubState, Incoming, Session};
-pub use udp::{ClientError, ConnectError, UdpClient};
+pub use udp::{ClientError, ConnectError, Delivery, UdpClient};
 
 #[cfg(feature = "tokio")]
 pub use tokio_client::AsyncClient;

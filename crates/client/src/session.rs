@@ -96,6 +96,8 @@ pub struct Session {
     /// When the session last asked the hub anything, and last took a cookie.
     last_asked: Option<Instant>,
     last_cookie: Option<Instant>,
+    /// Sent with every subscription refresh ([`Session::set_standing`]).
+    standing: Vec<Request>,
 }
 
 /// What a datagram from the hub was.
@@ -123,6 +125,7 @@ impl Session {
             recent: Vec::new(),
             last_asked: None,
             last_cookie: None,
+            standing: Vec::new(),
         }
     }
 
@@ -208,6 +211,21 @@ impl Session {
     /// Queues any control request (status, minimum priority, ...).
     pub fn request(&mut self, requests: &[Request]) {
         self.send_once(requests.to_vec());
+    }
+
+    /// Requests that describe this client rather than ask for anything
+    /// ([`Request::NoLocal`], [`Request::About`]): the hub keeps them only
+    /// while the client holds a lease, so they go with every subscription
+    /// refresh, and a restarted hub learns them again with the
+    /// subscriptions. A change is sent at once.
+    pub fn set_standing(&mut self, requests: Vec<Request>) {
+        if requests == self.standing {
+            return;
+        }
+        self.standing = requests;
+        if !self.subs.is_empty() && !self.standing.is_empty() {
+            self.send_once(self.standing.clone());
+        }
     }
 
     /// The subjects this session keeps subscribed.
@@ -323,9 +341,11 @@ impl Session {
             self.last_asked = Some(now);
         }
         // One control packet carries many subscriptions; split only to fit a datagram.
-        let per_packet = (MAX_PACKET - 256) / (16 + colony_wire::MAX_SUBJECT_LEN);
+        let per_packet = (MAX_PACKET - 1024) / (16 + colony_wire::MAX_SUBJECT_LEN);
         for chunk in due.chunks(per_packet) {
-            let requests: Vec<Request> = chunk.iter().cloned().map(Request::Subscribe).collect();
+            let mut requests: Vec<Request> =
+                chunk.iter().cloned().map(Request::Subscribe).collect();
+            requests.extend_from_slice(&self.standing);
             self.outbox.push(self.control(&requests));
         }
     }

@@ -107,6 +107,15 @@ pub fn format_report(r: &StatusReport) -> String {
             c.idle_ms as f64 / 1000.0,
             subs.join(", ")
         );
+        if !c.about.is_empty() {
+            // Words any client chose: no control character reaches the terminal.
+            let about: String = c
+                .about
+                .chars()
+                .map(|ch| if ch.is_control() { '?' } else { ch })
+                .collect();
+            let _ = writeln!(out, "  {:<22} {about}", "");
+        }
     }
     let _ = writeln!(out, "\ndrops:");
     if r.drops.is_empty() {
@@ -143,6 +152,22 @@ mod tests {
         );
         assert!(text.contains("vision") && text.contains("1 packets"));
         assert!(text.ends_with("drops:\n  none\n"));
+    }
+
+    #[test]
+    fn what_a_client_says_it_is_is_shown_without_control_characters() {
+        let r = StatusReport {
+            clients: vec![colony_wire::ClientInfo {
+                addr: "127.0.0.1:5000".into(),
+                idle_ms: 0,
+                subscriptions: vec![("a".into(), 900)],
+                about: "bridge site lab\u{1b}[2J".into(),
+            }],
+            ..StatusReport::default()
+        };
+        let text = format_report(&r);
+        assert!(text.contains("bridge site lab?[2J"), "{text}");
+        assert!(!text.contains('\u{1b}'));
     }
 
     #[test]

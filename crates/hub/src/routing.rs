@@ -67,6 +67,10 @@ struct Client {
     /// Each subscription and when its lease runs out.
     subs: HashMap<Subject, Instant>,
     last_heard: Instant,
+    /// Sends this client none of its own packets ([`Request::NoLocal`]).
+    no_local: bool,
+    /// What it says it is ([`Request::About`]).
+    about: Box<str>,
 }
 
 /// How a datagram proved where it came from.
@@ -221,6 +225,9 @@ impl Hub {
             return self.dropped(DropReason::BelowMinPriority);
         }
         self.route(&packet);
+        if !self.dests.is_empty() && self.clients.get(&src).is_some_and(|c| c.no_local) {
+            self.dests.retain(|d| *d != src);
+        }
         let key = channel_key(&packet);
         self.counters
             .published(&key, data.len(), self.config.max_channels);
@@ -358,6 +365,19 @@ impl Hub {
                     self.status_request(now, src);
                 }
                 Request::Status | Request::Cookie(_) => {}
+                // Kept only by a client that holds a lease, so they cost an
+                // unsubscribed source nothing; a client sends them with every
+                // refresh.
+                Request::NoLocal => {
+                    if let Some(c) = self.clients.get_mut(&src) {
+                        c.no_local = true;
+                    }
+                }
+                Request::About(text) => {
+                    if let Some(c) = self.clients.get_mut(&src) {
+                        c.about = text.into_boxed_str();
+                    }
+                }
             }
         }
         if subscribed {
@@ -460,6 +480,8 @@ impl Hub {
         let client = self.clients.entry(src).or_insert_with(|| Client {
             subs: HashMap::new(),
             last_heard: now,
+            no_local: false,
+            about: Box::from(""),
         });
         let expiry = now + self.config.lease;
         if let Some(e) = client.subs.get_mut(&subject) {
@@ -565,7 +587,9 @@ impl Hub {
             let c = &self.clients[addr];
             // A client line costs about its subscriptions' names plus a few
             // digits each; stop before the report could not be sent anyway.
-            let cost = 48 + c.subs.keys().map(|s| s.as_str().len() + 8).sum::<usize>();
+            let cost = 48
+                + c.about.len()
+                + c.subs.keys().map(|s| s.as_str().len() + 8).sum::<usize>();
             if cost > budget {
                 truncated = true;
                 break;
@@ -581,6 +605,7 @@ impl Hub {
                 addr: addr.to_string(),
                 idle_ms: ms(now.saturating_duration_since(c.last_heard)),
                 subscriptions,
+                about: c.about.to_string(),
             });
         }
         let min_priority = if self.min_priority_lapsed(now) {

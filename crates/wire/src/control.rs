@@ -48,6 +48,26 @@ pub enum Request {
     MinPriority(Priority),
     /// The cookie the hub last sent this address ([`Cookie::NONE`] for none).
     Cookie(Cookie),
+    /// Do not send this client the packets it publishes itself, whatever it
+    /// subscribes to (MQTT's "no local"): a bridge that both imports and
+    /// exports a channel must not hear its imports back. Lasts as long as the
+    /// client holds a lease.
+    NoLocal,
+    /// A few words on what this client is, shown in the status report (at
+    /// most [`MAX_ABOUT`] bytes; longer is cut). Lasts as long as the lease.
+    About(String),
+}
+
+/// The longest [`Request::About`] a hub keeps, in bytes.
+pub const MAX_ABOUT: usize = 240;
+
+/// `text` cut to at most [`MAX_ABOUT`] bytes, on a character boundary.
+pub fn clip_about(text: &str) -> &str {
+    let mut end = text.len().min(MAX_ABOUT);
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    &text[..end]
 }
 
 /// A hub's proof that an address receives what is sent to it: a keyed hash
@@ -106,7 +126,7 @@ impl fmt::Display for ControlError {
             ControlError::NotControl => write!(f, "a control packet must name `<{HUB_SUBJECT}>` alone"),
             ControlError::Unknown { label, line } => write!(
                 f,
-                "line {line}: unknown request `{label}` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority, cookie)"
+                "line {line}: unknown request `{label}` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority, cookie, no_local, about)"
             ),
             ControlError::Field(e) => e.fmt(f),
             ControlError::BadCookie { line } => {
@@ -160,6 +180,8 @@ impl Request {
                     "unsubscribe" => Request::Unsubscribe(subject(&line)?),
                     "unsubscribe_all" => Request::UnsubscribeAll,
                     "status" => Request::Status,
+                    "no_local" => Request::NoLocal,
+                    "about" => Request::About(clip_about(&line.str("text")?).to_owned()),
                     "min_priority" => {
                         let v = line.i64("value")?;
                         let v = i32::try_from(v).map_err(|_| {
@@ -209,6 +231,12 @@ impl Request {
                 Request::Status => writeln!(text, "status"),
                 Request::MinPriority(p) => writeln!(text, "min_priority value {p}"),
                 Request::Cookie(c) => writeln!(text, "cookie v {c}"),
+                Request::NoLocal => writeln!(text, "no_local"),
+                Request::About(about) => {
+                    text.push_str("about text ");
+                    write_quoted(&mut text, clip_about(about));
+                    writeln!(text)
+                }
             }
             .expect("writing to a String cannot fail");
         }
@@ -283,6 +311,8 @@ pub struct ClientInfo {
     pub idle_ms: u64,
     /// Each subscription and the time left on its lease.
     pub subscriptions: Vec<(String, u64)>,
+    /// What the client says it is ([`Request::About`]); empty if it said nothing.
+    pub about: String,
 }
 
 /// Traffic on one channel (or subject set, written `a b`).
@@ -343,6 +373,10 @@ impl StatusReport {
                 let _ = write!(l, "{}{s} {left}", if i > 0 { " " } else { "" });
             }
             l.push(')');
+            if !c.about.is_empty() {
+                l.push_str(" about ");
+                write_quoted(&mut l, &c.about);
+            }
             lines.push(l);
         }
         let mut truncated = self.truncated;
@@ -416,6 +450,10 @@ impl StatusReport {
                                 )
                             })
                             .collect(),
+                        about: match line.get("about") {
+                            Some(_) => clip_about(&line.str("about")?).to_owned(),
+                            None => String::new(),
+                        },
                     })
                 }
                 _ => {}

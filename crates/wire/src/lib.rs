@@ -32,8 +32,8 @@ mod subject;
 
 pub use build::{write_quoted, write_token_or_quoted, LineBuilder, PacketBuilder, WireValue};
 pub use control::{
-    hub_packet, ChannelInfo, ClientInfo, ControlError, Cookie, Reply, Request, StatusReport,
-    HUB_SUBJECT, MIN_LEASE_MS,
+    clip_about, hub_packet, ChannelInfo, ClientInfo, ControlError, Cookie, Reply, Request,
+    StatusReport, HUB_SUBJECT, MAX_ABOUT, MIN_LEASE_MS,
 };
 pub use error::{ErrorKind, FieldError, FieldErrorKind, ParseError};
 pub use packet::{Field, Fields, Group, Line, Lines, Packet, Quoted, Subjects, Value};

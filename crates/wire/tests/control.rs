@@ -65,6 +65,8 @@ fn requests_write_the_documented_text() {
         Request::UnsubscribeAll,
         Request::Status,
         Request::MinPriority(Priority(-5)),
+        Request::NoLocal,
+        Request::About("bridge \"lab\"".into()),
     ];
     let bytes = Request::to_packet(&all);
     assert_eq!(
@@ -74,7 +76,9 @@ fn requests_write_the_documented_text() {
          unsubscribe ch radio\n\
          unsubscribe_all\n\
          status\n\
-         min_priority value -5\n"
+         min_priority value -5\n\
+         no_local\n\
+         about text \"bridge \\\"lab\\\"\"\n"
     );
     let p = Packet::parse(&bytes).unwrap();
     assert!(Request::is_control(&p));
@@ -147,7 +151,7 @@ fn unknown_request_is_rejected_with_its_label_and_line() {
     );
     assert_eq!(
         e.to_string(),
-        "line 4: unknown request `subscribe_all` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority, cookie)"
+        "line 4: unknown request `subscribe_all` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority, cookie, no_local, about)"
     );
 }
 
@@ -336,11 +340,13 @@ fn sample_report() -> StatusReport {
                 addr: "127.0.0.1:40001".into(),
                 idle_ms: 12,
                 subscriptions: vec![("vision_out".into(), 4_900), ("radio".into(), 10)],
+                about: "bridge site \"lab\"".into(),
             },
             ClientInfo {
                 addr: "[::1]:40002".into(),
                 idle_ms: 0,
                 subscriptions: vec![],
+                about: String::new(),
             },
         ],
         channels: vec![
@@ -374,7 +380,7 @@ fn status_report_writes_one_line_per_item() {
          drop reason \"below \\\"min\\\" priority\\\\\" count 7\n\
          channel ch \"vision_out\" packets 1000 bytes 450000\n\
          channel ch \"task robot:7\" packets 3 bytes 99\n\
-         client addr \"127.0.0.1:40001\" idle_ms 12 subs (vision_out 4900 radio 10)\n\
+         client addr \"127.0.0.1:40001\" idle_ms 12 subs (vision_out 4900 radio 10) about \"bridge site \\\"lab\\\"\"\n\
          client addr \"[::1]:40002\" idle_ms 0 subs ()\n"
     );
 }
@@ -407,6 +413,7 @@ fn huge_report(clients: usize) -> StatusReport {
                 addr: format!("10.0.{}.{}:{}", i / 256, i % 256, 40_000 + i),
                 idle_ms: i as u64,
                 subscriptions: (0..4).map(|s| (format!("channel_{s}"), 5_000)).collect(),
+                about: String::new(),
             })
             .collect(),
         channels: vec![ChannelInfo {
@@ -466,5 +473,17 @@ fn status_report_with_a_bad_field_is_an_error() {
             assert_eq!(e.kind, FieldErrorKind::NotAnInteger("x".into()));
         }
         other => panic!("expected a field error, got {other:?}"),
+    }
+}
+
+#[test]
+fn an_about_text_longer_than_the_hub_keeps_is_cut_on_a_character_boundary() {
+    let long = format!("@ <hub> 0\nabout text \"{}\"\n", "é".repeat(200));
+    match &requests(&long).unwrap()[..] {
+        [Request::About(text)] => {
+            assert!(text.len() <= colony_wire::MAX_ABOUT && text.len() >= colony_wire::MAX_ABOUT - 1);
+            assert!(text.chars().all(|c| c == 'é'));
+        }
+        other => panic!("{other:?}"),
     }
 }

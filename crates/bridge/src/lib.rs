@@ -1,0 +1,33 @@
+//! colony's federation over Zenoh: one bridge per hub, so that hubs on
+//! several networks or sites share channels, each packet crossing each link
+//! once, and only toward sites whose clients subscribe to it.
+//!
+//! The Broker paper runs one hub per fast network domain and leaves
+//! forwarding between them to future work; colony does it with Zenoh, the
+//! engine ROS 2's rmw_zenoh runs on, instead of a mesh of its own: Zenoh's
+//! peers and routers carry the packets, its liveliness tokens carry each
+//! site's interest, and its priorities carry the packets' (see
+//! [`keys`] for the key layout and the priority table).
+//!
+//! ```no_run
+//! use colony_bridge::{Bridge, BridgeConfig, Site};
+//! use std::sync::atomic::AtomicBool;
+//!
+//! let mut config = BridgeConfig::new("127.0.0.1:7400", Site::new("lab").unwrap());
+//! config.connect = vec!["tcp/10.0.0.2:7447".into()];
+//! let mut bridge = Bridge::start(config, None).unwrap();
+//! bridge.run(&AtomicBool::new(false)).unwrap();
+//! ```
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod config;
+pub mod interest;
+pub mod keys;
+mod run;
+pub mod track;
+
+pub use config::{BridgeConfig, ConfigError, Mode, Pattern};
+pub use keys::Site;
+pub use run::{Bridge, BridgeError, Stats};

@@ -1,0 +1,220 @@
+//! Hubs on loopback bridged over a real Zenoh network: three sites in a
+//! line of peers, and sites meeting at a Zenoh router.
+
+use std::collections::BTreeMap;
+use std::net::TcpListener;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use colony_bridge::{Bridge, BridgeConfig, Mode, Site, Stats};
+use colony_client::UdpClient;
+use colony_hub::{HubSpec, HubThread, Server};
+use zenoh::Wait;
+
+/// Events come within this, or the test fails; they usually take milliseconds.
+const PATIENCE: Duration = Duration::from_secs(20);
+
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+}
+
+fn endpoint(port: u16) -> String {
+    format!("tcp/127.0.0.1:{port}")
+}
+
+struct Site_ {
+    hub: Option<HubThread>,
+    hub_addr: String,
+    bridge: Option<(Arc<AtomicBool>, JoinHandle<()>, Arc<Stats>)>,
+}
+
+impl Site_ {
+    fn new(name: &str, mode: Mode, connect: &[String], listen: &[String]) -> Site_ {
+        let stop = Arc::new(AtomicBool::new(false));
+        let server = Server::start(&HubSpec::new("127.0.0.1:0")).unwrap();
+        let hub = HubThread::spawn(server, &stop).unwrap();
+        let hub_addr = hub.addr().to_string();
+        let mut site = Site_ { hub: Some(hub), hub_addr, bridge: None };
+        site.start_bridge(name, mode, connect, listen);
+        site
+    }
+
+    fn start_bridge(&mut self, name: &str, mode: Mode, connect: &[String], listen: &[String]) {
+        let mut config = BridgeConfig::new(&self.hub_addr, Site::new(name).unwrap());
+        config.mode = mode;
+        config.connect = connect.to_vec();
+        config.listen = listen.to_vec();
+        let mut bridge = Bridge::start(config, None).unwrap();
+        let stats = bridge.stats();
+        let stop = Arc::new(AtomicBool::new(false));
+        let s = stop.clone();
+        let thread = std::thread::spawn(move || bridge.run(&s).unwrap());
+        self.bridge = Some((stop, thread, stats));
+    }
+
+    fn stats(&self) -> &Stats {
+        &self.bridge.as_ref().unwrap().2
+    }
+
+    fn client(&self, channels: &[&str]) -> UdpClient {
+        let mut c = UdpClient::connect(self.hub_addr.as_str()).unwrap();
+        for ch in channels {
+            c.subscribe(ch).unwrap();
+        }
+        c
+    }
+}
+
+impl Drop for Site_ {
+    fn drop(&mut self) {
+        if let Some((stop, thread, _)) = self.bridge.take() {
+            stop.store(true, Ordering::Relaxed);
+            let _ = thread.join();
+        }
+        if let Some(hub) = self.hub.take() {
+            let _ = hub.stop();
+        }
+    }
+}
+
+/// Every packet waiting at `c` now and within `quiet` of the last one, by
+/// body text, counted.
+fn drain(c: &mut UdpClient, quiet: Duration) -> BTreeMap<String, usize> {
+    let mut got = BTreeMap::new();
+    let mut last = Instant::now();
+    while last.elapsed() < quiet {
+        c.poll(Instant::now()).unwrap();
+        let mut any = false;
+        while let Some(p) = c.recv().unwrap() {
+            *got.entry(p.as_str().to_owned()).or_insert(0) += 1;
+            any = true;
+        }
+        if any {
+            last = Instant::now();
+        } else {
+            c.wait(Some(Instant::now() + Duration::from_millis(10))).unwrap();
+        }
+    }
+    got
+}
+
+/// Publishes `packet` from `from` every 50 ms until `at` receives one, so
+/// that interest has crossed; then empties both.
+fn until_flowing(from: &mut UdpClient, packet: &str, at: &mut [&mut UdpClient]) {
+    let start = Instant::now();
+    let mut waiting: Vec<bool> = vec![true; at.len()];
+    while waiting.iter().any(|w| *w) {
+        assert!(start.elapsed() < PATIENCE, "no packet crossed within {PATIENCE:?}: {packet:?}");
+        from.publish(packet.as_bytes()).unwrap();
+        from.poll(Instant::now()).unwrap();
+        std::thread::sleep(Duration::from_millis(50));
+        for (i, c) in at.iter_mut().enumerate() {
+            if !drain(c, Duration::from_millis(1)).is_empty() {
+                waiting[i] = false;
+            }
+        }
+    }
+    for c in at.iter_mut() {
+        drain(c, Duration::from_millis(300));
+    }
+    drain(from, Duration::from_millis(1));
+}
+
+fn numbered(channel: &str, n: usize) -> Vec<String> {
+    (0..n).map(|i| format!("@ <{channel}> 0\nmsg n {i}\n")).collect()
+}
+
+#[test]
+fn three_sites_in_a_line_deliver_each_packet_once_to_exactly_its_subscribers() {
+    let (pa, pb) = (free_port(), free_port());
+    let a = Site_::new("a", Mode::Peer, &[], &[endpoint(pa)]);
+    let b = Site_::new("b", Mode::Peer, &[endpoint(pa)], &[endpoint(pb)]);
+    let c = Site_::new("c", Mode::Peer, &[endpoint(pb)], &[]);
+
+    let mut publisher = a.client(&[]);
+    let mut on_c = c.client(&["talk"]);
+    let mut on_b = b.client(&["talk"]);
+    until_flowing(&mut publisher, "@ <talk> 0\nhello\n", &mut [&mut on_c, &mut on_b]);
+
+    // A stream crosses the line: every packet once on C and on B.
+    for p in numbered("talk", 200) {
+        publisher.publish(p.as_bytes()).unwrap();
+        if p.ends_with("0\n") {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+    for (name, client) in [("c", &mut on_c), ("b", &mut on_b)] {
+        let got = drain(client, Duration::from_millis(1500));
+        assert_eq!(got.len(), 200, "site {name} got {} distinct of 200", got.len());
+        assert!(got.values().all(|&n| n == 1), "site {name} got a packet twice");
+    }
+    assert_eq!(Stats::get(&c.stats().duplicates), 0);
+
+    // A subject set reaches, on every site, exactly the clients subscribed to all of it.
+    let mut both_on_c = c.client(&["mobile", "camera"]);
+    let mut mobile_on_c = c.client(&["mobile"]);
+    let mut both_on_a = a.client(&["mobile", "camera"]);
+    let mut camera_on_b = b.client(&["camera"]);
+    until_flowing(
+        &mut publisher,
+        "@ <mobile> 0\nping\n",
+        &mut [&mut both_on_c, &mut mobile_on_c],
+    );
+    let task = "@ <mobile> <camera> 0\ntask name fetch\n";
+    until_flowing(&mut publisher, task, &mut [&mut both_on_c, &mut both_on_a]);
+    publisher.publish(task.as_bytes()).unwrap();
+    assert_eq!(drain(&mut both_on_c, Duration::from_millis(800)).get(task), Some(&1));
+    assert_eq!(drain(&mut both_on_a, Duration::from_millis(100)).get(task), Some(&1));
+    assert_eq!(drain(&mut mobile_on_c, Duration::from_millis(100)).get(task), None);
+    assert_eq!(drain(&mut camera_on_b, Duration::from_millis(100)).get(task), None);
+
+    // A channel nobody on C subscribes to never crosses to C.
+    let mut quiet_on_b = b.client(&["quiet"]);
+    until_flowing(&mut publisher, "@ <quiet> 0\nq\n", &mut [&mut quiet_on_b]);
+    drain(&mut on_c, Duration::from_millis(300));
+    let imported_before = Stats::get(&c.stats().imported);
+    for p in numbered("quiet", 100) {
+        publisher.publish(p.as_bytes()).unwrap();
+    }
+    assert_eq!(drain(&mut quiet_on_b, Duration::from_millis(1000)).len(), 100);
+    assert_eq!(Stats::get(&c.stats().imported), imported_before, "quiet crossed to C");
+    assert_eq!(Stats::get(&c.stats().rejected), 0);
+}
+
+#[test]
+fn sites_meeting_at_a_zenoh_router_share_channels_and_withdraw_when_unsubscribed() {
+    let pr = free_port();
+    let mut router = zenoh::Config::default();
+    router.insert_json5("mode", "\"router\"").unwrap();
+    router.insert_json5("listen/endpoints", &format!("[\"{}\"]", endpoint(pr))).unwrap();
+    router.insert_json5("scouting/multicast/enabled", "false").unwrap();
+    let router = zenoh::open(router).wait().unwrap();
+
+    let a = Site_::new("a", Mode::Client, &[endpoint(pr)], &[]);
+    let b = Site_::new("b", Mode::Client, &[endpoint(pr)], &[]);
+    let mut publisher = a.client(&[]);
+    let mut on_b = b.client(&["vision"]);
+    until_flowing(&mut publisher, "@ <vision> 0\nrobot id 1\n", &mut [&mut on_b]);
+    for p in numbered("vision", 100) {
+        publisher.publish(p.as_bytes()).unwrap();
+    }
+    let got = drain(&mut on_b, Duration::from_millis(1500));
+    assert_eq!(got.len(), 100);
+    assert!(got.values().all(|&n| n == 1));
+
+    // B's subscriber goes: once its lease is over, B stops asking and A stops sending.
+    drop(on_b);
+    let start = Instant::now();
+    loop {
+        let before = Stats::get(&a.stats().exported);
+        publisher.publish(b"@ <vision> 0\nrobot id 1\n").unwrap();
+        std::thread::sleep(Duration::from_millis(300));
+        if Stats::get(&a.stats().exported) == before {
+            break;
+        }
+        assert!(start.elapsed() < Duration::from_secs(30), "A kept exporting vision");
+    }
+    drop(router);
+}
