@@ -732,6 +732,7 @@ def parse_status(packet):
                     "addr": str(f.get("addr")),
                     "idle_ms": f.get("idle_ms"),
                     "subs": dict(subs) if isinstance(subs, dict) else {},
+                    "about": str(f.get("about") or ""),
                 }
             )
     return report

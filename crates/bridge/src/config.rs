@@ -35,7 +35,9 @@ impl std::str::FromStr for Mode {
         match s {
             "peer" => Ok(Mode::Peer),
             "client" => Ok(Mode::Client),
-            other => Err(format!("unknown Zenoh mode `{other}` (expected peer or client)")),
+            other => Err(format!(
+                "unknown Zenoh mode `{other}` (expected peer or client)"
+            )),
         }
     }
 }
@@ -216,7 +218,12 @@ mod tests {
         assert_eq!(c.connect, ["tcp/127.0.0.1:7447"]);
         assert!(any_matches(&c.import, "vision") && !any_matches(&c.import, "radio"));
         assert!(any_matches(&c.export, "radio"));
-        for bad in ["", "site = \"l b\"", "site = \"lab\"\nmodee = \"peer\"", "site = \"lab\"\nmode = \"router\""] {
+        for bad in [
+            "",
+            "site = \"l b\"",
+            "site = \"lab\"\nmodee = \"peer\"",
+            "site = \"lab\"\nmode = \"router\"",
+        ] {
             assert!(BridgeConfig::from_toml(bad).is_err(), "{bad}");
         }
     }

@@ -136,7 +136,8 @@ mod tests {
     #[test]
     fn import_rules_leave_channels_out() {
         let r = report(vec![client("", &["vision", "radio", "game.world"])]);
-        let i = LocalInterest::from_report(&r, "me", &[Pattern::new("game.*"), Pattern::new("vision")]);
+        let i =
+            LocalInterest::from_report(&r, "me", &[Pattern::new("game.*"), Pattern::new("vision")]);
         let names: Vec<&str> = i.channels.iter().map(Subject::as_str).collect();
         assert_eq!(names, ["game.world", "vision"]);
         assert_eq!(i.sets.len(), 1);

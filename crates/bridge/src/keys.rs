@@ -13,7 +13,7 @@
 
 use std::fmt;
 
-use colony_wire::{Priority, Subject};
+use colony_wire::{Packet, Priority, Subject, HUB_SUBJECT};
 use zenoh::qos::{CongestionControl, Priority as ZPriority};
 
 /// The first chunk of every key colony uses.
@@ -140,6 +140,18 @@ pub fn parse_want_key(key: &str) -> Option<(Site, Subject)> {
     parts.next().is_none().then_some((site, subject))
 }
 
+/// The site a sample came from, if it is a colony packet published on
+/// exactly the subjects its key names, and no request to the hub (which,
+/// published into the hub by the bridge, would act for the bridge).
+pub fn sample_site(key: &str, payload: &[u8]) -> Option<Site> {
+    let (site, subjects) = parse_data_key(key)?;
+    let packet = Packet::parse(payload).ok()?;
+    let exact = !packet.has_subject(HUB_SUBJECT)
+        && packet.subject_count() == subjects.len()
+        && subjects.iter().all(|s| packet.has_subject(s.as_str()));
+    exact.then_some(site)
+}
+
 /// How a packet of this colony priority crosses Zenoh: its Zenoh priority,
 /// and whether Zenoh may drop it when the link is congested. The table is
 /// the one in `docs/ARCHITECTURE.md`.
@@ -166,8 +178,14 @@ mod tests {
 
     #[test]
     fn a_set_has_one_key_whatever_the_order_of_its_subjects() {
-        assert_eq!(data_key(&lab(), ["mobile", "camera"]), "colony/lab/ch/camera/mobile");
-        assert_eq!(data_key(&lab(), ["camera", "mobile"]), "colony/lab/ch/camera/mobile");
+        assert_eq!(
+            data_key(&lab(), ["mobile", "camera"]),
+            "colony/lab/ch/camera/mobile"
+        );
+        assert_eq!(
+            data_key(&lab(), ["camera", "mobile"]),
+            "colony/lab/ch/camera/mobile"
+        );
         assert_eq!(data_key(&lab(), ["vision"]), "colony/lab/ch/vision");
         assert_eq!(data_key(&lab(), ["a/b"]), "colony/lab/ch/a%2Fb");
         assert_eq!(set_expr(["b", "a"]), "colony/*/ch/a/b");
@@ -192,6 +210,27 @@ mod tests {
         assert_eq!(
             parse_want_key("colony/lab/want/a%2Fb"),
             Some((lab(), Subject::new("a/b").unwrap()))
+        );
+    }
+
+    #[test]
+    fn an_import_must_be_the_packet_its_key_names() {
+        let key = "colony/a/ch/camera/mobile";
+        assert_eq!(
+            sample_site(key, b"@ <mobile> <camera> 0\nt x 1\n"),
+            Some(Site::new("a").unwrap())
+        );
+        assert_eq!(sample_site(key, b"@ <mobile> 0\nt x 1\n"), None);
+        assert_eq!(
+            sample_site(key, b"@ <mobile> <camera> <laser> 0\nt x 1\n"),
+            None
+        );
+        assert_eq!(sample_site(key, b"not a packet"), None);
+        assert_eq!(sample_site("colony/a/ch/x", &[0xff, 0xfe]), None);
+        // A request to the hub, under any key, would act for the bridge.
+        assert_eq!(
+            sample_site("colony/a/ch/hub", b"@ <hub> 0\nunsubscribe_all\n"),
+            None
         );
     }
 

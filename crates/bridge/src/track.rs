@@ -70,7 +70,9 @@ pub struct Tracker {
 impl Tracker {
     /// Notes a packet of `key` with `stamp`.
     pub fn check(&mut self, key: &str, stamp: Stamp) -> Verdict {
-        if self.streams.len() >= MAX_STREAMS && !self.streams.contains_key(&(stamp.run, key.to_owned())) {
+        if self.streams.len() >= MAX_STREAMS
+            && !self.streams.contains_key(&(stamp.run, key.to_owned()))
+        {
             self.streams.clear();
         }
         let stream = self.streams.entry((stamp.run, key.to_owned())).or_default();
@@ -111,12 +113,18 @@ mod tests {
         assert_eq!(t.check("k", at(8)), Verdict::Duplicate);
         // Another key, another run: streams of their own.
         assert_eq!(t.check("j", at(1)), Verdict::New { lost: 0 });
-        assert_eq!(t.check("k", Stamp { run: 8, seq: 1 }), Verdict::New { lost: 0 });
+        assert_eq!(
+            t.check("k", Stamp { run: 8, seq: 1 }),
+            Verdict::New { lost: 0 }
+        );
     }
 
     #[test]
     fn a_stamp_reads_back_and_other_lengths_are_none() {
-        let s = Stamp { run: u64::MAX, seq: 3 };
+        let s = Stamp {
+            run: u64::MAX,
+            seq: 3,
+        };
         assert_eq!(Stamp::from_bytes(&s.to_bytes()), Some(s));
         assert_eq!(Stamp::from_bytes(&[0; 15]), None);
         assert_eq!(Stamp::from_bytes(&[0; 17]), None);

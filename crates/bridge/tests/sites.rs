@@ -17,7 +17,11 @@ use zenoh::Wait;
 const PATIENCE: Duration = Duration::from_secs(20);
 
 fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
 }
 
 fn endpoint(port: u16) -> String {
@@ -36,7 +40,11 @@ impl Site_ {
         let server = Server::start(&HubSpec::new("127.0.0.1:0")).unwrap();
         let hub = HubThread::spawn(server, &stop).unwrap();
         let hub_addr = hub.addr().to_string();
-        let mut site = Site_ { hub: Some(hub), hub_addr, bridge: None };
+        let mut site = Site_ {
+            hub: Some(hub),
+            hub_addr,
+            bridge: None,
+        };
         site.start_bridge(name, mode, connect, listen);
         site
     }
@@ -94,7 +102,8 @@ fn drain(c: &mut UdpClient, quiet: Duration) -> BTreeMap<String, usize> {
         if any {
             last = Instant::now();
         } else {
-            c.wait(Some(Instant::now() + Duration::from_millis(10))).unwrap();
+            c.wait(Some(Instant::now() + Duration::from_millis(10)))
+                .unwrap();
         }
     }
     got
@@ -106,7 +115,10 @@ fn until_flowing(from: &mut UdpClient, packet: &str, at: &mut [&mut UdpClient]) 
     let start = Instant::now();
     let mut waiting: Vec<bool> = vec![true; at.len()];
     while waiting.iter().any(|w| *w) {
-        assert!(start.elapsed() < PATIENCE, "no packet crossed within {PATIENCE:?}: {packet:?}");
+        assert!(
+            start.elapsed() < PATIENCE,
+            "no packet crossed within {PATIENCE:?}: {packet:?}"
+        );
         from.publish(packet.as_bytes()).unwrap();
         from.poll(Instant::now()).unwrap();
         std::thread::sleep(Duration::from_millis(50));
@@ -123,7 +135,9 @@ fn until_flowing(from: &mut UdpClient, packet: &str, at: &mut [&mut UdpClient]) 
 }
 
 fn numbered(channel: &str, n: usize) -> Vec<String> {
-    (0..n).map(|i| format!("@ <{channel}> 0\nmsg n {i}\n")).collect()
+    (0..n)
+        .map(|i| format!("@ <{channel}> 0\nmsg n {i}\n"))
+        .collect()
 }
 
 #[test]
@@ -136,7 +150,11 @@ fn three_sites_in_a_line_deliver_each_packet_once_to_exactly_its_subscribers() {
     let mut publisher = a.client(&[]);
     let mut on_c = c.client(&["talk"]);
     let mut on_b = b.client(&["talk"]);
-    until_flowing(&mut publisher, "@ <talk> 0\nhello\n", &mut [&mut on_c, &mut on_b]);
+    until_flowing(
+        &mut publisher,
+        "@ <talk> 0\nhello\n",
+        &mut [&mut on_c, &mut on_b],
+    );
 
     // A stream crosses the line: every packet once on C and on B.
     for p in numbered("talk", 200) {
@@ -147,8 +165,16 @@ fn three_sites_in_a_line_deliver_each_packet_once_to_exactly_its_subscribers() {
     }
     for (name, client) in [("c", &mut on_c), ("b", &mut on_b)] {
         let got = drain(client, Duration::from_millis(1500));
-        assert_eq!(got.len(), 200, "site {name} got {} distinct of 200", got.len());
-        assert!(got.values().all(|&n| n == 1), "site {name} got a packet twice");
+        assert_eq!(
+            got.len(),
+            200,
+            "site {name} got {} distinct of 200",
+            got.len()
+        );
+        assert!(
+            got.values().all(|&n| n == 1),
+            "site {name} got a packet twice"
+        );
     }
     assert_eq!(Stats::get(&c.stats().duplicates), 0);
 
@@ -165,10 +191,22 @@ fn three_sites_in_a_line_deliver_each_packet_once_to_exactly_its_subscribers() {
     let task = "@ <mobile> <camera> 0\ntask name fetch\n";
     until_flowing(&mut publisher, task, &mut [&mut both_on_c, &mut both_on_a]);
     publisher.publish(task.as_bytes()).unwrap();
-    assert_eq!(drain(&mut both_on_c, Duration::from_millis(800)).get(task), Some(&1));
-    assert_eq!(drain(&mut both_on_a, Duration::from_millis(100)).get(task), Some(&1));
-    assert_eq!(drain(&mut mobile_on_c, Duration::from_millis(100)).get(task), None);
-    assert_eq!(drain(&mut camera_on_b, Duration::from_millis(100)).get(task), None);
+    assert_eq!(
+        drain(&mut both_on_c, Duration::from_millis(800)).get(task),
+        Some(&1)
+    );
+    assert_eq!(
+        drain(&mut both_on_a, Duration::from_millis(100)).get(task),
+        Some(&1)
+    );
+    assert_eq!(
+        drain(&mut mobile_on_c, Duration::from_millis(100)).get(task),
+        None
+    );
+    assert_eq!(
+        drain(&mut camera_on_b, Duration::from_millis(100)).get(task),
+        None
+    );
 
     // A channel nobody on C subscribes to never crosses to C.
     let mut quiet_on_b = b.client(&["quiet"]);
@@ -178,8 +216,15 @@ fn three_sites_in_a_line_deliver_each_packet_once_to_exactly_its_subscribers() {
     for p in numbered("quiet", 100) {
         publisher.publish(p.as_bytes()).unwrap();
     }
-    assert_eq!(drain(&mut quiet_on_b, Duration::from_millis(1000)).len(), 100);
-    assert_eq!(Stats::get(&c.stats().imported), imported_before, "quiet crossed to C");
+    assert_eq!(
+        drain(&mut quiet_on_b, Duration::from_millis(1000)).len(),
+        100
+    );
+    assert_eq!(
+        Stats::get(&c.stats().imported),
+        imported_before,
+        "quiet crossed to C"
+    );
     assert_eq!(Stats::get(&c.stats().rejected), 0);
 }
 
@@ -188,15 +233,23 @@ fn sites_meeting_at_a_zenoh_router_share_channels_and_withdraw_when_unsubscribed
     let pr = free_port();
     let mut router = zenoh::Config::default();
     router.insert_json5("mode", "\"router\"").unwrap();
-    router.insert_json5("listen/endpoints", &format!("[\"{}\"]", endpoint(pr))).unwrap();
-    router.insert_json5("scouting/multicast/enabled", "false").unwrap();
+    router
+        .insert_json5("listen/endpoints", &format!("[\"{}\"]", endpoint(pr)))
+        .unwrap();
+    router
+        .insert_json5("scouting/multicast/enabled", "false")
+        .unwrap();
     let router = zenoh::open(router).wait().unwrap();
 
     let a = Site_::new("a", Mode::Client, &[endpoint(pr)], &[]);
     let b = Site_::new("b", Mode::Client, &[endpoint(pr)], &[]);
     let mut publisher = a.client(&[]);
     let mut on_b = b.client(&["vision"]);
-    until_flowing(&mut publisher, "@ <vision> 0\nrobot id 1\n", &mut [&mut on_b]);
+    until_flowing(
+        &mut publisher,
+        "@ <vision> 0\nrobot id 1\n",
+        &mut [&mut on_b],
+    );
     for p in numbered("vision", 100) {
         publisher.publish(p.as_bytes()).unwrap();
     }
@@ -214,7 +267,10 @@ fn sites_meeting_at_a_zenoh_router_share_channels_and_withdraw_when_unsubscribed
         if Stats::get(&a.stats().exported) == before {
             break;
         }
-        assert!(start.elapsed() < Duration::from_secs(30), "A kept exporting vision");
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "A kept exporting vision"
+        );
     }
     drop(router);
 }

@@ -28,6 +28,8 @@ enum Command {
     Sub(cmd::pubsub::SubArgs),
     /// Serve the system monitor: the arena, the hub and operator override in a browser.
     Monitor(cmd::monitor::Args),
+    /// Share this hub's channels with hubs of other sites, over Zenoh.
+    Bridge(cmd::bridge::Args),
     /// Ask the hub for its clients, channels and drops.
     Status(cmd::status::Args),
     /// List a traffic log, filtered by channel and time.
@@ -69,6 +71,7 @@ fn main() -> ExitCode {
         Command::Pub(a) => cmd::pubsub::publish(a),
         Command::Sub(a) => cmd::pubsub::subscribe(a),
         Command::Monitor(a) => cmd::monitor::run(a),
+        Command::Bridge(a) => cmd::bridge::run(a),
         Command::Status(a) => cmd::status::run(a),
         Command::Log(a) => cmd::traffic::list(a),
         Command::Replay(a) => cmd::traffic::replay(a),

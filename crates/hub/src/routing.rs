@@ -587,9 +587,8 @@ impl Hub {
             let c = &self.clients[addr];
             // A client line costs about its subscriptions' names plus a few
             // digits each; stop before the report could not be sent anyway.
-            let cost = 48
-                + c.about.len()
-                + c.subs.keys().map(|s| s.as_str().len() + 8).sum::<usize>();
+            let cost =
+                48 + c.about.len() + c.subs.keys().map(|s| s.as_str().len() + 8).sum::<usize>();
             if cost > budget {
                 truncated = true;
                 break;

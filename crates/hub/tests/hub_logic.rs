@@ -387,11 +387,19 @@ fn a_no_local_client_hears_everyone_but_itself_for_as_long_as_its_lease() {
     let now = Instant::now();
     let mut hub = Hub::new(HubConfig::default(), now);
     subscribe(&mut hub, now, addr(1), &["a"]);
-    control(&mut hub, now, addr(2), "subscribe ch a\nsubscribe ch b\nno_local\n");
+    control(
+        &mut hub,
+        now,
+        addr(2),
+        "subscribe ch a\nsubscribe ch b\nno_local\n",
+    );
     let plain = "@ <a> 0\nx v 1\n";
     assert_eq!(forwarded(&mut hub, now, addr(1), plain), [addr(1), addr(2)]);
     assert_eq!(forwarded(&mut hub, now, addr(2), plain), [addr(1)]);
-    assert_eq!(forwarded(&mut hub, now, addr(2), "@ <a> <b> 0\nx v 1\n"), []);
+    assert_eq!(
+        forwarded(&mut hub, now, addr(2), "@ <a> <b> 0\nx v 1\n"),
+        []
+    );
     // Forgotten with the lease: subscribed again without it, the client hears itself.
     let later = now + HubConfig::default().lease * 2;
     hub.handle_timeout(later);
@@ -406,7 +414,12 @@ fn a_clients_about_text_is_kept_with_its_lease_cut_to_length_and_shown_in_status
     // Before any lease, the words are not kept: a stranger holds no state.
     control(&mut hub, now, addr(1), "about text \"early\"\n");
     let long = "x".repeat(1000);
-    control(&mut hub, now, addr(1), &format!("subscribe ch a\nabout text \"bridge site lab {long}\"\n"));
+    control(
+        &mut hub,
+        now,
+        addr(1),
+        &format!("subscribe ch a\nabout text \"bridge site lab {long}\"\n"),
+    );
     control(&mut hub, now, addr(3), "subscribe ch a\n");
     while hub.poll_transmit().is_some() {}
     let c = cookie(&mut hub, now + Duration::from_secs(1), addr(3));
@@ -414,9 +427,21 @@ fn a_clients_about_text_is_kept_with_its_lease_cut_to_length_and_shown_in_status
     hub.handle(now + Duration::from_secs(1), addr(3), ask.as_bytes());
     let r = replies(&mut hub);
     let report = StatusReport::from_packet(&Packet::parse(&r.last().unwrap().1).unwrap()).unwrap();
-    let bridge = report.clients.iter().find(|c| c.addr == addr(1).to_string()).unwrap();
-    assert!(bridge.about.starts_with("bridge site lab xxx"), "{:?}", bridge.about);
+    let bridge = report
+        .clients
+        .iter()
+        .find(|c| c.addr == addr(1).to_string())
+        .unwrap();
+    assert!(
+        bridge.about.starts_with("bridge site lab xxx"),
+        "{:?}",
+        bridge.about
+    );
     assert_eq!(bridge.about.len(), colony_wire::MAX_ABOUT);
-    let plain = report.clients.iter().find(|c| c.addr == addr(3).to_string()).unwrap();
+    let plain = report
+        .clients
+        .iter()
+        .find(|c| c.addr == addr(3).to_string())
+        .unwrap();
     assert_eq!(plain.about, "");
 }

@@ -481,7 +481,9 @@ fn an_about_text_longer_than_the_hub_keeps_is_cut_on_a_character_boundary() {
     let long = format!("@ <hub> 0\nabout text \"{}\"\n", "é".repeat(200));
     match &requests(&long).unwrap()[..] {
         [Request::About(text)] => {
-            assert!(text.len() <= colony_wire::MAX_ABOUT && text.len() >= colony_wire::MAX_ABOUT - 1);
+            assert!(
+                text.len() <= colony_wire::MAX_ABOUT && text.len() >= colony_wire::MAX_ABOUT - 1
+            );
             assert!(text.chars().all(|c| c == 'é'));
         }
         other => panic!("{other:?}"),

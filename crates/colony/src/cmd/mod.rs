@@ -1,5 +1,6 @@
 //! One module per subcommand, plus what they share.
 
+pub mod bridge;
 pub mod demo;
 pub mod game;
 pub mod hub;
