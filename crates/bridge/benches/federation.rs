@@ -21,7 +21,11 @@ const ROUNDS: usize = 2_000;
 const THROUGHPUT_FOR: Duration = Duration::from_secs(3);
 
 fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
 }
 
 fn hub(stop: &Arc<AtomicBool>) -> HubThread {
@@ -80,7 +84,8 @@ fn subscribed(addr: &str) -> UdpClient {
     c.subscribe("bench").unwrap();
     let deadline = Instant::now() + Duration::from_secs(5);
     while c.session().lease().is_none() && Instant::now() < deadline {
-        c.wait(Some(Instant::now() + Duration::from_millis(10))).unwrap();
+        c.wait(Some(Instant::now() + Duration::from_millis(10)))
+            .unwrap();
         c.poll(Instant::now()).unwrap();
         while c.recv_reply().unwrap().is_some() {}
     }
@@ -185,7 +190,10 @@ fn main() {
         if await_packet(&mut remote, n) {
             break;
         }
-        assert!(warm.elapsed() < Duration::from_secs(20), "the bridge never carried a packet");
+        assert!(
+            warm.elapsed() < Duration::from_secs(20),
+            "the bridge never carried a packet"
+        );
         n += 1;
     }
     let two = hub_latency(&mut publisher, &mut remote);
@@ -197,9 +205,12 @@ fn main() {
     let zport = free_port();
     let open = |connect: Vec<String>, listen: Vec<String>| {
         let mut c = zenoh::Config::default();
-        c.insert_json5("scouting/multicast/enabled", "false").unwrap();
-        c.insert_json5("connect/endpoints", &format!("{connect:?}")).unwrap();
-        c.insert_json5("listen/endpoints", &format!("{listen:?}")).unwrap();
+        c.insert_json5("scouting/multicast/enabled", "false")
+            .unwrap();
+        c.insert_json5("connect/endpoints", &format!("{connect:?}"))
+            .unwrap();
+        c.insert_json5("listen/endpoints", &format!("{listen:?}"))
+            .unwrap();
         zenoh::open(c).wait().unwrap()
     };
     let z_sub = open(vec![], vec![format!("tcp/127.0.0.1:{zport}")]);
@@ -219,7 +230,10 @@ fn main() {
         if zrx.recv_timeout(Duration::from_millis(100)).is_ok() {
             break;
         }
-        assert!(warm.elapsed() < Duration::from_secs(20), "zenoh never delivered");
+        assert!(
+            warm.elapsed() < Duration::from_secs(20),
+            "zenoh never delivered"
+        );
     }
     while zrx.try_recv().is_ok() {}
     let mut us = Vec::with_capacity(ROUNDS);
@@ -245,7 +259,8 @@ fn main() {
     let rate = |(sent, got, _): (u64, u64, Duration)| {
         (got as f64 / THROUGHPUT_FOR.as_secs_f64(), sent, got)
     };
-    let per_packet = |(_, got, cpu): (u64, u64, Duration)| cpu.as_secs_f64() * 1e6 / got.max(1) as f64;
+    let per_packet =
+        |(_, got, cpu): (u64, u64, Duration)| cpu.as_secs_f64() * 1e6 / got.max(1) as f64;
     println!("## Federation over Zenoh on loopback\n");
     println!(
         "`cargo bench -p colony-bridge --bench federation`; {} cores; {} sequential round trips of a 100-byte packet, then {} s of publishing as fast as one client can.\n",
@@ -255,17 +270,31 @@ fn main() {
     );
     println!("| path | p50 µs | p99 µs | lost |");
     println!("|---|---:|---:|---:|");
-    println!("| publisher → hub → subscriber | {:.0} | {:.0} | {} |", one.0, one.1, one.2);
+    println!(
+        "| publisher → hub → subscriber | {:.0} | {:.0} | {} |",
+        one.0, one.1, one.2
+    );
     println!(
         "| publisher → hub A → bridge → Zenoh → bridge → hub B → subscriber | {:.0} | {:.0} | {} |",
         two.0, two.1, two.2
     );
-    println!("| Zenoh alone: put → subscriber, two local sessions | {:.0} | {:.0} | — |", zenoh.0, zenoh.1);
+    println!(
+        "| Zenoh alone: put → subscriber, two local sessions | {:.0} | {:.0} | — |",
+        zenoh.0, zenoh.1
+    );
     let (r1, s1, g1) = rate(one_tp);
     let (r2, s2, g2) = rate(two_tp);
-    println!("\n| path | sent | delivered | delivered/s | CPU µs per delivered packet (whole process) |");
+    println!(
+        "\n| path | sent | delivered | delivered/s | CPU µs per delivered packet (whole process) |"
+    );
     println!("|---|---:|---:|---:|---:|");
-    println!("| one hub | {s1} | {g1} | {r1:.0} | {:.1} |", per_packet(one_tp));
-    println!("| two hubs bridged | {s2} | {g2} | {r2:.0} | {:.1} |", per_packet(two_tp));
+    println!(
+        "| one hub | {s1} | {g1} | {r1:.0} | {:.1} |",
+        per_packet(one_tp)
+    );
+    println!(
+        "| two hubs bridged | {s2} | {g2} | {r2:.0} | {:.1} |",
+        per_packet(two_tp)
+    );
     println!("\nThe receiving bridge counted {lost} packets lost between the sites and {overflow} dropped on its own queue.");
 }

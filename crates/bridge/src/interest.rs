@@ -18,6 +18,13 @@ use crate::keys;
 
 /// A client with more subscriptions than this takes every subject set.
 pub const MAX_ENUMERATED: usize = 6;
+/// With more distinct sets than this, the bridge takes every set: each is a
+/// declaration sent to every Zenoh peer.
+pub const MAX_SETS: usize = 256;
+/// The most channels a site asks for; more are left out, and counted.
+pub const MAX_CHANNELS: usize = 1024;
+/// How every bridge's about text starts.
+pub const BRIDGE_ABOUT: &str = "bridge ";
 
 /// What the clients of this site want from other sites.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -26,16 +33,29 @@ pub struct LocalInterest {
     pub channels: BTreeSet<Subject>,
     /// Subject sets of two or more that some client could receive.
     pub sets: BTreeSet<Vec<Subject>>,
-    /// Some client holds so many subscriptions that every set is taken.
+    /// Some client holds so many subscriptions, or the clients so many
+    /// sets, that every set is taken.
     pub all_sets: bool,
+    /// Channels left out beyond [`MAX_CHANNELS`].
+    pub left_out: usize,
+    /// Other bridges on this hub (their subscriptions are other networks'
+    /// wants, never this site's: taking them would loop).
+    pub other_bridges: usize,
 }
 
 impl LocalInterest {
-    /// Reads the report's clients, leaving out the bridge itself (the client
-    /// whose about text starts with `me`): its subscriptions are other sites' wants.
+    /// Reads the report's clients, leaving out every bridge (whose about text
+    /// starts with [`BRIDGE_ABOUT`]; this one's starts with `me`): a bridge's
+    /// subscriptions are other sites' wants.
     pub fn from_report(report: &StatusReport, me: &str, import: &[Pattern]) -> LocalInterest {
         let mut interest = LocalInterest::default();
-        for client in report.clients.iter().filter(|c| !c.about.starts_with(me)) {
+        for client in &report.clients {
+            if client.about.starts_with(BRIDGE_ABOUT) {
+                if !client.about.starts_with(me) {
+                    interest.other_bridges += 1;
+                }
+                continue;
+            }
             let mut subs: Vec<Subject> = client
                 .subscriptions
                 .iter()
@@ -49,12 +69,35 @@ impl LocalInterest {
             } else if subs.len() >= 2 && !interest.all_sets {
                 add_subsets(&subs, &mut interest.sets);
             }
-            interest.channels.extend(subs);
+            for s in subs {
+                if interest.channels.len() < MAX_CHANNELS || interest.channels.contains(&s) {
+                    interest.channels.insert(s);
+                } else {
+                    interest.left_out += 1;
+                }
+            }
+        }
+        if interest.sets.len() > MAX_SETS {
+            interest.all_sets = true;
         }
         if interest.all_sets {
             interest.sets.clear();
         }
         interest
+    }
+
+    /// What a truncated report adds to what was known: a report cut short
+    /// leaves clients out, and must not withdraw what they want.
+    pub fn widen(&mut self, seen: LocalInterest) {
+        self.channels.extend(seen.channels);
+        self.all_sets |= seen.all_sets;
+        if self.all_sets {
+            self.sets.clear();
+        } else {
+            self.sets.extend(seen.sets);
+        }
+        self.left_out = self.left_out.max(seen.left_out);
+        self.other_bridges = self.other_bridges.max(seen.other_bridges);
     }
 
     /// The Zenoh key expressions to subscribe to, each matching a disjoint part of the key space.
@@ -118,9 +161,11 @@ mod tests {
         let r = report(vec![
             client("", &["mobile", "camera"]),
             client("", &["vision"]),
-            client("bridge lab 1", &["radio", "debug"]),
+            client("bridge lab run 1:", &["radio", "debug"]),
+            client("bridge other run 2:", &["cmd"]),
         ]);
-        let i = LocalInterest::from_report(&r, "bridge lab 1", &[Pattern::new("*")]);
+        let i = LocalInterest::from_report(&r, "bridge lab run 1:", &[Pattern::new("*")]);
+        assert_eq!(i.other_bridges, 1);
         let exprs: Vec<String> = i.key_exprs().into_iter().collect();
         assert_eq!(
             exprs,
@@ -153,6 +198,34 @@ mod tests {
         let exprs = i.key_exprs();
         assert!(exprs.contains("colony/*/ch/*/*/**"));
         assert_eq!(exprs.len(), 2 + 7 + 1);
+    }
+
+    #[test]
+    fn many_clients_of_small_sets_make_the_bridge_take_every_set() {
+        let clients: Vec<ClientInfo> = (0..100)
+            .map(|i| {
+                let names = [format!("a{i}"), format!("b{i}"), format!("c{i}")];
+                let names: Vec<&str> = names.iter().map(String::as_str).collect();
+                client("", &names)
+            })
+            .collect();
+        let i = LocalInterest::from_report(&report(clients), "me", &[Pattern::new("*")]);
+        assert!(i.all_sets && i.sets.is_empty());
+        assert_eq!(i.key_exprs().len(), 300 + 1);
+    }
+
+    #[test]
+    fn a_truncated_report_only_widens() {
+        let r = report(vec![client("", &["a", "b"])]);
+        let mut i = LocalInterest::from_report(&r, "me", &[Pattern::new("*")]);
+        i.widen(LocalInterest::from_report(
+            &report(vec![client("", &["c"])]),
+            "me",
+            &[Pattern::new("*")],
+        ));
+        let names: Vec<&str> = i.channels.iter().map(Subject::as_str).collect();
+        assert_eq!(names, ["a", "b", "c"]);
+        assert_eq!(i.sets.len(), 1);
     }
 
     #[test]

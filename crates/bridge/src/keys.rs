@@ -137,7 +137,9 @@ pub fn parse_want_key(key: &str) -> Option<(Site, Subject)> {
         return None;
     }
     let subject = unchunk(parts.next()?)?;
-    parts.next().is_none().then_some((site, subject))
+    // `<hub>` is no channel: a want for it would have the bridge ask its hub
+    // for the hub's own replies.
+    (parts.next().is_none() && subject.as_str() != HUB_SUBJECT).then_some((site, subject))
 }
 
 /// The site a sample came from, if it is a colony packet published on
@@ -153,12 +155,14 @@ pub fn sample_site(key: &str, payload: &[u8]) -> Option<Site> {
 }
 
 /// How a packet of this colony priority crosses Zenoh: its Zenoh priority,
-/// and whether Zenoh may drop it when the link is congested. The table is
+/// and whether Zenoh may drop it when the link is congested (always: a
+/// bridge that blocked would stop serving its hub; drops show as `lost`). The table is
 /// the one in `docs/ARCHITECTURE.md`.
 pub fn zenoh_qos(p: Priority) -> (ZPriority, CongestionControl) {
     match p.0 {
-        // The operator's override (10): ahead of everything, never dropped.
-        10.. => (ZPriority::RealTime, CongestionControl::Block),
+        // The operator's override (10): ahead of everything. Not `Block`:
+        // anyone may publish at 10, and a flood must not stall the bridge.
+        10.. => (ZPriority::RealTime, CongestionControl::Drop),
         5..=9 => (ZPriority::InteractiveHigh, CongestionControl::Drop),
         1..=4 => (ZPriority::InteractiveLow, CongestionControl::Drop),
         0 => (ZPriority::Data, CongestionControl::Drop),
@@ -207,6 +211,7 @@ mod tests {
             assert_eq!(parse_data_key(bad), None, "{bad}");
         }
         assert_eq!(parse_want_key("colony/lab/want/a/b"), None);
+        assert_eq!(parse_want_key("colony/lab/want/hub"), None);
         assert_eq!(
             parse_want_key("colony/lab/want/a%2Fb"),
             Some((lab(), Subject::new("a/b").unwrap()))
@@ -235,10 +240,10 @@ mod tests {
     }
 
     #[test]
-    fn the_operators_override_crosses_first_and_is_never_dropped() {
+    fn the_operators_override_crosses_first() {
         assert_eq!(
             zenoh_qos(Priority(10)),
-            (ZPriority::RealTime, CongestionControl::Block)
+            (ZPriority::RealTime, CongestionControl::Drop)
         );
         assert_eq!(zenoh_qos(Priority(i32::MAX)).0, ZPriority::RealTime);
         assert_eq!(zenoh_qos(Priority(0)).0, ZPriority::Data);

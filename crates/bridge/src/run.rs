@@ -42,8 +42,22 @@ const HUB: Token = Token(0);
 const WAKE: Token = Token(1);
 /// Samples waiting for the bridge's thread; beyond, they are dropped and counted.
 const QUEUE: usize = 16_384;
-/// The most distinct keys numbered at once (a new run id starts afresh).
+/// Want tokens coming and going, queued apart from data so that a flood of
+/// samples cannot lose one; should even these overflow, the bridge asks
+/// Zenoh for every live token again.
+const WANT_QUEUE: usize = 65_536;
+/// The most distinct keys numbered at once (a new stamp run starts afresh).
 const MAX_KEYS: usize = 65_536;
+/// The most (channel, site) wants held; more are refused and counted.
+const MAX_REMOTE_WANTS: usize = 4_096;
+/// The most channels kept subscribed on the hub for other sites: the hub
+/// grants a client 256 subscriptions, and one is the bridge's own.
+const MAX_EXPORTS: usize = 255;
+/// Datagrams taken from the hub per step, so the Zenoh side and the timers
+/// are served under any flood.
+const HUB_BATCH: usize = 1_024;
+/// The longest key a sample may have to be looked at.
+const MAX_KEY: usize = 4_096;
 /// How often the about text (and the log line) is brought up to date.
 const REPORT_EVERY: Duration = Duration::from_secs(1);
 
@@ -88,6 +102,11 @@ pub struct Stats {
     pub overflow: AtomicU64,
     /// Puts Zenoh refused.
     pub put_failed: AtomicU64,
+    /// Wants of other sites refused beyond [`MAX_REMOTE_WANTS`], or channels
+    /// not exported beyond [`MAX_EXPORTS`].
+    pub refused_wants: AtomicU64,
+    /// Errors talking to the hub (it may be down, or unreachable for a while).
+    pub hub_errors: AtomicU64,
 }
 
 impl Stats {
@@ -101,35 +120,66 @@ impl Stats {
     }
 }
 
-enum Event {
-    Data {
-        key: String,
-        payload: Vec<u8>,
-        stamp: Option<Stamp>,
-    },
-    Want {
-        key: String,
-        alive: bool,
-    },
+struct Data {
+    key: String,
+    payload: Vec<u8>,
+    priority: u8,
+    stamp: Option<Stamp>,
+}
+
+struct Want {
+    key: String,
+    alive: bool,
 }
 
 /// Passes Zenoh's callbacks to the bridge's thread and wakes it.
 #[derive(Clone)]
 struct Inbox {
-    tx: SyncSender<Event>,
+    data: SyncSender<Data>,
+    wants: SyncSender<Want>,
+    wants_lost: Arc<AtomicBool>,
     waker: Arc<Waker>,
     stats: Arc<Stats>,
+    /// `colony/<this site>/`: this session's own puts, which Zenoh hands its
+    /// own subscribers too.
+    own_prefix: String,
 }
 
 impl Inbox {
-    fn send(&self, event: Event) {
-        match self.tx.try_send(event) {
+    fn data(&self, sample: &zenoh::sample::Sample) {
+        let key = sample.key_expr().as_str();
+        if key.starts_with(&self.own_prefix) {
+            return;
+        }
+        // Checked before anything is copied: Zenoh delivers samples of any size.
+        if key.len() > MAX_KEY || sample.payload().len() > colony_wire::MAX_PACKET {
+            Stats::add(&self.stats.rejected, 1);
+            return;
+        }
+        let data = Data {
+            key: key.to_owned(),
+            payload: sample.payload().to_bytes().into_owned(),
+            priority: sample.priority() as u8,
+            stamp: sample
+                .attachment()
+                .and_then(|a| Stamp::from_bytes(&a.to_bytes())),
+        };
+        match self.data.try_send(data) {
             Ok(()) => {
                 let _ = self.waker.wake();
             }
             Err(TrySendError::Full(_)) => Stats::add(&self.stats.overflow, 1),
             Err(TrySendError::Disconnected(_)) => {}
         }
+    }
+
+    fn want(&self, want: Want) {
+        match self.wants.try_send(want) {
+            Ok(()) => {}
+            Err(TrySendError::Full(_)) => self.wants_lost.store(true, Ordering::Relaxed),
+            Err(TrySendError::Disconnected(_)) => return,
+        }
+        let _ = self.waker.wake();
     }
 }
 
@@ -140,16 +190,23 @@ pub struct Bridge {
     session: Session,
     poll: Poll,
     inbox: Inbox,
-    rx: Receiver<Event>,
+    data: Receiver<Data>,
+    wants: Receiver<Want>,
     stats: Arc<Stats>,
-    /// Drawn at start: names this run in the about text and in every stamp.
+    /// Drawn at start: names this run in the about text.
     run: u64,
-    seqs: HashMap<String, u64>,
+    /// Names the numbering of puts; drawn again whenever it starts afresh.
+    stamp_run: u64,
+    seqs: HashMap<(String, u8), u64>,
     tracker: Tracker,
     /// Other sites' wants: channel -> the sites that want it.
     remote: HashMap<Subject, BTreeSet<Site>>,
     /// Channels kept subscribed on the hub for other sites.
     exported: BTreeSet<Subject>,
+    /// Other sites' wants changed since the hub subscriptions were brought in line.
+    wants_changed: bool,
+    /// The bridge's own channel, held so the hub shows it.
+    own: Subject,
     interest: LocalInterest,
     subscribers: HashMap<String, Subscriber<()>>,
     tokens: HashMap<Subject, LivelinessToken>,
@@ -175,21 +232,25 @@ impl Bridge {
         poll.registry()
             .register(&mut SourceFd(&client.as_raw_fd()), HUB, Interest::READABLE)?;
         let waker = Arc::new(Waker::new(poll.registry(), WAKE)?);
-        let (tx, rx) = mpsc::sync_channel(QUEUE);
+        let (data_tx, data) = mpsc::sync_channel(QUEUE);
+        let (wants_tx, wants) = mpsc::sync_channel(WANT_QUEUE);
         let stats = Arc::new(Stats::default());
         let inbox = Inbox {
-            tx,
+            data: data_tx,
+            wants: wants_tx,
+            wants_lost: Arc::new(AtomicBool::new(false)),
             waker,
             stats: stats.clone(),
+            own_prefix: format!("{}/{}/", keys::PREFIX, config.site),
         };
-        let wants = {
+        let want_sub = {
             let inbox = inbox.clone();
             session
                 .liveliness()
                 .declare_subscriber(keys::all_wants_expr())
                 .history(true)
                 .callback(move |sample| {
-                    inbox.send(Event::Want {
+                    inbox.want(Want {
                         key: sample.key_expr().as_str().to_owned(),
                         alive: sample.kind() == SampleKind::Put,
                     })
@@ -197,31 +258,36 @@ impl Bridge {
                 .wait()
                 .map_err(zerr)?
         };
-        let run = rand::random::<u64>();
+        let own = Subject::new(&format!("bridge.{}", config.site))
+            .expect("a site name makes a valid subject");
         let now = Instant::now();
         let mut bridge = Bridge {
             client,
             session,
             poll,
             inbox,
-            rx,
+            data,
+            wants,
             stats,
-            run,
+            run: rand::random(),
+            stamp_run: rand::random(),
             seqs: HashMap::new(),
             tracker: Tracker::default(),
             remote: HashMap::new(),
             exported: BTreeSet::new(),
+            wants_changed: false,
+            own,
             interest: LocalInterest::default(),
             subscribers: HashMap::new(),
             tokens: HashMap::new(),
-            _wants: wants,
+            _wants: want_sub,
             next_status: now,
             next_report: now,
             config,
         };
         // Always one lease, so the hub shows the bridge (and keeps its
         // standing requests) even when no site wants anything from it.
-        let own = format!("bridge.{}", bridge.config.site);
+        let own = bridge.own.as_str().to_owned();
         bridge
             .client
             .subscribe(&own)
@@ -229,7 +295,7 @@ impl Bridge {
                 hub: bridge.config.hub.clone(),
                 source,
             })?;
-        bridge.report()?;
+        bridge.report();
         Ok(bridge)
     }
 
@@ -265,112 +331,172 @@ impl Bridge {
         Ok(())
     }
 
+    /// Notes a failure to talk to the hub: counted and logged, never the
+    /// end of the bridge (the hub may be restarting, or its host rebooting).
+    fn hub_error(&self, what: &str, e: &dyn std::fmt::Display) {
+        Stats::add(&self.stats.hub_errors, 1);
+        tracing::debug!(error = %e, "hub: {what}");
+    }
+
     /// Does everything that is waiting or due.
     fn step(&mut self, now: Instant) -> Result<(), BridgeError> {
         self.read_hub()?;
+        for _ in 0..WANT_QUEUE {
+            match self.wants.try_recv() {
+                Ok(want) => self.note_want(want),
+                Err(_) => break,
+            }
+        }
+        if self.inbox.wants_lost.swap(false, Ordering::Relaxed) {
+            self.resync_wants();
+        }
+        if std::mem::take(&mut self.wants_changed) {
+            self.sync_exports();
+        }
         // Bounded, so the hub's side is never starved by a busy link.
         for _ in 0..QUEUE {
-            match self.rx.try_recv() {
-                Ok(event) => self.handle(event)?,
+            match self.data.try_recv() {
+                Ok(data) => self.import(data),
                 Err(_) => break,
             }
         }
         if now >= self.next_status {
             self.next_status = now + self.config.poll;
-            self.client.request(&[Request::Status])?;
+            if let Err(e) = self.client.request(&[Request::Status]) {
+                self.hub_error("status request", &e);
+            }
         }
         if now >= self.next_report {
             self.next_report = now + REPORT_EVERY;
-            self.report()?;
+            self.report();
         }
-        self.client.poll(now)?;
+        if let Err(e) = self.client.poll(now) {
+            self.hub_error("refresh", &e);
+        }
         Ok(())
     }
 
     fn read_hub(&mut self) -> Result<(), BridgeError> {
-        loop {
-            let interest = match self.client.recv_any()? {
-                None => return Ok(()),
-                Some(Delivery::Packet(packet)) => {
-                    export(
-                        &self.session,
-                        &self.config.site,
-                        self.run,
-                        &mut self.seqs,
-                        &self.stats,
-                        &packet,
-                    );
+        for _ in 0..HUB_BATCH {
+            let seen = match self.client.recv_any() {
+                Ok(None) => return Ok(()),
+                Err(e) => {
+                    self.hub_error("receive", &e);
+                    return Ok(());
+                }
+                Ok(Some(Delivery::Packet(packet))) => {
+                    // Only what other sites asked for: a datagram forged from
+                    // the hub's address is no reason to put anything.
+                    if packet.subjects().all(|s| self.exported.contains(s)) {
+                        export(
+                            &self.session,
+                            &self.config.site,
+                            &mut self.stamp_run,
+                            &mut self.seqs,
+                            &self.stats,
+                            &packet,
+                        );
+                    }
                     continue;
                 }
-                Some(Delivery::Reply(Reply::Status(report))) => {
-                    LocalInterest::from_report(&report, &self.marker(), &self.config.import)
-                }
-                Some(Delivery::Reply(_)) => continue,
-            };
-            self.want(interest)?;
-        }
-    }
-
-    fn handle(&mut self, event: Event) -> Result<(), BridgeError> {
-        match event {
-            Event::Data {
-                key,
-                payload,
-                stamp,
-            } => self.import(&key, &payload, stamp)?,
-            Event::Want { key, alive } => {
-                let Some((site, subject)) = keys::parse_want_key(&key) else {
-                    return Ok(());
-                };
-                if site == self.config.site {
-                    return Ok(());
-                }
-                let sites = self.remote.entry(subject.clone()).or_default();
-                if alive {
-                    sites.insert(site);
-                } else {
-                    sites.remove(&site);
-                    if sites.is_empty() {
-                        self.remote.remove(&subject);
+                Ok(Some(Delivery::Reply(Reply::Status(report)))) => {
+                    let seen =
+                        LocalInterest::from_report(&report, &self.marker(), &self.config.import);
+                    if report.truncated {
+                        let mut wider = self.interest.clone();
+                        wider.widen(seen);
+                        wider
+                    } else {
+                        seen
                     }
                 }
-                self.sync_exports()?;
-            }
+                Ok(Some(Delivery::Reply(_))) => continue,
+            };
+            self.want(seen)?;
         }
         Ok(())
+    }
+
+    /// Notes another site's want coming or going.
+    fn note_want(&mut self, want: Want) {
+        let Some((site, subject)) = keys::parse_want_key(&want.key) else {
+            return;
+        };
+        if site == self.config.site || subject == self.own {
+            return;
+        }
+        if want.alive {
+            let held: usize = self.remote.values().map(BTreeSet::len).sum();
+            let known = self.remote.get(&subject).is_some_and(|s| s.contains(&site));
+            if !known && held >= MAX_REMOTE_WANTS {
+                Stats::add(&self.stats.refused_wants, 1);
+                return;
+            }
+            self.remote.entry(subject).or_default().insert(site);
+        } else if let Some(sites) = self.remote.get_mut(&subject) {
+            sites.remove(&site);
+            if sites.is_empty() {
+                self.remote.remove(&subject);
+            }
+        }
+        self.wants_changed = true;
+    }
+
+    /// Rebuilds other sites' wants from Zenoh's list of live tokens, after
+    /// changes were lost on a full queue.
+    fn resync_wants(&mut self) {
+        tracing::warn!(
+            "want tokens arrived faster than the bridge took them: asking Zenoh for all again"
+        );
+        let replies = match self.session.liveliness().get(keys::all_wants_expr()).wait() {
+            Ok(r) => r,
+            Err(e) => {
+                tracing::warn!(error = %e, "could not list the live want tokens");
+                return;
+            }
+        };
+        self.remote.clear();
+        while let Ok(Some(reply)) = replies.recv_timeout(Duration::from_secs(2)) {
+            if let Ok(sample) = reply.result() {
+                let key = sample.key_expr().as_str().to_owned();
+                self.note_want(Want { key, alive: true });
+            }
+        }
+        self.wants_changed = true;
     }
 
     /// Keeps subscribed on the hub exactly the channels other sites want
-    /// and the export rules allow.
-    fn sync_exports(&mut self) -> Result<(), BridgeError> {
-        let wanted: BTreeSet<Subject> = self
+    /// and the export rules allow (at most [`MAX_EXPORTS`]).
+    fn sync_exports(&mut self) {
+        let allowed = self
             .remote
             .keys()
-            .filter(|s| any_matches(&self.config.export, s.as_str()))
-            .cloned()
-            .collect();
-        if wanted != self.exported {
-            let names: Vec<&str> = wanted.iter().map(Subject::as_str).collect();
-            tracing::info!(site = %self.config.site, "other sites want: {}", names.join(" "));
+            .filter(|s| any_matches(&self.config.export, s.as_str()));
+        let wanted: BTreeSet<Subject> = allowed.clone().take(MAX_EXPORTS).cloned().collect();
+        let unexported = allowed.count().saturating_sub(MAX_EXPORTS);
+        if unexported > 0 {
+            Stats::add(&self.stats.refused_wants, unexported as u64);
         }
+        if wanted == self.exported {
+            return;
+        }
+        tracing::info!(
+            site = %self.config.site,
+            "other sites want {} channel(s): {}",
+            wanted.len(),
+            first_names(wanted.iter())
+        );
         for gone in self.exported.difference(&wanted) {
-            self.client
-                .unsubscribe(gone.as_str())
-                .map_err(|source| BridgeError::Hub {
-                    hub: self.config.hub.clone(),
-                    source,
-                })?;
+            if let Err(e) = self.client.unsubscribe(gone.as_str()) {
+                self.hub_error("unsubscribe", &e);
+            }
         }
         for new in wanted.difference(&self.exported) {
-            self.client
-                .subscribe(new.as_str())
-                .map_err(|source| BridgeError::Hub {
-                    hub: self.config.hub.clone(),
-                    source,
-                })?;
+            if let Err(e) = self.client.subscribe(new.as_str()) {
+                self.hub_error("subscribe", &e);
+            }
         }
         self.exported = wanted;
-        Ok(())
     }
 
     /// Declares what this site's clients want, and withdraws what they no
@@ -380,8 +506,18 @@ impl Bridge {
             return Ok(());
         }
         if interest.channels != self.interest.channels {
-            let names: Vec<&str> = interest.channels.iter().map(Subject::as_str).collect();
-            tracing::info!(site = %self.config.site, "this site's clients want: {}", names.join(" "));
+            tracing::info!(
+                site = %self.config.site,
+                "this site's clients want {} channel(s): {}",
+                interest.channels.len(),
+                first_names(interest.channels.iter())
+            );
+        }
+        if interest.other_bridges > 0 && self.interest.other_bridges == 0 {
+            tracing::warn!(
+                "another bridge is a client of this hub: its subscriptions are taken for no one's \
+                 here; run one bridge per hub"
+            );
         }
         self.tokens.retain(|s, _| interest.channels.contains(s));
         for channel in &interest.channels {
@@ -405,15 +541,7 @@ impl Bridge {
             let sub = self
                 .session
                 .declare_subscriber(expr.as_str())
-                .callback(move |sample| {
-                    inbox.send(Event::Data {
-                        key: sample.key_expr().as_str().to_owned(),
-                        payload: sample.payload().to_bytes().into_owned(),
-                        stamp: sample
-                            .attachment()
-                            .and_then(|a| Stamp::from_bytes(&a.to_bytes())),
-                    })
-                })
+                .callback(move |sample| inbox.data(&sample))
                 .wait()
                 .map_err(zerr)?;
             self.subscribers.insert(expr, sub);
@@ -423,26 +551,29 @@ impl Bridge {
     }
 
     /// Publishes into the hub a packet another site put, once it is sure
-    /// the packet is what its key says.
-    fn import(
-        &mut self,
-        key: &str,
-        payload: &[u8],
-        stamp: Option<Stamp>,
-    ) -> Result<(), BridgeError> {
-        let Some(site) = keys::sample_site(key, payload) else {
+    /// the packet is what its key says and that this site asked for all of it.
+    fn import(&mut self, data: Data) {
+        let Some(site) = keys::sample_site(&data.key, &data.payload) else {
             Stats::add(&self.stats.rejected, 1);
-            return Ok(());
+            return;
         };
-        // Zenoh hands a session its own puts too.
         if site == self.config.site {
-            return Ok(());
+            return;
         }
-        if let Some(stamp) = stamp {
-            match self.tracker.check(key, stamp) {
+        // Sets are taken wholesale for clients of many channels; the import
+        // rules, and a withdrawal still in flight, are checked here.
+        let Some((_, subjects)) = keys::parse_data_key(&data.key) else {
+            return;
+        };
+        if !subjects.iter().all(|s| self.interest.channels.contains(s)) {
+            Stats::add(&self.stats.rejected, 1);
+            return;
+        }
+        if let Some(stamp) = data.stamp {
+            match self.tracker.check(&data.key, data.priority, stamp) {
                 Verdict::Duplicate => {
                     Stats::add(&self.stats.duplicates, 1);
-                    return Ok(());
+                    return;
                 }
                 Verdict::New { lost } => Stats::add(&self.stats.lost, lost),
                 Verdict::Late => {
@@ -455,63 +586,77 @@ impl Bridge {
                 }
             }
         }
-        match self.client.publish(payload) {
+        match self.client.publish(&data.payload) {
             Ok(()) => Stats::add(&self.stats.imported, 1),
-            Err(e) => {
-                tracing::debug!(error = %e, "could not publish an import into the hub");
-                Stats::add(&self.stats.rejected, 1);
-            }
+            Err(e) => self.hub_error("publish", &e),
         }
-        Ok(())
     }
 
     /// Brings the about text the hub shows up to date.
-    fn report(&mut self) -> Result<(), BridgeError> {
-        let list = |names: &mut dyn Iterator<Item = &Subject>| {
-            let all: Vec<&str> = names.map(Subject::as_str).collect();
-            let shown = all.iter().take(4).copied().collect::<Vec<_>>().join(" ");
-            match all.len() {
-                0 => "nothing".to_owned(),
-                n if n > 4 => format!("{n} ({shown} ...)"),
-                n => format!("{n} ({shown})"),
-            }
-        };
+    fn report(&mut self) {
         let s = &self.stats;
         let about = format!(
-            "{} zenoh {}; exports {}; imports {}; lost {} rejected {} overflow {}",
+            "{} zenoh {}; exports {}; imports {}; lost {} dup {} rejected {} overflow {} put_failed {} refused {}",
             self.marker(),
             self.config.mode.as_str(),
-            list(&mut self.exported.iter()),
-            list(&mut self.interest.channels.iter()),
+            counted(&self.exported),
+            counted(&self.interest.channels),
             Stats::get(&s.lost),
+            Stats::get(&s.duplicates),
             Stats::get(&s.rejected),
             Stats::get(&s.overflow),
+            Stats::get(&s.put_failed),
+            Stats::get(&s.refused_wants),
         );
-        self.client
-            .set_standing(vec![Request::NoLocal, Request::About(about)])?;
-        Ok(())
+        if let Err(e) = self
+            .client
+            .set_standing(vec![Request::NoLocal, Request::About(about)])
+        {
+            self.hub_error("about", &e);
+        }
     }
 }
 
-/// Puts one packet from the hub on its key, numbered.
+/// The first few names, for a log line or the about text.
+fn first_names<'a>(names: impl Iterator<Item = &'a Subject>) -> String {
+    let shown: Vec<&str> = names.take(4).map(Subject::as_str).collect();
+    shown.join(" ")
+}
+
+/// `N (a b c d ...)`, or `nothing`.
+fn counted(names: &BTreeSet<Subject>) -> String {
+    match names.len() {
+        0 => "nothing".to_owned(),
+        n if n > 4 => format!("{n} ({} ...)", first_names(names.iter())),
+        n => format!("{n} ({})", first_names(names.iter())),
+    }
+}
+
+/// Puts one packet from the hub on its key, numbered per key and priority.
 fn export(
     session: &Session,
     site: &Site,
-    run: u64,
-    seqs: &mut HashMap<String, u64>,
+    stamp_run: &mut u64,
+    seqs: &mut HashMap<(String, u8), u64>,
     stats: &Stats,
     packet: &Packet<'_>,
 ) {
     let key = keys::data_key(site, packet.subjects());
-    if seqs.len() >= MAX_KEYS && !seqs.contains_key(&key) {
-        seqs.clear();
-    }
-    let seq = seqs.entry(key.clone()).or_insert(0);
-    *seq += 1;
-    let stamp = Stamp { run, seq: *seq };
     let (priority, congestion) = keys::zenoh_qos(packet.priority());
+    let stream = (key, priority as u8);
+    if seqs.len() >= MAX_KEYS && !seqs.contains_key(&stream) {
+        // Numbering afresh under the same run would read as repeats.
+        seqs.clear();
+        *stamp_run = rand::random();
+    }
+    let seq = seqs.entry(stream.clone()).or_insert(0);
+    *seq += 1;
+    let stamp = Stamp {
+        run: *stamp_run,
+        seq: *seq,
+    };
     let put = session
-        .put(key, packet.as_str().as_bytes().to_vec())
+        .put(stream.0, packet.as_str().as_bytes().to_vec())
         .priority(priority)
         .congestion_control(congestion)
         .express(priority == zenoh::qos::Priority::RealTime)
@@ -543,6 +688,9 @@ fn zenoh_config(c: &BridgeConfig) -> Result<zenoh::Config, BridgeError> {
     set(&mut z, "connect/endpoints", &json(&c.connect))?;
     set(&mut z, "listen/endpoints", &json(&c.listen))?;
     set(&mut z, "scouting/multicast/enabled", "false")?;
+    // A colony packet fits a datagram; Zenoh would otherwise reassemble
+    // messages of up to 1 GiB from anyone on the link.
+    set(&mut z, "transport/link/rx/max_message_size", "1048576")?;
     // A zero timeout would mean one try and no retry.
     set(&mut z, "connect/timeout_ms", "-1")?;
     set(&mut z, "connect/exit_on_failure", "false")?;

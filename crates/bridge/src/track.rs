@@ -1,17 +1,25 @@
 //! Counting, per sender and key, the packets that never crossed.
 //!
 //! Zenoh drops samples under congestion without telling anyone. Each bridge
-//! numbers what it puts, per key, and sends the number along (the sample's
-//! attachment: the sender's run id and the number, 16 bytes); the receiving
-//! bridge counts gaps as lost and refuses numbers it has seen.
+//! numbers what it puts, per key and Zenoh priority (Zenoh keeps order only
+//! within a priority), and sends the number along (the sample's attachment:
+//! the sender's run id and the number, 16 bytes); the receiving bridge
+//! counts gaps as lost and refuses numbers it has seen.
 
 use std::collections::HashMap;
+use std::hash::{BuildHasher, RandomState};
 
 use colony_wire::auth::ReplayWindow;
 
 /// The most streams tracked at once; beyond, the table starts afresh (and
 /// the next packet of each stream starts its count again).
 const MAX_STREAMS: usize = 65_536;
+/// This many refusals in a row restart a stream's window: a forged number
+/// far ahead must not silence the real stream behind it.
+const RESYNC_AFTER: u32 = 64;
+/// The largest gap counted as lost at once; a larger jump is a restart or a
+/// forgery, and counts as this.
+const MAX_GAP: u64 = 1 << 20;
 
 /// A packet's place in its stream.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -59,38 +67,55 @@ pub enum Verdict {
 #[derive(Debug, Default)]
 struct Stream {
     window: ReplayWindow,
+    /// The first number heard: nothing before it was ever counted lost.
+    start: u64,
+    refused: u32,
 }
 
-/// Gaps and repeats, per (sender run, key).
+/// Gaps and repeats, per (sender run, Zenoh priority, key). Keys are held
+/// as keyed hashes, so a long key costs a stream no more than a short one.
 #[derive(Debug, Default)]
 pub struct Tracker {
-    streams: HashMap<(u64, String), Stream>,
+    streams: HashMap<(u64, u8, u64), Stream>,
+    hasher: RandomState,
 }
 
 impl Tracker {
-    /// Notes a packet of `key` with `stamp`.
-    pub fn check(&mut self, key: &str, stamp: Stamp) -> Verdict {
-        if self.streams.len() >= MAX_STREAMS
-            && !self.streams.contains_key(&(stamp.run, key.to_owned()))
-        {
+    /// Notes a packet of `key`, sent at Zenoh priority `priority`, with `stamp`.
+    pub fn check(&mut self, key: &str, priority: u8, stamp: Stamp) -> Verdict {
+        let id = (stamp.run, priority, self.hasher.hash_one(key));
+        if self.streams.len() >= MAX_STREAMS && !self.streams.contains_key(&id) {
             self.streams.clear();
         }
-        let stream = self.streams.entry((stamp.run, key.to_owned())).or_default();
+        let stream = self.streams.entry(id).or_default();
         let highest = stream.window.highest();
         if !stream.window.accept(stamp.seq) {
-            return Verdict::Duplicate;
+            stream.refused += 1;
+            if stream.refused < RESYNC_AFTER {
+                return Verdict::Duplicate;
+            }
+            *stream = Stream::default();
+            stream.window.accept(stamp.seq);
+            stream.start = stamp.seq;
+            return Verdict::New { lost: 0 };
         }
-        if stamp.seq < highest {
-            return Verdict::Late;
-        }
+        stream.refused = 0;
         // The first packet of a stream heard sets where it starts: what came
         // before was put before this site asked for it.
-        let lost = if highest == 0 {
-            0
-        } else {
-            stamp.seq.saturating_sub(highest + 1)
-        };
-        Verdict::New { lost }
+        if highest == 0 {
+            stream.start = stamp.seq;
+            return Verdict::New { lost: 0 };
+        }
+        if stamp.seq < highest {
+            return if stamp.seq > stream.start {
+                Verdict::Late
+            } else {
+                Verdict::New { lost: 0 }
+            };
+        }
+        Verdict::New {
+            lost: (stamp.seq - highest - 1).min(MAX_GAP),
+        }
     }
 }
 
@@ -105,18 +130,34 @@ mod tests {
     #[test]
     fn gaps_count_as_lost_and_repeats_are_refused() {
         let mut t = Tracker::default();
-        assert_eq!(t.check("k", at(5)), Verdict::New { lost: 0 });
-        assert_eq!(t.check("k", at(6)), Verdict::New { lost: 0 });
-        assert_eq!(t.check("k", at(6)), Verdict::Duplicate);
-        assert_eq!(t.check("k", at(10)), Verdict::New { lost: 3 });
-        assert_eq!(t.check("k", at(8)), Verdict::Late);
-        assert_eq!(t.check("k", at(8)), Verdict::Duplicate);
-        // Another key, another run: streams of their own.
-        assert_eq!(t.check("j", at(1)), Verdict::New { lost: 0 });
+        assert_eq!(t.check("k", 5, at(5)), Verdict::New { lost: 0 });
+        assert_eq!(t.check("k", 5, at(6)), Verdict::New { lost: 0 });
+        assert_eq!(t.check("k", 5, at(6)), Verdict::Duplicate);
+        assert_eq!(t.check("k", 5, at(10)), Verdict::New { lost: 3 });
+        assert_eq!(t.check("k", 5, at(8)), Verdict::Late);
+        assert_eq!(t.check("k", 5, at(8)), Verdict::Duplicate);
+        // Before the stream's first number: never counted, so not late either.
+        assert_eq!(t.check("k", 5, at(4)), Verdict::New { lost: 0 });
+        // Another key, run or priority: streams of their own.
+        assert_eq!(t.check("j", 5, at(1)), Verdict::New { lost: 0 });
+        assert_eq!(t.check("k", 1, at(1)), Verdict::New { lost: 0 });
+        let other_run = Stamp { run: 8, seq: 1 };
+        assert_eq!(t.check("k", 5, other_run), Verdict::New { lost: 0 });
+    }
+
+    #[test]
+    fn a_forged_number_far_ahead_silences_a_stream_only_briefly() {
+        let mut t = Tracker::default();
+        assert_eq!(t.check("k", 5, at(1)), Verdict::New { lost: 0 });
         assert_eq!(
-            t.check("k", Stamp { run: 8, seq: 1 }),
-            Verdict::New { lost: 0 }
+            t.check("k", 5, at(u64::MAX - 1)),
+            Verdict::New { lost: MAX_GAP }
         );
+        let refused = (2..200)
+            .take_while(|&n| t.check("k", 5, at(n)) == Verdict::Duplicate)
+            .count();
+        assert_eq!(refused as u32, RESYNC_AFTER - 1);
+        assert_eq!(t.check("k", 5, at(66)), Verdict::New { lost: 0 });
     }
 
     #[test]

@@ -134,6 +134,17 @@ fn until_flowing(from: &mut UdpClient, packet: &str, at: &mut [&mut UdpClient]) 
     drain(from, Duration::from_millis(1));
 }
 
+/// Publishes `packets`, a millisecond's pause every ten: a burst that
+/// overflowed a socket buffer on a busy machine would test the machine.
+fn publish_paced(publisher: &mut UdpClient, packets: &[String]) {
+    for (i, p) in packets.iter().enumerate() {
+        publisher.publish(p.as_bytes()).unwrap();
+        if i % 10 == 9 {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+}
+
 fn numbered(channel: &str, n: usize) -> Vec<String> {
     (0..n)
         .map(|i| format!("@ <{channel}> 0\nmsg n {i}\n"))
@@ -157,12 +168,7 @@ fn three_sites_in_a_line_deliver_each_packet_once_to_exactly_its_subscribers() {
     );
 
     // A stream crosses the line: every packet once on C and on B.
-    for p in numbered("talk", 200) {
-        publisher.publish(p.as_bytes()).unwrap();
-        if p.ends_with("0\n") {
-            std::thread::sleep(Duration::from_millis(1));
-        }
-    }
+    publish_paced(&mut publisher, &numbered("talk", 200));
     for (name, client) in [("c", &mut on_c), ("b", &mut on_b)] {
         let got = drain(client, Duration::from_millis(1500));
         assert_eq!(
@@ -188,8 +194,9 @@ fn three_sites_in_a_line_deliver_each_packet_once_to_exactly_its_subscribers() {
         "@ <mobile> 0\nping\n",
         &mut [&mut both_on_c, &mut mobile_on_c],
     );
+    let probe = "@ <mobile> <camera> 0\ntask name probe\n";
+    until_flowing(&mut publisher, probe, &mut [&mut both_on_c, &mut both_on_a]);
     let task = "@ <mobile> <camera> 0\ntask name fetch\n";
-    until_flowing(&mut publisher, task, &mut [&mut both_on_c, &mut both_on_a]);
     publisher.publish(task.as_bytes()).unwrap();
     assert_eq!(
         drain(&mut both_on_c, Duration::from_millis(800)).get(task),
@@ -213,9 +220,7 @@ fn three_sites_in_a_line_deliver_each_packet_once_to_exactly_its_subscribers() {
     until_flowing(&mut publisher, "@ <quiet> 0\nq\n", &mut [&mut quiet_on_b]);
     drain(&mut on_c, Duration::from_millis(300));
     let imported_before = Stats::get(&c.stats().imported);
-    for p in numbered("quiet", 100) {
-        publisher.publish(p.as_bytes()).unwrap();
-    }
+    publish_paced(&mut publisher, &numbered("quiet", 100));
     assert_eq!(
         drain(&mut quiet_on_b, Duration::from_millis(1000)).len(),
         100
@@ -250,9 +255,7 @@ fn sites_meeting_at_a_zenoh_router_share_channels_and_withdraw_when_unsubscribed
         "@ <vision> 0\nrobot id 1\n",
         &mut [&mut on_b],
     );
-    for p in numbered("vision", 100) {
-        publisher.publish(p.as_bytes()).unwrap();
-    }
+    publish_paced(&mut publisher, &numbered("vision", 100));
     let got = drain(&mut on_b, Duration::from_millis(1500));
     assert_eq!(got.len(), 100);
     assert!(got.values().all(|&n| n == 1));
@@ -273,4 +276,83 @@ fn sites_meeting_at_a_zenoh_router_share_channels_and_withdraw_when_unsubscribed
         );
     }
     drop(router);
+}
+
+#[test]
+fn forged_wants_and_samples_from_any_zenoh_peer_neither_stop_a_bridge_nor_act_on_its_hub() {
+    let pa = free_port();
+    let a = Site_::new("a", Mode::Peer, &[], &[endpoint(pa)]);
+    let mut forger = zenoh::Config::default();
+    forger
+        .insert_json5("connect/endpoints", &format!("[\"{}\"]", endpoint(pa)))
+        .unwrap();
+    forger
+        .insert_json5("scouting/multicast/enabled", "false")
+        .unwrap();
+    let forger = zenoh::open(forger).wait().unwrap();
+    // Wants for what is no channel, for the bridge's own, and a pile of junk.
+    let mut tokens = Vec::new();
+    for key in [
+        "colony/x/want/hub",
+        "colony/x/want/bridge.a",
+        "colony/a/want/radio",
+    ] {
+        tokens.push(forger.liveliness().declare_token(key).wait().unwrap());
+    }
+    for i in 0..300 {
+        tokens.push(
+            forger
+                .liveliness()
+                .declare_token(format!("colony/x/want/junk{i}"))
+                .wait()
+                .unwrap(),
+        );
+    }
+    // A request to the hub, and a packet that is not what its key says.
+    let mut on_a = a.client(&["radio"]);
+    let start = Instant::now();
+    while Stats::get(&a.stats().rejected) < 2 {
+        assert!(
+            start.elapsed() < PATIENCE,
+            "the forged samples never reached the bridge (running: {}, {:?})",
+            !a.bridge.as_ref().unwrap().1.is_finished(),
+            a.stats()
+        );
+        assert!(drain(&mut on_a, Duration::from_millis(1)).is_empty());
+        forger
+            .put("colony/x/ch/radio", "@ <hub> 0\nunsubscribe_all\n")
+            .wait()
+            .unwrap();
+        forger
+            .put("colony/x/ch/radio", "@ <cmd> 0\nstop\n")
+            .wait()
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    // The bridge still runs and still imports what is real; the hub still
+    // holds the bridge's lease and its subscriber's.
+    let start = Instant::now();
+    loop {
+        assert!(
+            start.elapsed() < PATIENCE,
+            "a real import never arrived after the forgeries"
+        );
+        forger
+            .put("colony/x/ch/radio", "@ <radio> 0\ncmd id 1\n")
+            .wait()
+            .unwrap();
+        let got = drain(&mut on_a, Duration::from_millis(100));
+        assert!(got.keys().all(|p| p.starts_with("@ <radio>")), "{got:?}");
+        if !got.is_empty() {
+            break;
+        }
+    }
+    assert!(
+        !a.bridge.as_ref().unwrap().1.is_finished(),
+        "the bridge stopped"
+    );
+    assert!(
+        Stats::get(&a.stats().refused_wants) > 0,
+        "255 exports at most: the rest are refused"
+    );
 }

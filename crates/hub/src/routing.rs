@@ -581,7 +581,8 @@ impl Hub {
         let mut addrs: Vec<&SocketAddr> = self.clients.keys().collect();
         addrs.sort_by_cached_key(|a| a.to_string());
         let mut clients = Vec::new();
-        let mut budget = MAX_PACKET;
+        // Half the datagram for clients, the rest for channels and drops.
+        let mut budget = MAX_PACKET / 2;
         let mut truncated = false;
         for addr in addrs {
             let c = &self.clients[addr];

@@ -359,12 +359,8 @@ impl StatusReport {
             let _ = write!(l, " count {count}");
             lines.push(l);
         }
-        for c in &self.channels {
-            let mut l = String::from("channel ch ");
-            write_quoted(&mut l, &c.subjects);
-            let _ = write!(l, " packets {} bytes {}", c.packets, c.bytes);
-            lines.push(l);
-        }
+        // Clients before channels: a table of channels filled by anyone who
+        // publishes must not push out who subscribes to what (a bridge reads it).
         for c in &self.clients {
             let mut l = String::from("client addr ");
             write_quoted(&mut l, &c.addr);
@@ -377,6 +373,12 @@ impl StatusReport {
                 l.push_str(" about ");
                 write_quoted(&mut l, &c.about);
             }
+            lines.push(l);
+        }
+        for c in &self.channels {
+            let mut l = String::from("channel ch ");
+            write_quoted(&mut l, &c.subjects);
+            let _ = write!(l, " packets {} bytes {}", c.packets, c.bytes);
             lines.push(l);
         }
         let mut truncated = self.truncated;
