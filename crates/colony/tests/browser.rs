@@ -57,10 +57,23 @@ fn the_monitor_page_passes_its_browser_tests_in_headless_chromium() {
         stdout.contains("# fail 0") && !stdout.contains("# pass 0"),
         "the browser tests ran no test:\n{stdout}"
     );
-    // node finds every *.test.mjs in the folder; make sure the game's ran.
-    assert!(
-        stdout.lines().any(|l| l.starts_with("ok ")
-            && l.ends_with(" - the game page, playing red against the scripted blue")),
-        "the game page's browser test (tests/browser/game.test.mjs) did not run or failed:\n{stdout}"
-    );
+    // node finds every *.test.mjs in the folder; make sure the game's and the
+    // two-site monitor's ran.
+    for (suite, file) in [
+        (
+            "the game page, playing red against the scripted blue",
+            "game.test.mjs",
+        ),
+        (
+            "the monitor across two sites bridged over Zenoh",
+            "federation.test.mjs",
+        ),
+    ] {
+        assert!(
+            stdout
+                .lines()
+                .any(|l| l.starts_with("ok ") && l.ends_with(&format!(" - {suite}"))),
+            "the browser test tests/browser/{file} did not run or failed:\n{stdout}"
+        );
+    }
 }
