@@ -356,3 +356,101 @@ fn forged_wants_and_samples_from_any_zenoh_peer_neither_stop_a_bridge_nor_act_on
         "255 exports at most: the rest are refused"
     );
 }
+
+#[test]
+fn three_sites_in_a_triangle_deliver_each_packet_once() {
+    let (pa, pb) = (free_port(), free_port());
+    let a = Site_::new("a", Mode::Peer, &[], &[endpoint(pa)]);
+    let b = Site_::new("b", Mode::Peer, &[endpoint(pa)], &[endpoint(pb)]);
+    let c = Site_::new("c", Mode::Peer, &[endpoint(pa), endpoint(pb)], &[]);
+    let mut from_a = a.client(&[]);
+    let mut from_c = c.client(&[]);
+    let mut on_a = a.client(&["ring"]);
+    let mut on_b = b.client(&["ring"]);
+    let mut on_c = c.client(&["ring"]);
+    until_flowing(
+        &mut from_a,
+        "@ <ring> 0\nprobe from a\n",
+        &mut [&mut on_b, &mut on_c],
+    );
+    until_flowing(
+        &mut from_c,
+        "@ <ring> 0\nprobe from c\n",
+        &mut [&mut on_a, &mut on_b],
+    );
+    drain(&mut on_a, Duration::from_millis(300));
+    drain(&mut on_c, Duration::from_millis(1));
+    publish_paced(&mut from_a, &numbered("ring", 100));
+    publish_paced(
+        &mut from_c,
+        &numbered("ring", 100)
+            .iter()
+            .map(|p| p.replace("msg", "from_c"))
+            .collect::<Vec<_>>(),
+    );
+    for (name, client, want) in [
+        ("a", &mut on_a, 200),
+        ("b", &mut on_b, 200),
+        ("c", &mut on_c, 200),
+    ] {
+        let got = drain(client, Duration::from_millis(1500));
+        assert_eq!(
+            got.len(),
+            want,
+            "site {name}: {} distinct of {want}",
+            got.len()
+        );
+        assert!(
+            got.values().all(|&n| n == 1),
+            "site {name} got a packet twice"
+        );
+    }
+}
+
+#[test]
+fn a_hub_restarted_on_its_address_and_a_router_restarted_on_its_port_are_found_again() {
+    let pr = free_port();
+    let router = |port: u16| {
+        let mut c = zenoh::Config::default();
+        c.insert_json5("mode", "\"router\"").unwrap();
+        c.insert_json5("listen/endpoints", &format!("[\"{}\"]", endpoint(port)))
+            .unwrap();
+        c.insert_json5("scouting/multicast/enabled", "false")
+            .unwrap();
+        zenoh::open(c).wait().unwrap()
+    };
+    let r = router(pr);
+    let a = Site_::new("a", Mode::Client, &[endpoint(pr)], &[]);
+    let mut b = Site_::new("b", Mode::Client, &[endpoint(pr)], &[]);
+    let mut publisher = a.client(&[]);
+    let mut on_b = b.client(&["vision"]);
+    until_flowing(
+        &mut publisher,
+        "@ <vision> 0\nrobot id 1\n",
+        &mut [&mut on_b],
+    );
+
+    // The router goes and comes back on its port.
+    r.close().wait().unwrap();
+    drop(r);
+    std::thread::sleep(Duration::from_millis(500));
+    let _r = router(pr);
+    until_flowing(
+        &mut publisher,
+        "@ <vision> 0\nrobot id 2\n",
+        &mut [&mut on_b],
+    );
+
+    // B's hub goes and comes back on its address; its bridge and its
+    // subscriber carry on with no one restarting them.
+    let addr = b.hub_addr.clone();
+    b.hub.take().unwrap().stop().unwrap();
+    std::thread::sleep(Duration::from_millis(500));
+    let stop = Arc::new(AtomicBool::new(false));
+    b.hub = Some(HubThread::spawn(Server::start(&HubSpec::new(addr)).unwrap(), &stop).unwrap());
+    until_flowing(
+        &mut publisher,
+        "@ <vision> 0\nrobot id 3\n",
+        &mut [&mut on_b],
+    );
+}
