@@ -177,7 +177,7 @@ struct File {
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
     /// The file could not be read.
-    #[error("cannot read {path}: {source}")]
+    #[error("cannot read the bridge configuration {path}")]
     Read {
         /// The file.
         path: String,
@@ -205,6 +205,16 @@ mod tests {
         assert!(p("*.debug").matches("sort.debug") && !p("*.debug").matches("debug"));
         assert!(p("a*b*c").matches("abc") && p("a*b*c").matches("axxbyyc"));
         assert!(!p("a*b*c").matches("acb") && !p("ab*ab").matches("ab"));
+    }
+
+    #[test]
+    fn a_missing_file_is_named_once_with_its_cause_behind() {
+        let e = BridgeConfig::from_file(Path::new("/no/such/bridge.toml")).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "cannot read the bridge configuration /no/such/bridge.toml"
+        );
+        assert!(std::error::Error::source(&e).is_some());
     }
 
     #[test]
