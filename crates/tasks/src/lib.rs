@@ -54,6 +54,8 @@ mod announcer;
 pub mod demo;
 pub mod experiment;
 pub mod metric;
+pub mod request;
+pub mod robot;
 mod user;
 
 pub use agent::{Agent, AgentConfig, AgentEvent, AgentMode, AgentStats, StopReason};

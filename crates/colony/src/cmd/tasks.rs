@@ -22,6 +22,12 @@ const MAX_SECONDS: Bounds = Bounds::new(0.1, 604_800.0, "seconds");
 pub enum TasksCommand {
     /// Run agents and a user agent live over a hub, printing every allocation.
     Demo(DemoArgs),
+    /// Run one robot's agent over a hub, as its own process (the same
+    /// program on every robot, each with its own resources).
+    Agent(AgentArgs),
+    /// Introduce one task into a running system and follow it to its end
+    /// (exit 0 when done, 1 when no robot could before the deadline).
+    Announce(AnnounceArgs),
     /// The long-term experiment: 7 agents, 4 task types, batteries, failures.
     Longterm(LongtermArgs),
     /// The box-pushing experiment: a watcher and two pushers in the physics field.
@@ -41,6 +47,56 @@ pub struct DemoArgs {
     /// Use this running hub instead of starting one in this process.
     #[arg(long, value_name = "HOST:PORT")]
     pub hub: Option<String>,
+}
+
+/// A battery level.
+const LEVEL: Bounds = Bounds::new(0.0, 1.0, "of a full battery");
+/// A task's length, or a time into a run.
+const TASK_SECONDS: Bounds = Bounds::new(0.0, 604_800.0, "seconds");
+
+#[derive(clap::Args, Debug)]
+pub struct AgentArgs {
+    #[command(flatten)]
+    pub hub: super::HubAddr,
+    /// The robot's name, unique in the system [default: robot-XXXX, random].
+    #[arg(long)]
+    pub name: Option<String>,
+    /// What the robot has, comma-separated: `mobile,laser,camera`.
+    #[arg(long, value_name = "LIST")]
+    pub resources: String,
+    /// The battery at the start.
+    #[arg(long, default_value_t = 1.0, value_parser = LEVEL)]
+    pub battery: f64,
+    /// Battery each task costs.
+    #[arg(long, default_value_t = 0.1, value_parser = LEVEL)]
+    pub drain: f64,
+    /// A resource that fails during the run (repeatable; each with an `--at`).
+    #[arg(long, value_name = "RESOURCE")]
+    pub fail: Vec<String>,
+    /// When the matching `--fail` happens, seconds after the start.
+    #[arg(long, value_name = "SECONDS", value_parser = TASK_SECONDS)]
+    pub at: Vec<f64>,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct AnnounceArgs {
+    #[command(flatten)]
+    pub hub: super::HubAddr,
+    /// The task's name in the shared vocabulary.
+    #[arg(long)]
+    pub name: String,
+    /// What a robot needs to do it, comma-separated.
+    #[arg(long, value_name = "LIST")]
+    pub needs: String,
+    /// How long it takes, seconds.
+    #[arg(long, default_value_t = 5.0, value_parser = TASK_SECONDS)]
+    pub length: f64,
+    /// Give up if no robot has taken it this long after it was introduced.
+    #[arg(long, default_value_t = 60.0, value_parser = MAX_SECONDS)]
+    pub deadline: f64,
+    /// Who announces it (bids and awards name it) [default: user-XXXX, random].
+    #[arg(long = "as", value_name = "NAME")]
+    pub announcer: Option<String>,
 }
 
 #[derive(clap::Args, Debug)]
@@ -92,6 +148,8 @@ pub fn run(cmd: TasksCommand) -> anyhow::Result<()> {
     match cmd {
         TasksCommand::Demo(a) => demo(a),
         TasksCommand::Longterm(a) => longterm(a),
+        TasksCommand::Agent(a) => agent(a),
+        TasksCommand::Announce(a) => announce(a),
         TasksCommand::Boxpush(a) => boxpush(a),
         TasksCommand::Compare(a) => compare(a),
     }
@@ -126,6 +184,74 @@ fn demo(args: DemoArgs) -> anyhow::Result<()> {
     );
     let _ = site.stop();
     Ok(())
+}
+
+fn token(given: Option<String>, prefix: &str) -> anyhow::Result<colony_tasks::protocol::Token> {
+    let name = given.unwrap_or_else(|| format!("{prefix}-{:04x}", rand::random::<u16>()));
+    colony_tasks::protocol::Token::new(&name).map_err(|e| anyhow::anyhow!("`{name}`: {e}"))
+}
+
+fn agent(args: AgentArgs) -> anyhow::Result<()> {
+    use colony_tasks::robot::{Fault, RobotConfig};
+    let resources = args
+        .resources
+        .parse()
+        .map_err(|e| anyhow::anyhow!("--resources {}: {e}", args.resources))?;
+    if args.fail.len() != args.at.len() {
+        anyhow::bail!(
+            "each --fail needs its --at (got {} --fail and {} --at)",
+            args.fail.len(),
+            args.at.len()
+        );
+    }
+    let mut config = RobotConfig::new(token(args.name, "robot")?, resources);
+    config.battery = args.battery;
+    config.drain_per_task = args.drain;
+    for (resource, at) in args.fail.iter().zip(&args.at) {
+        config.faults.push(Fault {
+            at: super::seconds("--at", *at)?,
+            resource: resource.clone(),
+            fails: true,
+        });
+    }
+    let hub = args.hub.connect()?.hub_addr();
+    let stop = super::stop_flag()?;
+    let summary = colony_tasks::robot::run(hub, config, &stop, |line| println!("{line}"))
+        .context("the agent's hub client failed")?;
+    println!(
+        "started {}, finished {}, stopped {}, charged {} time(s)",
+        summary.started, summary.finished, summary.stopped, summary.charges
+    );
+    Ok(())
+}
+
+fn announce(args: AnnounceArgs) -> anyhow::Result<()> {
+    use colony_tasks::request::Outcome;
+    let needs = args
+        .needs
+        .parse()
+        .map_err(|e| anyhow::anyhow!("--needs {}: {e}", args.needs))?;
+    let spec = colony_tasks::protocol::TaskSpec::new(&args.name, needs).length(args.length);
+    let hub = args.hub.connect()?.hub_addr();
+    let stop = super::stop_flag()?;
+    let outcome = colony_tasks::request::introduce(
+        hub,
+        token(args.announcer, "user")?,
+        spec,
+        colony_tasks::AuctionConfig::default(),
+        super::seconds("--deadline", args.deadline)?,
+        &stop,
+        |line| println!("{line}"),
+    )
+    .context("the announcer's hub client failed")?;
+    match outcome {
+        Outcome::Done { .. } => Ok(()),
+        Outcome::GaveUp { reason } => {
+            eprintln!("colony: task {} not done: {reason}", args.name);
+            std::process::exit(1)
+        }
+        Outcome::Interrupted => std::process::exit(130),
+    }
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> anyhow::Result<()> {

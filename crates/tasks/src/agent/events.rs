@@ -11,6 +11,9 @@ pub enum StopReason {
     Cancelled(String),
     /// The announcer stopped renewing: it is gone, and the task with it.
     AnnouncerSilent,
+    /// The robot lost a resource the task needs (a sensor failed): it gave
+    /// the task up, and the announcer auctions it again.
+    LostResource(String),
 }
 
 /// What the robot's owner must act on.

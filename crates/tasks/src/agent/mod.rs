@@ -215,6 +215,52 @@ impl Agent {
         }
     }
 
+    /// The robot's resources change (it picked something up, a sensor
+    /// failed, a part was repaired). Its subscriptions follow at once, so it
+    /// hears no announcement it can no longer serve; bids on tasks it can no
+    /// longer do are declined, and a task it holds that needs a lost resource
+    /// is given up (the announcer auctions it again). Returns that task's id.
+    pub fn set_resources(&mut self, now: Time, resources: ResourceSet) -> Option<u64> {
+        self.resources = resources;
+        let unfit: Vec<Subject> = self
+            .pending
+            .iter()
+            .filter(|(_, p)| !p.ann.spec.resources.is_subset(&self.resources))
+            .map(|(s, _)| s.clone())
+            .collect();
+        for subject in unfit {
+            if let Some(p) = self.pending.remove(&subject) {
+                let decline = Negotiation::Decline {
+                    task: p.ann.id,
+                    bidder: self.id.clone(),
+                };
+                self.send(&subject, &decline);
+            }
+        }
+        let lost = self.job.as_ref().and_then(|job| {
+            job.ann
+                .spec
+                .resources
+                .iter()
+                .find(|r| !self.resources.contains(r.as_str()))
+                .map(|r| (job.ann.id, job.ann.spec.name.clone(), r.to_string()))
+        });
+        let given_up = match lost {
+            Some((task, name, resource)) => {
+                self.abandon(now, &format!("lost resource {resource}"));
+                self.push_event(AgentEvent::Stop {
+                    task,
+                    name,
+                    reason: StopReason::LostResource(resource),
+                });
+                Some(task)
+            }
+            None => None,
+        };
+        self.refresh_subs();
+        given_up
+    }
+
     fn push_event(&mut self, e: AgentEvent) {
         if self.events.len() == MAX_EVENTS {
             self.events.pop_front();

@@ -660,3 +660,63 @@ fn the_event_queue_keeps_only_the_newest() {
     assert_eq!(events(&mut a).len(), MAX_EVENTS);
     assert_eq!(a.stats().rejected, MAX_EVENTS as u64 + 5);
 }
+
+#[test]
+fn losing_a_resource_gives_up_the_task_that_needs_it_and_stops_hearing_its_announcements() {
+    let mut a = robot("mobile,laser,camera");
+    let ann = task(7, "mobile,laser");
+    win(&mut a, t(0), &ann);
+    assert!(a.subscriptions().contains("laser"));
+    assert_eq!(
+        a.set_resources(t(500), "mobile,camera".parse().unwrap()),
+        Some(7)
+    );
+    assert_eq!(
+        messages(&mut a),
+        [Negotiation::Abandon {
+            task: 7,
+            bidder: token("r1"),
+            reason: "lost resource laser".into()
+        }]
+    );
+    assert_eq!(
+        events(&mut a),
+        [AgentEvent::Stop {
+            task: 7,
+            name: "goto".into(),
+            reason: StopReason::LostResource("laser".into())
+        }]
+    );
+    assert_eq!(a.mode(), AgentMode::Idle);
+    assert!(!a.subscriptions().contains("laser"));
+    // An announcement that needs the laser no longer reaches it; one it can serve does.
+    assert!(!announce(&mut a, t(600), &task(8, "laser")));
+    assert!(announce(&mut a, t(600), &task(9, "camera")));
+    // Repaired, it hears laser tasks again.
+    assert_eq!(
+        a.set_resources(t(700), "mobile,laser,camera".parse().unwrap()),
+        None
+    );
+    assert!(a.subscriptions().contains("laser"));
+}
+
+#[test]
+fn losing_a_resource_declines_a_bid_that_needs_it_and_keeps_a_task_that_does_not() {
+    let mut a = robot("mobile,laser");
+    let ann = task(7, "laser");
+    assert!(announce(&mut a, t(0), &ann));
+    sent(&mut a);
+    assert_eq!(a.set_resources(t(10), "mobile".parse().unwrap()), None);
+    assert_eq!(
+        messages(&mut a),
+        [Negotiation::Decline {
+            task: 7,
+            bidder: token("r1")
+        }]
+    );
+    assert_eq!(a.open_bids(), 0);
+    let mut b = robot("mobile,laser");
+    win(&mut b, t(0), &task(3, "mobile"));
+    assert_eq!(b.set_resources(t(10), "mobile".parse().unwrap()), None);
+    assert_eq!(b.mode(), AgentMode::Working);
+}

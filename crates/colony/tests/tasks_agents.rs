@@ -1,0 +1,236 @@
+//! MURDOCH as the paper deploys it, on loopback: a hub, one `colony tasks
+//! agent` process per robot, tasks introduced with `colony tasks announce`;
+//! a winner killed mid-task and replaced, a sensor failing on another.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use common::{colony, HubProcess};
+
+/// A colony process whose stdout lines are kept, killed when dropped.
+struct Proc {
+    child: Child,
+    lines: Arc<Mutex<Vec<(Instant, String)>>>,
+}
+
+impl Proc {
+    fn start(args: &[&str]) -> Proc {
+        let mut child = colony()
+            .args(args)
+            .env("COLONY_LOG", "warn")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start colony");
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let out = child.stdout.take().unwrap();
+        let keep = lines.clone();
+        std::thread::spawn(move || {
+            for line in BufReader::new(out).lines().map_while(Result::ok) {
+                keep.lock().unwrap().push((Instant::now(), line));
+            }
+        });
+        Proc { child, lines }
+    }
+
+    /// When a line containing `text` was printed, waiting up to `within`.
+    fn when(&self, text: &str, within: Duration) -> Option<Instant> {
+        let deadline = Instant::now() + within;
+        loop {
+            if let Some((at, _)) = self
+                .lines
+                .lock()
+                .unwrap()
+                .iter()
+                .find(|(_, l)| l.contains(text))
+            {
+                return Some(*at);
+            }
+            if Instant::now() > deadline {
+                return None;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    fn text(&self) -> String {
+        let lines = self.lines.lock().unwrap();
+        lines
+            .iter()
+            .map(|(_, l)| l.as_str())
+            .collect::<Vec<_>>()
+            .join("\n")
+    }
+
+    /// Waits for the process to end on its own; its exit code.
+    fn exit(&mut self, within: Duration) -> Option<i32> {
+        let deadline = Instant::now() + within;
+        loop {
+            if let Some(status) = self.child.try_wait().unwrap() {
+                return status.code();
+            }
+            if Instant::now() > deadline {
+                return None;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+fn agent(hub: &str, name: &str, resources: &str, extra: &[&str]) -> Proc {
+    let mut args = vec![
+        "tasks",
+        "agent",
+        "--hub",
+        hub,
+        "--name",
+        name,
+        "--resources",
+        resources,
+    ];
+    args.extend_from_slice(extra);
+    let p = Proc::start(&args);
+    assert!(
+        p.when("joins with", Duration::from_secs(20)).is_some(),
+        "agent {name} never started"
+    );
+    p
+}
+
+fn announce(hub: &str, name: &str, needs: &str, length: &str) -> Proc {
+    Proc::start(&[
+        "tasks",
+        "announce",
+        "--hub",
+        hub,
+        "--name",
+        name,
+        "--needs",
+        needs,
+        "--length",
+        length,
+        "--deadline",
+        "60",
+    ])
+}
+
+/// The subscriptions of the client whose about text is `agent NAME ...`.
+fn subscriptions_of(hub: &str, name: &str) -> Option<String> {
+    let out = colony().args(["status", "--hub", hub]).output().ok()?;
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    let lines: Vec<&str> = text.lines().collect();
+    let at = lines
+        .iter()
+        .position(|l| l.trim_start().starts_with(&format!("agent {name} ")))?;
+    Some(lines[at - 1].to_owned())
+}
+
+#[test]
+fn agents_as_processes_take_tasks_from_anyone_survive_a_killed_winner_and_follow_a_failed_sensor() {
+    let hub = HubProcess::start(&[]);
+    let h = hub.addr.to_string();
+    let _r1 = agent(&h, "r1", "mobile,laser", &[]);
+    let _r2 = agent(&h, "r2", "mobile,camera", &[]);
+    let _r3 = agent(&h, "r3", "mobile,laser,camera", &[]);
+    let mut r4 = agent(&h, "r4", "mobile,gripper", &[]);
+    let r5 = agent(
+        &h,
+        "r5",
+        "mobile,laser,camera",
+        &["--fail", "laser", "--at", "2"],
+    );
+
+    // Tasks from the command line, each done by a robot that has what it needs.
+    for (name, needs) in [
+        ("look", "camera"),
+        ("scan", "laser"),
+        ("both", "laser,camera"),
+    ] {
+        let mut t = announce(&h, name, needs, "0.5");
+        assert_eq!(
+            t.exit(Duration::from_secs(60)),
+            Some(0),
+            "{name}:\n{}",
+            t.text()
+        );
+    }
+
+    // A long task only r4 can do; kill r4 once it starts, and start r6 in its place.
+    let mut long = announce(&h, "carry", "gripper", "4");
+    assert!(
+        r4.when("starts task", Duration::from_secs(30)).is_some(),
+        "r4 never started carry:\n{}",
+        long.text()
+    );
+    r4.kill();
+    let killed = Instant::now();
+    let _r6 = agent(&h, "r6", "mobile,gripper", &[]);
+    let awarded = long.when("awarded to r6", Duration::from_secs(60));
+    assert!(
+        awarded.is_some(),
+        "carry was never re-allocated to r6:\n{}",
+        long.text()
+    );
+    let took = awarded.unwrap().duration_since(killed);
+    // Two renewal timeouts (3 s each) detect the loss and re-auction; the
+    // rest is r6 joining. Generous for a loaded machine.
+    assert!(
+        took < Duration::from_secs(20),
+        "re-allocated after {took:?}:\n{}",
+        long.text()
+    );
+    eprintln!("# carry re-allocated to r6 {took:?} after r4 was killed");
+    assert_eq!(
+        long.exit(Duration::from_secs(60)),
+        Some(0),
+        "carry:\n{}",
+        long.text()
+    );
+
+    // r5's laser failed at 2 s: it no longer subscribes to laser, so no laser
+    // announcement reaches it, and it does no laser task.
+    assert!(r5.when("laser fails", Duration::from_secs(30)).is_some());
+    let start = Instant::now();
+    loop {
+        let subs = subscriptions_of(&h, "r5").unwrap_or_default();
+        if subs.contains("camera") && !subs.contains("laser") {
+            break;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(20),
+            "r5 still subscribes: {subs}"
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let before = r5.text().matches("starts task").count();
+    for i in 0..3 {
+        let mut t = announce(&h, &format!("sweep{i}"), "laser", "0.2");
+        assert_eq!(t.exit(Duration::from_secs(60)), Some(0), "{}", t.text());
+        assert!(
+            !t.text().contains("bid from r5"),
+            "r5 bid for a laser task:\n{}",
+            t.text()
+        );
+    }
+    assert_eq!(
+        r5.text().matches("starts task").count(),
+        before,
+        "{}",
+        r5.text()
+    );
+}
