@@ -31,6 +31,7 @@ import hashlib
 import hmac
 import ipaddress
 import os
+import random
 import re
 import select
 import socket
@@ -1439,6 +1440,133 @@ class Client:
 
 
 # --------------------------------------------------------------------------- command line
+
+
+# --------------------------------------------------------------------------- MURDOCH
+
+#: What every MURDOCH negotiation subject starts with.
+NEGOTIATION_PREFIX = "murdoch."
+
+
+def _pump(client, until):
+    """Every packet that arrives before ``until`` (monotonic seconds), the
+    client's refreshes kept up along the way."""
+    got = []
+    while True:
+        now = time.monotonic()
+        client.poll(now)
+        got.extend(client)
+        if now >= until:
+            return got
+        wait = until - now
+        t = client.timeout(now)
+        if t is not None:
+            wait = min(wait, t)
+        select.select([client], [], [], max(0.0, min(wait, 0.05)))
+
+
+def announce_task(client, name, needs, length_s=5.0, deadline_s=60.0, announcer=None,
+                  bid_window=0.2, ack_timeout=1.0, renew_interval=1.0, renew_timeout=3.0,
+                  say=None):
+    """Introduces a task into a running MURDOCH system and follows it to its
+    end, as ``colony tasks announce`` does: announces it to the idle robots
+    that have ``needs``, awards it to the lowest bid, renews the award while
+    the winner works, and auctions it again when the winner is lost (an
+    abandon, a decline, or silence for ``renew_timeout``). A task nobody can
+    take is announced again, with backoff, until ``deadline_s``.
+
+    Returns ``("done", winner)`` or ``("gave_up", reason)``. ``say``, if
+    given, is called with a line for each step."""
+    say = say or (lambda line: None)
+    needs = sorted(set(needs.split(",") if isinstance(needs, str) else needs))
+    for n in needs:
+        if not is_subject(n):
+            raise ValueError("{!r} is not a resource name".format(n))
+    announcer = announcer or "py-{:04x}".format(random.getrandbits(16))
+    task = random.randint(1, 2**40)
+    give_up_at = time.monotonic() + deadline_s
+    backoff = 0.5
+    reason = "not announced"
+    attempt = 0
+    while True:
+        attempt += 1
+        neg = "{}{}.{}.{}".format(NEGOTIATION_PREFIX, announcer, task, attempt)
+        client.subscribe(neg)
+        # Subscribed before the announcement goes out: bids come at once.
+        _pump(client, time.monotonic() + 0.2)
+        task_line = ("task", [("name", name), ("id", task), ("negotiation", neg),
+                              ("deadline_ms", int(bid_window * 1000)), ("length_s", float(length_s)),
+                              ("announcer", announcer)])
+        client.publish(needs + ["idle"], 0, [task_line])
+        say("auction {} of {} open".format(attempt, name))
+        bids = []
+        for p in _pump(client, time.monotonic() + bid_window):
+            f = p.line("bid") if p.has_subject(neg) else None
+            if f is not None and f.get("task") == task:
+                bids.append((float(f.get("score")), str(f.get("bidder"))))
+        winner = None
+        if bids:
+            score, winner = min(bids)
+            client.publish(neg, 0, [("award", [("task", task), ("winner", winner), ("score", score),
+                                               ("bids", len(bids))])])
+            say("awarded to {} (score {:.2f}, {} bids)".format(winner, score, len(bids)))
+            outcome = _follow(client, neg, task, announcer, winner, ack_timeout, renew_interval,
+                              renew_timeout, say)
+            if outcome == "done":
+                client.unsubscribe(neg)
+                return ("done", winner)
+            reason = outcome
+        else:
+            reason = "no robot with {{{}}} is available".format(" ".join(needs))
+            client.publish(neg, 0, [("unachievable", [("task", task), ("name", name), ("reason", reason)])])
+            say("unachievable: " + reason)
+        client.unsubscribe(neg)
+        if time.monotonic() >= give_up_at:
+            say("gave up: " + reason)
+            return ("gave_up", reason)
+        if winner is None:
+            _pump(client, min(give_up_at, time.monotonic() + backoff))
+            backoff = min(backoff * 2, 4.0)
+
+
+def _follow(client, neg, task, announcer, winner, ack_timeout, renew_interval, renew_timeout, say):
+    """The award's life: ``"done"``, or why the winner was lost."""
+    heard = None
+    started = time.monotonic()
+    next_renew = started
+    while True:
+        now = time.monotonic()
+        if heard is None and now - started > ack_timeout:
+            return "{} never acknowledged".format(winner)
+        if heard is not None and now - heard > renew_timeout:
+            why = "presumed failed: no renewal for {:.1f} s".format(renew_timeout)
+            client.publish(neg, 0, [("cancel", [("task", task), ("reason", why)])])
+            say("{} lost ({}): auctioned again".format(winner, why))
+            return why
+        if now >= next_renew and heard is not None:
+            client.publish(neg, 0, [("renew", [("task", task), ("by", announcer)])])
+            next_renew = now + renew_interval
+        for p in _pump(client, min(now + 0.05, next_renew if heard is not None else now + 0.05)):
+            if not p.has_subject(neg):
+                continue
+            for label in ("ack", "renew", "done", "abandon", "decline"):
+                f = p.line(label)
+                if f is None or f.get("task") != task:
+                    continue
+                who = str(f.get("bidder") if label != "renew" else f.get("by"))
+                if who != winner:
+                    continue
+                if label in ("ack", "renew"):
+                    if heard is None:
+                        say("{} started".format(winner))
+                    heard = time.monotonic()
+                elif label == "done":
+                    say("done by {}".format(winner))
+                    return "done"
+                else:
+                    why = "{} by {}".format(label, winner)
+                    say(why + ": auctioned again")
+                    return why
 
 
 def _main(argv=None):

@@ -927,7 +927,7 @@ class SessionTiming(unittest.TestCase):
         data = (
             b"@ <hub> 0\nstatus uptime_ms 123456 lease_ms 5000 min_priority -2 clients 2 truncated 0\n"
             b'drop reason "malformed" count 4\nchannel ch "task robot:7" packets 3 bytes 99\n'
-            b'client addr "127.0.0.1:40001" idle_ms 12 subs (vision_out 4900 radio 10)\n'
+            b'client addr "127.0.0.1:40001" idle_ms 12 subs (vision_out 4900 radio 10) about "bridge lab"\n'
             b'client addr "[::1]:40002" idle_ms 0 subs ()\n'
         )
         r = cc.parse_status(parse(data))
@@ -941,8 +941,13 @@ class SessionTiming(unittest.TestCase):
         self.assertEqual(
             r["clients"],
             [
-                {"addr": "127.0.0.1:40001", "idle_ms": 12, "subs": {"vision_out": 4900, "radio": 10}},
-                {"addr": "[::1]:40002", "idle_ms": 0, "subs": {}},
+                {
+                    "addr": "127.0.0.1:40001",
+                    "idle_ms": 12,
+                    "subs": {"vision_out": 4900, "radio": 10},
+                    "about": "bridge lab",
+                },
+                {"addr": "[::1]:40002", "idle_ms": 0, "subs": {}, "about": ""},
             ],
         )
 
@@ -1448,8 +1453,8 @@ def leased(pump, *clients, timeout=5.0):
     return pump.until(lambda: all(c.lease_ms is not None for c in clients), timeout)
 
 
-class RealHub(unittest.TestCase):
-    """The client against `colony hub`, `colony pub` and `colony sub`."""
+class _HubCase(unittest.TestCase):
+    """A fresh `colony hub` for each test."""
 
     @classmethod
     def setUpClass(cls):
@@ -1468,6 +1473,10 @@ class RealHub(unittest.TestCase):
         c = cc.Client(self.hub.addr, key=key)
         self.addCleanup(c.close)
         return c
+
+
+class RealHub(_HubCase):
+    """The client against `colony hub`, `colony pub` and `colony sub`."""
 
     def tmp(self):
         d = tempfile.TemporaryDirectory()
@@ -1876,3 +1885,52 @@ class RealHub(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class Murdoch(_HubCase):
+    """A task introduced from Python into a system of `colony tasks agent` processes."""
+
+    def agent(self, name, resources):
+        path, _ = colony_bin()
+        log = tempfile.TemporaryFile(mode="a+b")
+        self.addCleanup(log.close)
+        proc = subprocess.Popen(
+            [path, "tasks", "agent", "--hub", self.hub.addr_text, "--name", name, "--resources", resources],
+            stdin=subprocess.DEVNULL,
+            stdout=log,
+            stderr=subprocess.DEVNULL,
+            env=_child_env(),
+            preexec_fn=_die_with_parent if sys.platform.startswith("linux") else None,
+        )
+
+        def stop():
+            proc.kill()
+            proc.wait(timeout=5.0)
+
+        self.addCleanup(stop)
+        deadline = time.monotonic() + 20.0
+        while time.monotonic() < deadline:
+            log.seek(0)
+            if b"joins with" in log.read():
+                return log
+            time.sleep(0.05)
+        self.fail("agent %s never started" % name)
+
+    def test_a_task_announced_from_python_is_done_by_the_robot_that_can(self):
+        self.agent("r1", "mobile,laser")
+        r2 = self.agent("r2", "mobile,camera")
+        c = self.client()
+        lines = []
+        outcome = cc.announce_task(c, "look", "camera", length_s=0.3, deadline_s=30.0, say=lines.append)
+        self.assertEqual(outcome, ("done", "r2"), "\n".join(lines))
+        self.assertIn("awarded to r2", "\n".join(lines))
+        r2.seek(0)
+        self.assertIn(b"starts task", r2.read())
+
+    def test_a_task_no_robot_can_do_is_given_up_at_its_deadline(self):
+        self.agent("r1", "mobile,laser")
+        c = self.client()
+        lines = []
+        outcome = cc.announce_task(c, "grab", "gripper", deadline_s=1.0, say=lines.append)
+        self.assertEqual(outcome[0], "gave_up", "\n".join(lines))
+        self.assertIn("gripper", outcome[1])
