@@ -109,7 +109,21 @@ pub fn run(
         agent.battery()
     ));
     while !stop.load(Ordering::Relaxed) {
-        link.wait(&agent, Some(Duration::from_millis(50)))?;
+        // Woken for the body's own times too: a task's end, a charge, a fault.
+        let now_i = Instant::now();
+        let body_due = [
+            busy_until,
+            charging_until,
+            faults.peek().map(|f| epoch + f.at),
+        ]
+        .into_iter()
+        .flatten()
+        .map(|t| t.saturating_duration_since(now_i))
+        .min();
+        let wait = body_due.map_or(Duration::from_millis(50), |d| {
+            d.min(Duration::from_millis(50))
+        });
+        link.wait(&agent, Some(wait))?;
         link.pump(&mut agent)?;
         let now_i = Instant::now();
         let now = link.now();
