@@ -22,7 +22,7 @@ use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use colony_client::{ClientConfig, Delivery, UdpClient};
+use colony_client::{ClientConfig, Delivery, HubState, UdpClient};
 use colony_wire::auth::Key;
 use colony_wire::{Packet, Reply, Request, Subject};
 use mio::unix::SourceFd;
@@ -364,6 +364,14 @@ impl Bridge {
             self.next_status = now + self.config.poll;
             if let Err(e) = self.client.request(&[Request::Status]) {
                 self.hub_error("status request", &e);
+            }
+            // A hub that has gone quiet has no clients to serve: stop asking
+            // other sites for their packets until it answers again.
+            if matches!(self.client.hub_state(), HubState::Unreachable { .. })
+                && self.interest != LocalInterest::default()
+            {
+                tracing::warn!(site = %self.config.site, "the hub is not answering: withdrawing this site's wants");
+                self.want(LocalInterest::default())?;
             }
         }
         if now >= self.next_report {

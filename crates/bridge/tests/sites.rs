@@ -454,3 +454,36 @@ fn a_hub_restarted_on_its_address_and_a_router_restarted_on_its_port_are_found_a
         &mut [&mut on_b],
     );
 }
+
+#[test]
+fn a_site_whose_hub_stops_answering_withdraws_its_wants() {
+    let pa = free_port();
+    let a = Site_::new("a", Mode::Peer, &[], &[endpoint(pa)]);
+    let mut b = Site_::new("b", Mode::Peer, &[endpoint(pa)], &[]);
+    let mut publisher = a.client(&[]);
+    let mut on_b = b.client(&["vision"]);
+    until_flowing(
+        &mut publisher,
+        "@ <vision> 0\nrobot id 1\n",
+        &mut [&mut on_b],
+    );
+    // B's hub goes, for good: once B's bridge calls it unreachable (10 s of
+    // silence), it stops asking, and A stops sending (three quiet rounds).
+    b.hub.take().unwrap().stop().unwrap();
+    let start = Instant::now();
+    let mut quiet = 0;
+    while quiet < 3 {
+        let before = Stats::get(&a.stats().exported);
+        publisher.publish(b"@ <vision> 0\nrobot id 1\n").unwrap();
+        std::thread::sleep(Duration::from_millis(300));
+        quiet = if Stats::get(&a.stats().exported) == before {
+            quiet + 1
+        } else {
+            0
+        };
+        assert!(
+            start.elapsed() < Duration::from_secs(40),
+            "A kept exporting to a site with no hub"
+        );
+    }
+}
