@@ -8,13 +8,13 @@ use std::collections::BTreeSet;
 use std::io::{BufRead, BufReader};
 use std::net::{SocketAddr, TcpListener};
 use std::path::PathBuf;
-use std::process::{Child, Stdio};
+use std::process::Stdio;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
-use common::{colony, subscribed, HubProcess};
+use common::{colony, subscribed, HubProcess, Proc};
 
 fn free_port() -> u16 {
     TcpListener::bind("127.0.0.1:0")
@@ -29,31 +29,11 @@ fn endpoint(port: u16) -> String {
 }
 
 /// A `colony bridge` process, killed (SIGKILL) when dropped.
-struct BridgeProcess(Child);
-
-impl BridgeProcess {
-    fn start(hub: SocketAddr, site: &str, extra: &[String]) -> BridgeProcess {
-        let child = colony()
-            .args(["bridge", "--hub", &hub.to_string(), "--site", site])
-            .args(extra)
-            .env("COLONY_LOG", "warn")
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start colony bridge");
-        BridgeProcess(child)
-    }
-
-    fn kill(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-impl Drop for BridgeProcess {
-    fn drop(&mut self) {
-        self.kill();
-    }
+fn bridge(hub: SocketAddr, site: &str, extra: &[String]) -> Proc {
+    let hub = hub.to_string();
+    let mut args = vec!["bridge", "--hub", &hub, "--site", site];
+    args.extend(extra.iter().map(String::as_str));
+    Proc::start(&args)
 }
 
 /// Publishes `@ <stream> 0\nmsg n N\n`, N = 1, 2, ..., every 5 ms from a
@@ -131,15 +111,15 @@ fn killing_the_middle_bridge_of_three_loses_only_the_gap_and_recovers_within_thr
         HubProcess::start(&[]),
         HubProcess::start(&[]),
     );
-    let _a = BridgeProcess::start(ha.addr, "a", &["--listen".into(), endpoint(pa)]);
+    let _a = bridge(ha.addr, "a", &["--listen".into(), endpoint(pa)]);
     let b_args = [
         "--connect".into(),
         endpoint(pa),
         "--listen".into(),
         endpoint(pb),
     ];
-    let mut b = BridgeProcess::start(hb.addr, "b", &b_args);
-    let _c = BridgeProcess::start(hc.addr, "c", &["--connect".into(), endpoint(pb)]);
+    let mut b = bridge(hb.addr, "b", &b_args);
+    let _c = bridge(hc.addr, "c", &["--connect".into(), endpoint(pb)]);
     let mut on_b = subscribed(hb.addr, &["stream"]);
     let mut on_c = subscribed(hc.addr, &["stream"]);
     let stream = Stream::start(ha.addr);
@@ -177,7 +157,7 @@ fn killing_the_middle_bridge_of_three_loses_only_the_gap_and_recovers_within_thr
     std::thread::sleep(Duration::from_secs(1));
     let restarted = Instant::now();
     let sent_at_restart = stream.sent();
-    let _b = BridgeProcess::start(hb.addr, "b", &b_args);
+    let _b = bridge(hb.addr, "b", &b_args);
     let settle = Instant::now() + Duration::from_secs(6);
     receive(
         &mut [(&mut on_b, &mut got_b), (&mut on_c, &mut got_c)],
@@ -242,7 +222,7 @@ fn zenohs_own_python_package_receives_a_colony_channel_and_publishes_one_back() 
     );
     let port = free_port();
     let hub = HubProcess::start(&[]);
-    let _bridge = BridgeProcess::start(hub.addr, "lab", &["--listen".into(), endpoint(port)]);
+    let _bridge = bridge(hub.addr, "lab", &["--listen".into(), endpoint(port)]);
     let mut python = std::process::Command::new("python3")
         .arg(root.join("python/tests/zenoh_peer.py"))
         .arg(endpoint(port))
