@@ -1,6 +1,6 @@
 //! The long-term experiment (section 6.2) on simulated time.
 
-use colony_tasks::experiment::longterm::{run, Longterm, LongtermConfig};
+use colony_tasks::experiment::longterm::{run, Longterm, LongtermConfig, IMPOSSIBLE_TASK};
 use colony_tasks::experiment::Progress;
 
 #[test]
@@ -19,6 +19,22 @@ fn a_long_run_completes_every_achievable_task_and_reports_the_rest() {
     assert_eq!(r.gave_up, r.introduced - r.achievable);
     assert!(r.recharges > 0 && r.failures > 0, "{r:?}");
     assert!(r.unachievable_reports > 0);
+    // Every report has one cause; "no robot has what it needs" is exactly
+    // the task nobody in the roster can do.
+    assert_eq!(
+        r.unachievable_no_robot
+            + r.unachievable_busy
+            + r.unachievable_charging
+            + r.unachievable_failed,
+        r.unachievable_reports,
+        "{r:?}"
+    );
+    let impossible = out
+        .log
+        .iter()
+        .filter(|l| l.kind == "unachievable" && l.task == IMPOSSIBLE_TASK.name)
+        .count() as u64;
+    assert_eq!(r.unachievable_no_robot, impossible, "{r:?}");
     assert!(r.messages_per_allocation > 3.0);
     assert!(out.log.iter().any(|l| l.kind == "unachievable"
         && l.detail

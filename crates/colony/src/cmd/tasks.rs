@@ -293,6 +293,19 @@ fn longterm(args: LongtermArgs) -> anyhow::Result<()> {
     );
     println!("  unachievable reports       {:>6}", r.unachievable_reports);
     println!(
+        "    no robot has what it needs {:>4}",
+        r.unachievable_no_robot
+    );
+    println!("    every capable robot busy   {:>4}", r.unachievable_busy);
+    println!(
+        "    every capable one charging {:>4}",
+        r.unachievable_charging
+    );
+    println!(
+        "    every capable one failed   {:>4}",
+        r.unachievable_failed
+    );
+    println!(
         "  given up by the user agent {:>6} ({} achievable)",
         r.gave_up, r.gave_up_achievable
     );

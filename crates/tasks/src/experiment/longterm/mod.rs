@@ -52,6 +52,14 @@ pub enum LongtermError {
     Spec(#[from] SpecError),
 }
 
+/// Why an auction found no robot.
+enum Why {
+    NoRobot,
+    Charging,
+    Failed,
+    Busy,
+}
+
 #[derive(Debug, Clone, PartialEq)]
 enum Phase {
     Idle,
@@ -541,6 +549,13 @@ impl Longterm {
                         }
                         AnnouncerEvent::Unachievable { reason, .. } => {
                             self.report.unachievable_reports += 1;
+                            let needs = self.requests.get(&request).map(|r| r.kind.resources);
+                            match self.why_unachievable(needs.unwrap_or_default()) {
+                                Why::NoRobot => self.report.unachievable_no_robot += 1,
+                                Why::Charging => self.report.unachievable_charging += 1,
+                                Why::Failed => self.report.unachievable_failed += 1,
+                                Why::Busy => self.report.unachievable_busy += 1,
+                            }
                             self.log.push(row(
                                 self.now,
                                 "unachievable",
@@ -602,6 +617,30 @@ impl Longterm {
                 }
                 UserEvent::Unachievable { .. } => {}
             }
+        }
+    }
+
+    /// Why no robot took a task needing `needs`, from what every robot of the
+    /// roster was doing when its auction closed.
+    fn why_unachievable(&self, needs: &str) -> Why {
+        let needs: ResourceSet = needs.parse().unwrap_or_default();
+        let capable: Vec<&Phase> = self
+            .members
+            .iter()
+            .filter(|m| needs.is_subset(&m.resources))
+            .map(|m| &m.phase)
+            .collect();
+        if capable.is_empty() {
+            Why::NoRobot
+        } else if capable
+            .iter()
+            .all(|p| matches!(p, Phase::Charging | Phase::ToCharger { .. }))
+        {
+            Why::Charging
+        } else if capable.iter().all(|p| matches!(p, Phase::Failed { .. })) {
+            Why::Failed
+        } else {
+            Why::Busy
         }
     }
 

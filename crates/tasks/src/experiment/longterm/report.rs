@@ -64,6 +64,15 @@ pub struct LongtermReport {
     pub reallocated_other: u64,
     /// Unachievable reports the user agent received.
     pub unachievable_reports: u64,
+    /// Of those, tasks no robot of the roster has the resources for.
+    pub unachievable_no_robot: u64,
+    /// Of those, tasks whose capable robots were all charging (or on the way).
+    pub unachievable_charging: u64,
+    /// Of those, tasks whose capable robots had all failed (or lay flat).
+    pub unachievable_failed: u64,
+    /// Of those, tasks whose capable robots were busy (or some busy and the
+    /// rest charging or failed, or too low on battery to bid).
+    pub unachievable_busy: u64,
     /// Requests the user agent gave up on.
     pub gave_up: u64,
     /// Achievable requests given up.
