@@ -9,10 +9,9 @@ fn walk(data: &[u8]) -> bool {
     let attachment = parts.next().unwrap_or_default();
     let _ = keys::parse_want_key(&key);
     let _ = colony_bridge::track::Stamp::from_bytes(attachment);
-    match keys::sample_site(&key, payload) {
-        Some(site) => {
-            let (from, subjects) = keys::parse_data_key(&key).expect("a taken sample has a data key");
-            assert_eq!(from, site);
+    match keys::read_sample(&key, payload) {
+        Some((site, subjects)) => {
+            assert_eq!(keys::parse_data_key(&key), Some((site.clone(), subjects.clone())));
             let packet = colony_wire::Packet::parse(payload).expect("a taken sample is a packet");
             assert_eq!(
                 keys::data_key(&site, packet.subjects()),

@@ -142,16 +142,17 @@ pub fn parse_want_key(key: &str) -> Option<(Site, Subject)> {
     (parts.next().is_none() && subject.as_str() != HUB_SUBJECT).then_some((site, subject))
 }
 
-/// The site a sample came from, if it is a colony packet published on
-/// exactly the subjects its key names, and no request to the hub (which,
-/// published into the hub by the bridge, would act for the bridge).
-pub fn sample_site(key: &str, payload: &[u8]) -> Option<Site> {
+/// The site a sample came from and its subjects (sorted), if it is a
+/// colony packet published on exactly the subjects its key names, and no
+/// request to the hub (which, published into the hub by the bridge, would
+/// act for the bridge).
+pub fn read_sample(key: &str, payload: &[u8]) -> Option<(Site, Vec<Subject>)> {
     let (site, subjects) = parse_data_key(key)?;
     let packet = Packet::parse(payload).ok()?;
     let exact = !packet.has_subject(HUB_SUBJECT)
         && packet.subject_count() == subjects.len()
         && subjects.iter().all(|s| packet.has_subject(s.as_str()));
-    exact.then_some(site)
+    exact.then_some((site, subjects))
 }
 
 /// How a packet of this colony priority crosses Zenoh: its Zenoh priority,
@@ -222,19 +223,19 @@ mod tests {
     fn an_import_must_be_the_packet_its_key_names() {
         let key = "colony/a/ch/camera/mobile";
         assert_eq!(
-            sample_site(key, b"@ <mobile> <camera> 0\nt x 1\n"),
+            read_sample(key, b"@ <mobile> <camera> 0\nt x 1\n").map(|(site, _)| site),
             Some(Site::new("a").unwrap())
         );
-        assert_eq!(sample_site(key, b"@ <mobile> 0\nt x 1\n"), None);
+        assert_eq!(read_sample(key, b"@ <mobile> 0\nt x 1\n"), None);
         assert_eq!(
-            sample_site(key, b"@ <mobile> <camera> <laser> 0\nt x 1\n"),
+            read_sample(key, b"@ <mobile> <camera> <laser> 0\nt x 1\n"),
             None
         );
-        assert_eq!(sample_site(key, b"not a packet"), None);
-        assert_eq!(sample_site("colony/a/ch/x", &[0xff, 0xfe]), None);
+        assert_eq!(read_sample(key, b"not a packet"), None);
+        assert_eq!(read_sample("colony/a/ch/x", &[0xff, 0xfe]), None);
         // A request to the hub, under any key, would act for the bridge.
         assert_eq!(
-            sample_site("colony/a/ch/hub", b"@ <hub> 0\nunsubscribe_all\n"),
+            read_sample("colony/a/ch/hub", b"@ <hub> 0\nunsubscribe_all\n"),
             None
         );
     }

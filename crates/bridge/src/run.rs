@@ -561,7 +561,7 @@ impl Bridge {
     /// Publishes into the hub a packet another site put, once it is sure
     /// the packet is what its key says and that this site asked for all of it.
     fn import(&mut self, data: Data) {
-        let Some(site) = keys::sample_site(&data.key, &data.payload) else {
+        let Some((site, subjects)) = keys::read_sample(&data.key, &data.payload) else {
             Stats::add(&self.stats.rejected, 1);
             return;
         };
@@ -570,9 +570,6 @@ impl Bridge {
         }
         // Sets are taken wholesale for clients of many channels; the import
         // rules, and a withdrawal still in flight, are checked here.
-        let Some((_, subjects)) = keys::parse_data_key(&data.key) else {
-            return;
-        };
         if !subjects.iter().all(|s| self.interest.channels.contains(s)) {
             Stats::add(&self.stats.rejected, 1);
             return;
