@@ -39,11 +39,13 @@ pub enum DropReason {
     BadCookie,
     /// More requests from one source than its rate allows.
     RateLimited,
+    /// A tap asked for while the hub already has its most taps.
+    TooManyTaps,
 }
 
 impl DropReason {
     /// Every reason, in the order status reports list them.
-    pub const ALL: [DropReason; 14] = [
+    pub const ALL: [DropReason; 15] = [
         DropReason::Malformed,
         DropReason::BelowMinPriority,
         DropReason::BadControl,
@@ -58,6 +60,7 @@ impl DropReason {
         DropReason::BadAuth,
         DropReason::BadCookie,
         DropReason::RateLimited,
+        DropReason::TooManyTaps,
     ];
 
     /// The reason's name in status reports.
@@ -77,6 +80,7 @@ impl DropReason {
             DropReason::BadAuth => "bad_auth",
             DropReason::BadCookie => "bad_cookie",
             DropReason::RateLimited => "rate_limited",
+            DropReason::TooManyTaps => "too_many_taps",
         }
     }
 }

@@ -29,5 +29,5 @@ pub use access::{is_bad_source, Cidr, CidrError};
 pub use config::{HubConfig, MIN_LEASE};
 pub use counters::DropReason;
 pub use local::{HubSite, HubSpec, HubThread, HubThreadError, StartError};
-pub use routing::{Hub, Outcome, Transmit};
+pub use routing::{Hub, Outcome, Transmit, MAX_TAPS};
 pub use server::Server;

@@ -25,6 +25,9 @@ const MAX_REQUESTS: usize = 1024;
 /// Replies waiting to be sent, in bytes: beyond this, new ones are dropped
 /// (and counted) rather than queued.
 const MAX_REPLY_BYTES: usize = 8 << 20;
+/// Clients that may tap at once ([`Request::Tap`]): each costs the hub one
+/// more send for every packet it forwards, so a handful at most.
+pub const MAX_TAPS: usize = 8;
 /// The longest lease, signature window and status interval a hub takes:
 /// anything longer is a mistake, and would overflow instants.
 const LONGEST: Duration = Duration::from_secs(86_400);
@@ -71,6 +74,8 @@ struct Client {
     no_local: bool,
     /// What it says it is ([`Request::About`]).
     about: Box<str>,
+    /// Gets every forwarded packet ([`Request::Tap`]).
+    tap: bool,
 }
 
 /// How a datagram proved where it came from.
@@ -108,6 +113,9 @@ pub struct Hub {
     started: Instant,
     clients: HashMap<SocketAddr, Client>,
     subscribers: HashMap<Subject, Vec<SocketAddr>>,
+    /// Clients that asked to tap; one that has since lost its lease (or its
+    /// tap) is skipped when routing and pruned at the next sweep.
+    taps: Vec<SocketAddr>,
     min_priority: Priority,
     /// When a raised minimum priority lapses unless its console renews it.
     min_priority_until: Option<Instant>,
@@ -148,6 +156,7 @@ impl Hub {
             started: now,
             clients: HashMap::new(),
             subscribers: HashMap::new(),
+            taps: Vec::new(),
             min_priority: Priority(i32::MIN),
             min_priority_until: None,
             counters: Counters::default(),
@@ -277,9 +286,20 @@ impl Hub {
         Outcome::Dropped(reason)
     }
 
-    /// Fills `self.dests` with every client subscribed to all of the packet's subjects.
+    /// Fills `self.dests` with every client subscribed to all of the
+    /// packet's subjects, and every client that taps (once each).
     fn route(&mut self, packet: &Packet<'_>) {
         self.dests.clear();
+        self.route_subscribers(packet);
+        let clients = &self.clients;
+        for tap in &self.taps {
+            if clients.get(tap).is_some_and(|c| c.tap) && !self.dests.contains(tap) {
+                self.dests.push(*tap);
+            }
+        }
+    }
+
+    fn route_subscribers(&mut self, packet: &Packet<'_>) {
         // Start from the subject with the fewest subscribers; check the others per client.
         let mut rarest: Option<&Vec<SocketAddr>> = None;
         for s in packet.subjects() {
@@ -378,6 +398,7 @@ impl Hub {
                         c.about = text.into_boxed_str();
                     }
                 }
+                Request::Tap => self.tap(src),
             }
         }
         if subscribed {
@@ -385,6 +406,26 @@ impl Hub {
             self.reply(src, lease);
         }
         Outcome::Control
+    }
+
+    /// Lets a client with a lease tap, while fewer than [`MAX_TAPS`] do.
+    fn tap(&mut self, src: SocketAddr) {
+        let Some(client) = self.clients.get(&src) else {
+            return;
+        };
+        if client.tap {
+            return;
+        }
+        let clients = &self.clients;
+        self.taps.retain(|a| clients.get(a).is_some_and(|c| c.tap));
+        if self.taps.len() >= MAX_TAPS {
+            self.counters.drop(DropReason::TooManyTaps, 1);
+            return;
+        }
+        if let Some(c) = self.clients.get_mut(&src) {
+            c.tap = true;
+            self.taps.push(src);
+        }
     }
 
     /// Answers an unproven request with the cookie for its source: never
@@ -482,6 +523,7 @@ impl Hub {
             last_heard: now,
             no_local: false,
             about: Box::from(""),
+            tap: false,
         });
         let expiry = now + self.config.lease;
         if let Some(e) = client.subs.get_mut(&subject) {
@@ -668,6 +710,8 @@ impl Hub {
             });
             !client.subs.is_empty()
         });
+        let clients = &self.clients;
+        self.taps.retain(|a| clients.get(a).is_some_and(|c| c.tap));
     }
 }
 

@@ -408,6 +408,57 @@ fn a_no_local_client_hears_everyone_but_itself_for_as_long_as_its_lease() {
 }
 
 #[test]
+fn a_tap_hears_every_forwarded_packet_once_for_as_long_as_its_lease() {
+    let now = Instant::now();
+    let mut hub = Hub::new(HubConfig::default(), now);
+    subscribe(&mut hub, now, addr(1), &["a"]);
+    // Without a lease a tap is not kept: a stranger holds no state.
+    control(&mut hub, now, addr(2), "tap\n");
+    assert_eq!(
+        forwarded(&mut hub, now, addr(1), "@ <a> 0\nx v 1\n"),
+        [addr(1)]
+    );
+    control(&mut hub, now, addr(2), "subscribe ch a\ntap\n");
+    // Subscribed as well: one copy. Nobody else subscribed: the tap still hears it.
+    assert_eq!(
+        forwarded(&mut hub, now, addr(1), "@ <a> 0\nx v 1\n"),
+        [addr(1), addr(2)]
+    );
+    assert_eq!(
+        forwarded(&mut hub, now, addr(1), "@ <new> <set> 0\nx v 1\n"),
+        [addr(2)]
+    );
+    // Forgotten with its lease: a tap must be renewed like a subscription.
+    let later = now + HubConfig::default().lease * 2;
+    hub.handle_timeout(later);
+    subscribe(&mut hub, later, addr(1), &["a"]);
+    assert_eq!(forwarded(&mut hub, later, addr(1), "@ <b> 0\nx v 1\n"), []);
+}
+
+#[test]
+fn a_hub_lets_only_a_few_clients_tap_and_frees_a_place_when_one_goes() {
+    let now = Instant::now();
+    let mut hub = Hub::new(HubConfig::default(), now);
+    let max = colony_hub::MAX_TAPS as u16;
+    for port in 0..=max {
+        control(&mut hub, now, addr(100 + port), "subscribe ch a\ntap\n");
+    }
+    assert_eq!(hub.drops(DropReason::TooManyTaps), 1);
+    let heard = forwarded(&mut hub, now, addr(1), "@ <b> 0\nx v 1\n");
+    assert_eq!(heard.len(), max as usize);
+    assert!(!heard.contains(&addr(100 + max)));
+    // One tap lets go of its lease at once: the next may take its place.
+    control(&mut hub, now, addr(100), "unsubscribe_all\n");
+    assert_eq!(
+        forwarded(&mut hub, now, addr(1), "@ <b> 0\nx v 1\n").len(),
+        max as usize - 1
+    );
+    control(&mut hub, now, addr(100 + max), "tap\n");
+    let heard = forwarded(&mut hub, now, addr(1), "@ <b> 0\nx v 1\n");
+    assert!(heard.contains(&addr(100 + max)) && !heard.contains(&addr(100)));
+}
+
+#[test]
 fn a_clients_about_text_is_kept_with_its_lease_cut_to_length_and_shown_in_status() {
     let now = Instant::now();
     let mut hub = Hub::new(HubConfig::default(), now);

@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use colony_proto::murdoch::{
     negotiation_subject, Announcement, Bid, Message, Negotiation, Param, ParamValue, ResourceSet,
-    TaskSpec, Token, MAX_MAGNITUDE,
+    RobotMode, RobotReport, TaskSpec, Token, MAX_MAGNITUDE,
 };
 use colony_proto::DecodeError;
 use colony_wire::Packet;
@@ -321,6 +321,21 @@ proptest! {
         let bytes = m.encode(&subject).unwrap();
         let back = Message::decode_bytes(&bytes).unwrap();
         prop_assert_eq!(back, Message::Negotiation { subject, message: m });
+    }
+
+    #[test]
+    fn robot_reports_round_trip(name in arb_token(), mode in 0..3u8, battery in 0.0..=1.0f64,
+                                res in proptest::collection::btree_set("[a-z][a-z0-9-]{0,12}", 0..6),
+                                task in proptest::option::of((any::<u64>().prop_map(|t| t >> 1), arb_name()))) {
+        let report = RobotReport {
+            name,
+            mode: [RobotMode::Idle, RobotMode::Working, RobotMode::Charging][usize::from(mode)],
+            battery,
+            resources: ResourceSet::from_names(res).unwrap(),
+            task,
+        };
+        let bytes = report.encode().unwrap();
+        prop_assert_eq!(Message::decode_bytes(&bytes).unwrap(), Message::Robot(report));
     }
 
     #[test]

@@ -338,7 +338,7 @@ mod tests {
         std::iter::from_fn(|| u.poll_transmit())
             .filter_map(|p| match Message::decode_bytes(&p).unwrap() {
                 Message::Announce(a) => Some(a.id),
-                Message::Negotiation { .. } => None,
+                Message::Negotiation { .. } | Message::Robot(_) => None,
             })
             .collect()
     }

@@ -56,6 +56,11 @@ pub enum Request {
     /// A few words on what this client is, shown in the status report (at
     /// most [`MAX_ABOUT`] bytes; longer is cut). Lasts as long as the lease.
     About(String),
+    /// Send this client every packet the hub forwards, whatever its subjects:
+    /// a monitor's or a spy's view of all traffic, new subjects included.
+    /// Lasts as long as the client holds a lease; a hub lets only a few
+    /// clients tap at once.
+    Tap,
 }
 
 /// The longest [`Request::About`] a hub keeps, in bytes.
@@ -126,7 +131,7 @@ impl fmt::Display for ControlError {
             ControlError::NotControl => write!(f, "a control packet must name `<{HUB_SUBJECT}>` alone"),
             ControlError::Unknown { label, line } => write!(
                 f,
-                "line {line}: unknown request `{label}` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority, cookie, no_local, about)"
+                "line {line}: unknown request `{label}` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority, cookie, no_local, about, tap)"
             ),
             ControlError::Field(e) => e.fmt(f),
             ControlError::BadCookie { line } => {
@@ -181,6 +186,7 @@ impl Request {
                     "unsubscribe_all" => Request::UnsubscribeAll,
                     "status" => Request::Status,
                     "no_local" => Request::NoLocal,
+                    "tap" => Request::Tap,
                     "about" => Request::About(clip_about(&line.str("text")?).to_owned()),
                     "min_priority" => {
                         let v = line.i64("value")?;
@@ -232,6 +238,7 @@ impl Request {
                 Request::MinPriority(p) => writeln!(text, "min_priority value {p}"),
                 Request::Cookie(c) => writeln!(text, "cookie v {c}"),
                 Request::NoLocal => writeln!(text, "no_local"),
+                Request::Tap => writeln!(text, "tap"),
                 Request::About(about) => {
                     text.push_str("about text ");
                     write_quoted(&mut text, clip_about(about));

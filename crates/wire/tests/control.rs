@@ -67,6 +67,7 @@ fn requests_write_the_documented_text() {
         Request::MinPriority(Priority(-5)),
         Request::NoLocal,
         Request::About("bridge \"lab\"".into()),
+        Request::Tap,
     ];
     let bytes = Request::to_packet(&all);
     assert_eq!(
@@ -78,7 +79,8 @@ fn requests_write_the_documented_text() {
          status\n\
          min_priority value -5\n\
          no_local\n\
-         about text \"bridge \\\"lab\\\"\"\n"
+         about text \"bridge \\\"lab\\\"\"\n\
+         tap\n"
     );
     let p = Packet::parse(&bytes).unwrap();
     assert!(Request::is_control(&p));
@@ -151,7 +153,7 @@ fn unknown_request_is_rejected_with_its_label_and_line() {
     );
     assert_eq!(
         e.to_string(),
-        "line 4: unknown request `subscribe_all` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority, cookie, no_local, about)"
+        "line 4: unknown request `subscribe_all` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority, cookie, no_local, about, tap)"
     );
 }
 

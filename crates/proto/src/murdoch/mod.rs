@@ -11,6 +11,7 @@
 //! | [`task`] | [`TaskSpec`]: a task as a user writes it |
 //! | [`announce`] | [`Announcement`]: a task on offer |
 //! | [`negotiate`] | [`Negotiation`], [`Bid`]: bids, awards, renewals, the end of a task |
+//! | [`robot`] | [`RobotReport`]: a robot's mode, battery, resources and task, for watchers |
 //! | [`fields`] | the limits every reader holds values to ([`MAX_MAGNITUDE`], ...) |
 //! | [`error`] | [`EncodeError`]; reading fails with the crate's [`DecodeError`] |
 //!
@@ -57,6 +58,9 @@
 //!
 //! @ <murdoch.user.17.2> 0                        nobody bid
 //! unachievable task 17 name sentry-duty reason "no robot with {camera laser mobile} is available"
+//!
+//! @ <murdoch.robots> 0                           every robot, about once a second, for watchers
+//! robot name r2 mode working battery 0.82 resources "camera laser mobile" task 17 task_name sentry-duty
 //! ```
 //!
 //! [`Message::decode`] refuses anything else with the line and field at
@@ -69,6 +73,7 @@ pub mod error;
 pub mod fields;
 pub mod negotiate;
 pub mod resource;
+pub mod robot;
 pub mod task;
 pub mod token;
 
@@ -79,6 +84,7 @@ pub use negotiate::{Bid, Negotiation};
 pub use resource::{
     negotiation_subject, ResourceError, ResourceSet, IDLE, MAX_TASK_RESOURCES, NEGOTIATION_PREFIX,
 };
+pub use robot::{RobotMode, RobotReport, ROBOTS};
 pub use task::{MetricTerm, Param, ParamValue, SpecError, TaskSpec, MAX_METRICS, MAX_PARAMS};
 pub use token::{Token, TokenError, MAX_TOKEN_LEN};
 
@@ -88,7 +94,7 @@ use crate::DecodeError;
 
 /// Every label a MURDOCH message's first line may carry, as an error lists them.
 pub(crate) const MESSAGES: &str =
-    "task, bid, award, ack, decline, renew, done, abandon, cancel or unachievable";
+    "task, bid, award, ack, decline, renew, done, abandon, cancel, unachievable or robot";
 
 /// The labels of the messages on a negotiation subject.
 const NEGOTIATION_LABELS: [&str; 9] = [
@@ -108,6 +114,8 @@ const NEGOTIATION_LABELS: [&str; 9] = [
 pub enum Message {
     /// A task on offer, addressed to its resources and `idle`.
     Announce(Announcement),
+    /// A robot's report of itself, on [`ROBOTS`].
+    Robot(RobotReport),
     /// A message on a negotiation subject.
     Negotiation {
         /// The subject it came on.
@@ -119,13 +127,23 @@ pub enum Message {
 
 impl Message {
     /// Reads a message from a packet: an announcement if its first line is
-    /// `task`, otherwise a negotiation message, whose header must be a single
+    /// `task`, a robot's report if it is `robot`, otherwise a negotiation message, whose header must be a single
     /// `murdoch.` subject. Lines after a negotiation message's first are ignored,
     /// so later versions can add some.
     pub fn decode(packet: &Packet<'_>) -> Result<Message, DecodeError> {
         let first = packet.lines().next().ok_or(DecodeError::Empty)?;
         if first.label() == "task" {
             return Announcement::decode(packet).map(Message::Announce);
+        }
+        if first.label() == "robot" {
+            let mut subjects = packet.subjects();
+            return match (subjects.next(), subjects.next()) {
+                (Some(ROBOTS), None) => RobotReport::decode_line(&first).map(Message::Robot),
+                _ => Err(DecodeError::Header(format!(
+                    "a `robot` report goes to <{ROBOTS}> alone, not to {}",
+                    packet.subjects_text()
+                ))),
+            };
         }
         if !NEGOTIATION_LABELS.contains(&first.label()) {
             return Err(DecodeError::UnknownMessage {
@@ -155,6 +173,7 @@ impl Message {
     pub fn encode(&self) -> Result<Vec<u8>, EncodeError> {
         match self {
             Message::Announce(a) => a.encode(),
+            Message::Robot(r) => r.encode(),
             Message::Negotiation { subject, message } => message.encode(subject),
         }
     }

@@ -108,5 +108,6 @@ impl Agent {
         });
         self.push_event(AgentEvent::Start(p.ann));
         self.refresh_subs();
+        self.report(now);
     }
 }

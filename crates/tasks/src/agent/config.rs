@@ -22,6 +22,10 @@ pub struct AgentConfig {
     /// After finishing, how long the winner keeps answering the announcer with
     /// `done`, in case its first `done` was lost.
     pub linger: Duration,
+    /// How often the robot reports its mode, battery, resources and task on
+    /// [`ROBOTS`](crate::protocol::ROBOTS) for watchers (it also reports each
+    /// change at once); `None`: never.
+    pub report_interval: Option<Duration>,
 }
 
 impl Default for AgentConfig {
@@ -34,6 +38,7 @@ impl Default for AgentConfig {
             battery_check: Duration::from_secs(1),
             drain_per_second: 0.0,
             linger: Duration::from_secs(3),
+            report_interval: Some(Duration::from_secs(1)),
         }
     }
 }

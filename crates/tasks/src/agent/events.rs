@@ -67,13 +67,6 @@ pub struct AgentStats {
     pub rejected: u64,
 }
 
-/// The robot's state.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum AgentMode {
-    /// Listening for tasks (and perhaps bidding).
-    Idle,
-    /// Executing a task.
-    Working,
-    /// Unsubscribed from everything, charging.
-    Charging,
-}
+/// The robot's state: idle (listening, perhaps bidding), working, or
+/// charging (unsubscribed from everything). The same as its reports carry.
+pub use crate::protocol::RobotMode as AgentMode;

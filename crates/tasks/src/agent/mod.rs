@@ -13,7 +13,7 @@ pub use config::AgentConfig;
 pub use events::{AgentEvent, AgentMode, AgentStats, StopReason};
 
 use crate::metric::Metrics;
-use crate::protocol::{Announcement, Bid, Message, Negotiation};
+use crate::protocol::{Announcement, Bid, Message, Negotiation, RobotReport};
 use crate::protocol::{ResourceSet, Token, IDLE};
 use colony_node::Node;
 use colony_node::Time;
@@ -65,6 +65,8 @@ pub struct Agent {
     job: Option<Job>,
     lingering: BTreeMap<Subject, (u64, Time)>,
     next_check: Time,
+    /// When the next periodic report is due (`None`: the robot never reports).
+    next_report: Option<Time>,
     subs: BTreeSet<Subject>,
     outbox: VecDeque<Vec<u8>>,
     events: VecDeque<AgentEvent>,
@@ -79,6 +81,7 @@ impl Agent {
             id,
             resources,
             next_check: now + config.battery_check,
+            next_report: config.report_interval.map(|_| now),
             config,
             metrics: Metrics::standard(),
             position: None,
@@ -212,6 +215,7 @@ impl Agent {
             self.next_check = now + self.config.battery_check;
             self.events.push_back(AgentEvent::Rejoined);
             self.refresh_subs();
+            self.report(now);
         }
     }
 
@@ -258,6 +262,7 @@ impl Agent {
             None => None,
         };
         self.refresh_subs();
+        self.report(now);
         given_up
     }
 
@@ -295,11 +300,14 @@ impl Agent {
 
     fn become_idle(&mut self, now: Time) {
         self.mode = AgentMode::Idle;
-        self.check_battery(now);
+        if !self.check_battery(now) {
+            self.report(now);
+        }
         self.refresh_subs();
     }
 
-    fn check_battery(&mut self, now: Time) {
+    /// Leaves to charge if idle and low; whether it did.
+    fn check_battery(&mut self, now: Time) -> bool {
         self.next_check = now + self.config.battery_check;
         if self.mode == AgentMode::Idle && self.battery < self.config.low_battery {
             self.decline_all();
@@ -308,6 +316,32 @@ impl Agent {
             self.stats.charges += 1;
             self.push_event(AgentEvent::Charge);
             self.refresh_subs();
+            self.report(now);
+            return true;
+        }
+        false
+    }
+
+    /// Says what the robot is doing on [`ROBOTS`](crate::protocol::ROBOTS),
+    /// and puts the next periodic report an interval away.
+    pub(super) fn report(&mut self, now: Time) {
+        let Some(every) = self.config.report_interval else {
+            return;
+        };
+        self.next_report = Some(now + every);
+        let report = RobotReport {
+            name: self.id.clone(),
+            mode: self.mode,
+            battery: self.battery,
+            resources: self.resources.clone(),
+            task: self
+                .job
+                .as_ref()
+                .map(|j| (j.ann.id, j.ann.spec.name.clone())),
+        };
+        match report.encode() {
+            Ok(p) => self.outbox.push_back(p),
+            Err(e) => tracing::warn!(agent = %self.id, error = %e, "could not write a report"),
         }
     }
 
@@ -393,6 +427,7 @@ impl Node for Agent {
         self.stats.heard += 1;
         match Message::decode(packet) {
             Ok(Message::Announce(ann)) => self.on_announce(now, ann),
+            Ok(Message::Robot(_)) => {}
             Ok(Message::Negotiation { subject, message }) => {
                 self.on_negotiation(now, subject, message)
             }
@@ -444,6 +479,9 @@ impl Node for Agent {
         if self.mode == AgentMode::Idle && now >= self.next_check {
             self.check_battery(now);
         }
+        if self.next_report.is_some_and(|t| now >= t) {
+            self.report(now);
+        }
         if before != (self.pending.len(), self.lingering.len()) {
             self.refresh_subs();
         }
@@ -457,7 +495,12 @@ impl Node for Agent {
             .iter()
             .flat_map(|j| [j.next_renew, j.last_heard + self.config.renew_timeout]);
         let check = (self.mode == AgentMode::Idle).then_some(self.next_check);
-        pending.chain(lingering).chain(job).chain(check).min()
+        pending
+            .chain(lingering)
+            .chain(job)
+            .chain(check)
+            .chain(self.next_report)
+            .min()
     }
 
     fn poll_transmit(&mut self) -> Option<Vec<u8>> {

@@ -14,14 +14,13 @@ fn t(ms: u64) -> Time {
     Time::from_micros(ms * 1000)
 }
 
-/// `r1` at the origin, idle and full.
+/// `r1` at the origin, idle and full, not reporting (see `reporting`).
 fn robot(resources: &str) -> Agent {
-    let mut a = Agent::new(
-        token("r1"),
-        resources.parse().unwrap(),
-        AgentConfig::default(),
-        Time::ZERO,
-    );
+    let config = AgentConfig {
+        report_interval: None,
+        ..AgentConfig::default()
+    };
+    let mut a = Agent::new(token("r1"), resources.parse().unwrap(), config, Time::ZERO);
     a.set_position(Vec2::ZERO);
     a
 }
@@ -719,4 +718,70 @@ fn losing_a_resource_declines_a_bid_that_needs_it_and_keeps_a_task_that_does_not
     win(&mut b, t(0), &task(3, "mobile"));
     assert_eq!(b.set_resources(t(10), "mobile".parse().unwrap()), None);
     assert_eq!(b.mode(), AgentMode::Working);
+}
+
+/// What a reporting robot reported, in order: (mode, battery, resources, task).
+fn reports(a: &mut Agent) -> Vec<(AgentMode, f64, String, Option<u64>)> {
+    std::iter::from_fn(|| a.poll_transmit())
+        .filter_map(|p| match Message::decode_bytes(&p).unwrap() {
+            Message::Robot(r) => Some((
+                r.mode,
+                r.battery,
+                r.resources.to_string(),
+                r.task.map(|(id, _)| id),
+            )),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_robot_reports_at_start_every_interval_and_at_each_change() {
+    let mut a = Agent::new(
+        token("r1"),
+        "mobile".parse().unwrap(),
+        AgentConfig::default(),
+        Time::ZERO,
+    );
+    a.set_position(Vec2::ZERO);
+    assert_eq!(a.poll_timeout(), Some(Time::ZERO));
+    a.handle_timeout(Time::ZERO);
+    assert_eq!(
+        reports(&mut a),
+        [(AgentMode::Idle, 1.0, "{mobile}".into(), None)]
+    );
+    // Nothing new before the interval...
+    a.handle_timeout(t(500));
+    assert_eq!(reports(&mut a), []);
+    // ...then the same again.
+    a.set_battery(0.5);
+    a.handle_timeout(t(1000));
+    assert_eq!(
+        reports(&mut a),
+        [(AgentMode::Idle, 0.5, "{mobile}".into(), None)]
+    );
+    // Winning is reported at once, with the task.
+    let ann = task(7, "mobile");
+    assert!(announce(&mut a, t(1100), &ann));
+    assert!(say(&mut a, t(1300), &ann, award(&ann, "r1")));
+    assert_eq!(
+        reports(&mut a),
+        [(AgentMode::Working, 0.5, "{mobile}".into(), Some(7))]
+    );
+    // So is a lost resource, and the task given up with it.
+    a.set_resources(t(1400), "".parse().unwrap());
+    let r = reports(&mut a);
+    assert_eq!(
+        r.last(),
+        Some(&(AgentMode::Idle, 0.5, "{}".into(), None))
+    );
+}
+
+#[test]
+fn a_robot_told_not_to_report_never_does() {
+    let mut a = robot("mobile");
+    a.handle_timeout(Time::ZERO);
+    a.handle_timeout(t(5000));
+    assert_eq!(reports(&mut a), []);
+    assert_ne!(a.poll_timeout(), Some(Time::ZERO));
 }

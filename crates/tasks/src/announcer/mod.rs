@@ -408,7 +408,7 @@ impl Node for Announcer {
             Ok(Message::Negotiation { subject, message }) => {
                 self.on_negotiation(now, &subject, message)
             }
-            Ok(Message::Announce(_)) => {}
+            Ok(Message::Announce(_) | Message::Robot(_)) => {}
             Err(e) => {
                 tracing::debug!(announcer = %self.token, error = %e, "ignored a malformed message");
                 self.stats.rejected += 1;

@@ -57,7 +57,7 @@ fn said(a: &mut Announcer) -> Vec<(String, Negotiation)> {
         .into_iter()
         .filter_map(|m| match m {
             Message::Negotiation { subject, message } => Some((subject.to_string(), message)),
-            Message::Announce(_) => None,
+            Message::Announce(_) | Message::Robot(_) => None,
         })
         .collect()
 }
