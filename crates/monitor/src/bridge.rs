@@ -1,7 +1,9 @@
 //! The hub side: a thread of its own that owns two hub clients and the
 //! [`MonitorState`], so nothing in the web server ever blocks on a socket.
 //!
-//! - The *data* client subscribes to `vision`, `debug`, `metrics`, `radio`,
+//! - The *data* client taps the hub (every forwarded packet, so the task
+//!   board hears each negotiation subject from its first bid), and
+//!   subscribes to `vision`, `debug`, `metrics`, `radio`,
 //!   the game's `game.state`, `game.map` and `game.event`, and every channel
 //!   the hub's status report names (up to [`EXTRA_CHANNELS`] more), so the
 //!   hub view can show each one's last packet.
@@ -29,6 +31,7 @@ use tokio::sync::{oneshot, watch};
 
 use crate::game::{GameView, GAME_CHANNELS};
 use crate::state::{Command, CommandError, MonitorState, PageId, CORE_CHANNELS};
+use crate::tasks::TaskBoard;
 
 /// The channel the control client leases, so the hub will answer `status`.
 pub const LEASE_CHANNEL: &str = "colony-monitor";
@@ -45,6 +48,10 @@ const HUB_VIEW_EVERY: Duration = Duration::from_secs(1);
 const GAME_EVERY: Duration = Duration::from_millis(50);
 /// ...and at least this often, so the page sees the game go stale.
 const GAME_AT_LEAST: Duration = Duration::from_millis(500);
+/// The task board is sent at most this often...
+const TASKS_EVERY: Duration = Duration::from_millis(100);
+/// ...and at least this often, so robots that fall silent show.
+const TASKS_AT_LEAST: Duration = Duration::from_secs(1);
 /// Held robots are commanded on every new frame, and at least this often.
 const OVERRIDE_EVERY: Duration = Duration::from_millis(80);
 /// The longest the loop sleeps, so browser requests are taken promptly.
@@ -63,11 +70,13 @@ pub struct Bridge {
     control: UdpClient,
     state: MonitorState,
     game: GameView,
+    tasks: TaskBoard,
     subscribed: BTreeSet<String>,
     world_tx: watch::Sender<Arc<str>>,
     hub_tx: watch::Sender<Arc<str>>,
     game_tx: watch::Sender<Arc<str>>,
     map_tx: watch::Sender<Arc<str>>,
+    tasks_tx: watch::Sender<Arc<str>>,
 }
 
 /// The web side's ends of the bridge.
@@ -76,6 +85,7 @@ pub struct Handles {
     pub hub: watch::Receiver<Arc<str>>,
     pub game: watch::Receiver<Arc<str>>,
     pub map: watch::Receiver<Arc<str>>,
+    pub tasks: watch::Receiver<Arc<str>>,
 }
 
 impl Bridge {
@@ -85,7 +95,9 @@ impl Bridge {
         hub: SocketAddr,
         key: Option<colony_wire::auth::Key>,
     ) -> Result<(Bridge, Handles), colony_client::ClientError> {
-        let data = UdpClient::connect(hub)?;
+        let mut data = UdpClient::connect(hub)?;
+        // Kept with every refresh; a hub that refuses it counts `too_many_taps`.
+        data.set_standing(vec![Request::Tap])?;
         let mut control = UdpClient::connect(hub)?;
         if let Some(key) = key {
             control.set_key(key);
@@ -100,23 +112,28 @@ impl Bridge {
         let (hub_tx, hub) = watch::channel(Arc::from(state.hub_json(now)));
         let (game_tx, game_rx) = watch::channel(Arc::from(game.game_json(now)));
         let (map_tx, map) = watch::channel(Arc::from(game.map_json()));
+        let tasks = TaskBoard::new(now);
+        let (tasks_tx, tasks_rx) = watch::channel(Arc::from(tasks.json(now)));
         Ok((
             Bridge {
                 data,
                 control,
                 state,
                 game,
+                tasks,
                 subscribed: BTreeSet::new(),
                 world_tx,
                 hub_tx,
                 game_tx,
                 map_tx,
+                tasks_tx,
             },
             Handles {
                 world,
                 hub,
                 game: game_rx,
                 map,
+                tasks: tasks_rx,
             },
         ))
     }
@@ -160,6 +177,8 @@ impl Bridge {
         let mut last_game = start;
         let mut game_version = 0;
         let mut map_version = 0;
+        let mut last_tasks = start;
+        let mut tasks_version = 0;
         while !stop.load(Ordering::Relaxed) {
             let now = Instant::now();
             let wake = [
@@ -270,6 +289,14 @@ impl Bridge {
                 self.game_tx
                     .send_replace(Arc::from(self.game.game_json(now)));
             }
+            let since = now.saturating_duration_since(last_tasks);
+            if (self.tasks.version() != tasks_version && since >= TASKS_EVERY)
+                || since >= TASKS_AT_LEAST
+            {
+                tasks_version = self.tasks.version();
+                last_tasks = now;
+                self.tasks_tx.send_replace(Arc::from(self.tasks.json(now)));
+            }
             // The map only when it changes: it can be large, and every tab
             // gets the newest on connecting anyway.
             if self.game.map_version() != map_version {
@@ -296,6 +323,7 @@ impl Bridge {
                 Ok(Some(packet)) => {
                     self.state.on_packet(now, &packet);
                     self.game.on_packet(now, &packet);
+                    self.tasks.on_packet(now, &packet);
                 }
                 Ok(None) => return,
                 Err(e) => {

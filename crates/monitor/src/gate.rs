@@ -23,11 +23,12 @@ use std::net::{IpAddr, SocketAddr};
 use std::time::{Duration, Instant};
 
 /// The paths served without the token: assets the same for everyone.
-const PUBLIC_ASSETS: [&str; 5] = [
+const PUBLIC_ASSETS: [&str; 6] = [
     "/app.js",
     "/style.css",
     "/game.js",
     "/game.css",
+    "/tasks.js",
     "/common.js",
 ];
 /// At most one refusal line per this long; the others are counted into the next line.
@@ -387,7 +388,7 @@ mod tests {
         let mut socket = ws(h, None);
         socket.query = Some("view=game");
         assert_eq!(g.check(&socket), Err(Refusal::Token));
-        for path in ["/game", "/index.html", "/nothing-here"] {
+        for path in ["/game", "/tasks", "/index.html", "/nothing-here"] {
             let r = Request {
                 path,
                 host: Some(h),

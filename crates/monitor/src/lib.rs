@@ -28,7 +28,14 @@
 //! battlefield, every robot and squad with its behaviour and planned path,
 //! and squad commands sent on `game.player.<team>` (see [`game`]).
 //!
-//! [`state`] and [`game`] are the logic without sockets or clocks; the bridge
+//! The task board (`/tasks`) shows MURDOCH's auctions: every task with its
+//! state, bids, winner, renewals and timeline, and every robot's mode,
+//! battery and resources (see [`tasks`]). To see every negotiation subject
+//! as it appears, the monitor asks its hub to let it tap (every forwarded
+//! packet); a hub that already has its most taps leaves it with its
+//! subscriptions, and the board then sees only what those carry.
+//!
+//! [`state`], [`game`] and [`tasks`] are the logic without sockets or clocks; the bridge
 //! thread feeds them from the hub; the web server (axum) hands snapshots to
 //! each browser tab.
 //!
@@ -53,6 +60,7 @@ pub mod gate;
 pub mod protocol;
 mod server;
 pub mod state;
+pub mod tasks;
 
 pub use bridge::{EXTRA_CHANNELS, LEASE_CHANNEL};
 pub use server::{Monitor, MonitorConfig, MonitorError};

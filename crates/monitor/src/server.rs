@@ -6,7 +6,8 @@
 //! second (coalesced: a slow tab gets the newest, never a backlog),
 //! `{"t":"hub",...}` about once a second, and `{"t":"reply",...}` answers.
 //! The game page opens `/ws?view=game` and gets `{"t":"game",...}` and
-//! `{"t":"map",...}` (see [`crate::game`]) instead of world and hub.
+//! `{"t":"map",...}` (see [`crate::game`]) instead of world and hub; the task
+//! board opens `/ws?view=tasks` and gets `{"t":"tasks",...}` (see [`crate::tasks`]).
 //! Browser to server: the requests of [`crate::protocol`].
 //!
 //! Every request passes [`crate::gate`] first (its own host names, the
@@ -41,7 +42,9 @@ const STYLE_CSS: &str = include_str!("../web/style.css");
 const GAME_HTML: &str = include_str!("../web/game.html");
 const GAME_JS: &str = include_str!("../web/game.js");
 const GAME_CSS: &str = include_str!("../web/game.css");
-/// What both pages' scripts share (an ES module both import).
+const TASKS_HTML: &str = include_str!("../web/tasks.html");
+const TASKS_JS: &str = include_str!("../web/tasks.js");
+/// What the pages' scripts share (an ES module both import).
 const COMMON_JS: &str = include_str!("../web/common.js");
 
 /// The browser gets world snapshots at most this often.
@@ -124,6 +127,7 @@ struct App {
     hub: watch::Receiver<Arc<str>>,
     game: watch::Receiver<Arc<str>>,
     map: watch::Receiver<Arc<str>>,
+    tasks: watch::Receiver<Arc<str>>,
     shutdown: watch::Receiver<bool>,
 }
 
@@ -179,6 +183,7 @@ impl Monitor {
             hub: handles.hub,
             game: handles.game,
             map: handles.map,
+            tasks: handles.tasks,
             shutdown: shutdown.clone(),
         };
         let server_guard = guard.clone();
@@ -426,6 +431,8 @@ async fn serve(
         .route("/game", get(game_html))
         .route("/game.js", get(|| asset("text/javascript", GAME_JS)))
         .route("/game.css", get(|| asset("text/css", GAME_CSS)))
+        .route("/tasks", get(|| async { Html(TASKS_HTML) }))
+        .route("/tasks.js", get(|| asset("text/javascript", TASKS_JS)))
         .route("/common.js", get(|| asset("text/javascript", COMMON_JS)))
         .route("/ws", get(ws))
         .with_state(app)
@@ -492,6 +499,8 @@ enum View {
     Monitor,
     /// The game page: game state, events and the map.
     Game,
+    /// The task board.
+    Tasks,
 }
 
 async fn ws(
@@ -499,9 +508,17 @@ async fn ws(
     RawQuery(query): RawQuery,
     State(app): State<App>,
 ) -> Response {
-    let view = match query.as_deref() {
-        Some(q) if q.split('&').any(|kv| kv == "view=game") => View::Game,
-        _ => View::Monitor,
+    let asked = |v: &str| {
+        query
+            .as_deref()
+            .is_some_and(|q| q.split('&').any(|kv| kv == v))
+    };
+    let view = if asked("view=game") {
+        View::Game
+    } else if asked("view=tasks") {
+        View::Tasks
+    } else {
+        View::Monitor
     };
     upgrade
         .max_message_size(MAX_MESSAGE)
@@ -589,13 +606,17 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
     let mut hub = app.hub.clone();
     let mut game = app.game.clone();
     let mut map = app.map.clone();
+    let mut tasks = app.tasks.clone();
     let mut shutdown = app.shutdown.clone();
     let monitor = view == View::Monitor;
+    let playing = view == View::Game;
+    let board = view == View::Tasks;
     // The newest of each, at once.
     world.mark_changed();
     hub.mark_changed();
     game.mark_changed();
     map.mark_changed();
+    tasks.mark_changed();
     let mut next_world = Instant::now();
     loop {
         tokio::select! {
@@ -642,7 +663,7 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
                     break;
                 }
             }
-            changed = map.changed(), if !monitor => {
+            changed = map.changed(), if playing => {
                 if changed.is_err() {
                     break;
                 }
@@ -651,7 +672,16 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
                     break;
                 }
             }
-            changed = game.changed(), if !monitor => {
+            changed = tasks.changed(), if board => {
+                if changed.is_err() {
+                    break;
+                }
+                let snapshot = tasks.borrow_and_update().clone();
+                if socket.send(Message::Text(snapshot.as_ref().into())).await.is_err() {
+                    break;
+                }
+            }
+            changed = game.changed(), if playing => {
                 if changed.is_err() {
                     break;
                 }

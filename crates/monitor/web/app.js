@@ -8,7 +8,10 @@
 // the game page.
 import {
   $, Transform, drawText, esc, fitBacking, pixelRatio, serverLink, showBanners, showChip, showMessage, tenth,
+  withToken,
 } from './common.js';
+
+$('tasks-link').href = withToken('/tasks');
 
 const KIND_COLOURS = ['#e0452b', '#2b6fe0', '#23a446', '#e0a21b', '#8e44d6', '#e0702b', '#1fb5b5', '#d63384'];
 const DEFAULT_SIZES = { robot_length: 12.5, robot_width: 10.8, gripper_radius: 3.6, puck_diameter: 6.3 };

@@ -771,10 +771,7 @@ fn a_robot_reports_at_start_every_interval_and_at_each_change() {
     // So is a lost resource, and the task given up with it.
     a.set_resources(t(1400), "".parse().unwrap());
     let r = reports(&mut a);
-    assert_eq!(
-        r.last(),
-        Some(&(AgentMode::Idle, 0.5, "{}".into(), None))
-    );
+    assert_eq!(r.last(), Some(&(AgentMode::Idle, 0.5, "{}".into(), None)));
 }
 
 #[test]

@@ -1,0 +1,794 @@
+//! MURDOCH's auctions as an operator sees them, with no socket and no clock:
+//! announcements, everything said on negotiation subjects and the robots'
+//! reports go in; the task board (`/tasks`) comes out as JSON.
+//!
+//! The board reads the messages with [`colony_proto::murdoch`]'s decoders and
+//! follows each task through its states: `announced`, `bidding`, `awarded`,
+//! `running`, `done`, `unachievable`, or `cancelled` and `abandoned` (after
+//! which its announcer auctions it again: the task counts a re-allocation and
+//! goes back to `announced` on its new negotiation subject). It keeps each
+//! task's bids by round, the winner and why (the lowest score of the bids the
+//! announcer heard), renewals and progress, and a timeline; and each robot's
+//! mode, battery, resources and task from its reports on
+//! [`ROBOTS`](colony_proto::murdoch::ROBOTS).
+//!
+//! A task is named by its announcer and number, so a board that missed the
+//! announcement (it started late, or the hub dropped it) still follows the
+//! task from its negotiation subject, without a name until one is heard.
+//! Everything kept is bounded: tasks, bids, timeline entries and robots.
+//!
+//! To the page:
+//!
+//! ```text
+//! {"t":"tasks","now":MS,"tasks":[{announcer,id,name,resources:[..],length_s,state,round,
+//!   bids:[{round,bidder,score,withdrawn}],bids_missed:N,winner:{bidder,score,bids}|null,
+//!   progress,renewals,reallocations,reason,timeline:[{at:MS,text}],first:MS,last:MS}],
+//!  "robots":[{name,mode,battery,resources:[..],task,task_name,last:MS,silent}],
+//!  "forgotten":N,"bad":N}
+//! ```
+//! Times are milliseconds since the monitor started.
+
+use std::collections::{BTreeMap, VecDeque};
+use std::time::{Duration, Instant};
+
+use colony_proto::murdoch::{Announcement, Message, Negotiation, RobotReport, NEGOTIATION_PREFIX};
+use colony_wire::Packet;
+use serde::Serialize;
+
+/// Tasks kept; past this the oldest ended task (or, failing one, the oldest) is forgotten.
+pub const MAX_TASKS: usize = 256;
+/// Bids kept per task (over every round).
+const MAX_BIDS: usize = 64;
+/// Timeline entries kept per task: the newest.
+const MAX_TIMELINE: usize = 48;
+/// Robots kept.
+const MAX_ROBOTS: usize = 256;
+/// A robot unheard this long (it reports every second) is shown as silent.
+pub const ROBOT_SILENT_AFTER: Duration = Duration::from_secs(3);
+
+/// Where a task stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TaskState {
+    /// Offered; no bid heard yet.
+    Announced,
+    /// Bids are coming in.
+    Bidding,
+    /// The announcer named a winner; it has not acknowledged yet.
+    Awarded,
+    /// The winner acknowledged and works on it.
+    Running,
+    /// The winner finished it.
+    Done,
+    /// Nobody could take it.
+    Unachievable,
+    /// The announcer withdrew it (and will auction it again, if it still wants it done).
+    Cancelled,
+    /// The winner gave it up (and the announcer will auction it again).
+    Abandoned,
+}
+
+impl TaskState {
+    fn ended(self) -> bool {
+        matches!(self, TaskState::Done | TaskState::Unachievable)
+    }
+}
+
+/// A bid, as heard.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BidView {
+    /// The auction round (1 for the first, one more for each re-allocation).
+    pub round: u32,
+    /// Who bid.
+    pub bidder: String,
+    /// Its score (a cost: lowest wins).
+    pub score: f64,
+    /// Withdrawn by its bidder (beaten, or it took another task).
+    pub withdrawn: bool,
+}
+
+/// The announcer's choice.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WinnerView {
+    /// Who won.
+    pub bidder: String,
+    /// The winning score: the lowest of the bids the announcer heard.
+    pub score: f64,
+    /// How many bids the announcer heard.
+    pub bids: u32,
+}
+
+/// A moment in a task's life.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Moment {
+    /// Milliseconds since the monitor started.
+    pub at: u64,
+    /// What happened.
+    pub text: String,
+}
+
+/// One task on the board.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TaskView {
+    /// Who announced it.
+    pub announcer: String,
+    /// Its number, the announcer's.
+    pub id: u64,
+    /// Its name (empty until its announcement is heard).
+    pub name: String,
+    /// The resources it needs.
+    pub resources: Vec<String>,
+    /// How long it runs, s.
+    pub length_s: f64,
+    /// Where it stands.
+    pub state: TaskState,
+    /// The auction round in progress.
+    pub round: u32,
+    /// Bids heard, every round.
+    pub bids: Vec<BidView>,
+    /// Bids past [`MAX_BIDS`], or the announcer heard that this board did not.
+    pub bids_missed: u32,
+    /// The current round's winner.
+    pub winner: Option<WinnerView>,
+    /// The winner's progress, 0 to 1, from its renewals.
+    pub progress: Option<f64>,
+    /// Renewals heard, both ways.
+    pub renewals: u64,
+    /// Times it was auctioned again after a cancel or an abandon.
+    pub reallocations: u32,
+    /// The last reason given (cancelled, abandoned, unachievable).
+    pub reason: String,
+    /// What happened, newest last.
+    pub timeline: VecDeque<Moment>,
+    /// When it was first heard of, ms.
+    pub first: u64,
+    /// When it was last heard of, ms.
+    pub last: u64,
+}
+
+/// A robot, from its reports.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RobotView {
+    /// Its token.
+    pub name: String,
+    /// `idle`, `working` or `charging`.
+    pub mode: &'static str,
+    /// Its charge, 0 to 1.
+    pub battery: f64,
+    /// What it has.
+    pub resources: Vec<String>,
+    /// The task it executes.
+    pub task: Option<u64>,
+    /// That task's name.
+    pub task_name: Option<String>,
+    /// When it last reported, ms.
+    pub last: u64,
+    /// Unheard for [`ROBOT_SILENT_AFTER`] (set when the board is written).
+    pub silent: bool,
+}
+
+/// Everything the monitor knows of the auctions.
+#[derive(Debug)]
+pub struct TaskBoard {
+    started: Instant,
+    tasks: BTreeMap<(String, u64), TaskView>,
+    robots: BTreeMap<String, RobotView>,
+    forgotten: u64,
+    bad: u64,
+    version: u64,
+}
+
+#[derive(Serialize)]
+struct BoardJson<'a> {
+    t: &'static str,
+    now: u64,
+    tasks: Vec<&'a TaskView>,
+    robots: Vec<RobotView>,
+    forgotten: u64,
+    bad: u64,
+}
+
+/// The announcer, task number and round a negotiation subject names
+/// (`murdoch.<announcer>.<task>.<round>`).
+fn read_subject(subject: &str) -> Option<(&str, u64, u32)> {
+    let rest = subject.strip_prefix(NEGOTIATION_PREFIX)?;
+    let mut parts = rest.rsplitn(3, '.');
+    let round = parts.next()?.parse().ok()?;
+    let task = parts.next()?.parse().ok()?;
+    let announcer = parts.next().filter(|a| !a.is_empty())?;
+    Some((announcer, task, round))
+}
+
+/// A packet worth decoding: one that starts with a MURDOCH label.
+fn is_murdoch(packet: &Packet<'_>) -> bool {
+    packet.subjects().any(|s| s.starts_with(NEGOTIATION_PREFIX))
+        || packet.lines().next().is_some_and(|l| l.label() == "task")
+}
+
+impl TaskBoard {
+    /// An empty board started at `now`.
+    pub fn new(now: Instant) -> TaskBoard {
+        TaskBoard {
+            started: now,
+            tasks: BTreeMap::new(),
+            robots: BTreeMap::new(),
+            forgotten: 0,
+            bad: 0,
+            version: 0,
+        }
+    }
+
+    /// Changes whenever the board does.
+    pub fn version(&self) -> u64 {
+        self.version
+    }
+
+    /// The tasks, by announcer and number.
+    pub fn tasks(&self) -> impl Iterator<Item = &TaskView> {
+        self.tasks.values()
+    }
+
+    /// One task.
+    pub fn task(&self, announcer: &str, id: u64) -> Option<&TaskView> {
+        self.tasks.get(&(announcer.to_owned(), id))
+    }
+
+    /// The robots, by name.
+    pub fn robots(&self) -> impl Iterator<Item = &RobotView> {
+        self.robots.values()
+    }
+
+    /// MURDOCH packets that did not read.
+    pub fn bad(&self) -> u64 {
+        self.bad
+    }
+
+    fn ms(&self, now: Instant) -> u64 {
+        now.saturating_duration_since(self.started).as_millis() as u64
+    }
+
+    /// Takes in a packet received at `now`; packets that are not MURDOCH's are ignored.
+    pub fn on_packet(&mut self, now: Instant, packet: &Packet<'_>) {
+        if !is_murdoch(packet) {
+            return;
+        }
+        match Message::decode(packet) {
+            Ok(Message::Announce(a)) => self.on_announce(now, a),
+            Ok(Message::Negotiation { subject, message }) => {
+                if let Some((announcer, id, round)) = read_subject(subject.as_str()) {
+                    let announcer = announcer.to_owned();
+                    self.on_negotiation(now, announcer, id, round, message);
+                }
+            }
+            Ok(Message::Robot(r)) => self.on_robot(now, r),
+            Err(_) => {
+                self.bad += 1;
+                return;
+            }
+        }
+        self.version += 1;
+    }
+
+    /// The task `(announcer, id)`, made if new (forgetting one if the board is full).
+    fn entry(&mut self, now: Instant, announcer: String, id: u64) -> &mut TaskView {
+        let ms = self.ms(now);
+        let key = (announcer, id);
+        if !self.tasks.contains_key(&key) && self.tasks.len() >= MAX_TASKS {
+            let victim = self
+                .tasks
+                .iter()
+                .filter(|(_, t)| t.state.ended())
+                .min_by_key(|(_, t)| t.last)
+                .or_else(|| self.tasks.iter().min_by_key(|(_, t)| t.last))
+                .map(|(k, _)| k.clone());
+            if let Some(k) = victim {
+                self.tasks.remove(&k);
+                self.forgotten += 1;
+            }
+        }
+        let task = self.tasks.entry(key.clone()).or_insert_with(|| TaskView {
+            announcer: key.0,
+            id: key.1,
+            name: String::new(),
+            resources: Vec::new(),
+            length_s: 0.0,
+            state: TaskState::Announced,
+            round: 1,
+            bids: Vec::new(),
+            bids_missed: 0,
+            winner: None,
+            progress: None,
+            renewals: 0,
+            reallocations: 0,
+            reason: String::new(),
+            timeline: VecDeque::new(),
+            first: ms,
+            last: ms,
+        });
+        task.last = ms;
+        task
+    }
+
+    fn on_announce(&mut self, now: Instant, a: Announcement) {
+        let round = read_subject(a.negotiation.as_str()).map_or(1, |(_, _, r)| r);
+        let ms = self.ms(now);
+        let task = self.entry(now, a.announcer.to_string(), a.id);
+        task.name = a.spec.name.clone();
+        task.resources = a.spec.resources.iter().map(|s| s.to_string()).collect();
+        task.length_s = a.spec.length_s;
+        let again =
+            round > task.round || matches!(task.state, TaskState::Cancelled | TaskState::Abandoned);
+        let text = if again {
+            task.reallocations += 1;
+            task.winner = None;
+            task.progress = None;
+            format!("auctioned again (round {round})")
+        } else {
+            format!(
+                "announced to {} (bids for {} ms)",
+                a.spec.resources,
+                a.deadline.as_millis()
+            )
+        };
+        if again || task.state == TaskState::Announced {
+            task.state = TaskState::Announced;
+        }
+        task.round = task.round.max(round);
+        note(task, ms, text);
+    }
+
+    fn on_negotiation(
+        &mut self,
+        now: Instant,
+        announcer: String,
+        id: u64,
+        round: u32,
+        m: Negotiation,
+    ) {
+        if m.task() != id {
+            self.bad += 1;
+            return;
+        }
+        let ms = self.ms(now);
+        let task = self.entry(now, announcer, id);
+        if round > task.round {
+            // A new round whose announcement this board did not hear.
+            task.round = round;
+            task.reallocations += 1;
+            task.winner = None;
+            task.progress = None;
+        }
+        match m {
+            Negotiation::Bid(b) => {
+                let bidder = b.bidder.to_string();
+                if let Some(old) = task
+                    .bids
+                    .iter_mut()
+                    .find(|x| x.round == round && x.bidder == bidder)
+                {
+                    old.score = b.score;
+                    old.withdrawn = false;
+                } else if task.bids.len() < MAX_BIDS {
+                    task.bids.push(BidView {
+                        round,
+                        bidder: bidder.clone(),
+                        score: b.score,
+                        withdrawn: false,
+                    });
+                } else {
+                    task.bids_missed += 1;
+                }
+                if task.state == TaskState::Announced {
+                    task.state = TaskState::Bidding;
+                }
+                note(task, ms, format!("{bidder} bid {}", score_text(b.score)));
+            }
+            Negotiation::Decline { bidder, .. } => {
+                for b in task.bids.iter_mut() {
+                    if b.round == round && b.bidder == bidder.as_str() {
+                        b.withdrawn = true;
+                    }
+                }
+                note(task, ms, format!("{bidder} withdrew"));
+            }
+            Negotiation::Award {
+                winner,
+                score,
+                bids,
+                ..
+            } => {
+                let heard = task.bids.iter().filter(|b| b.round == round).count() as u32;
+                task.bids_missed = task.bids_missed.max(bids.saturating_sub(heard));
+                let why = if bids == 1 {
+                    "the only bid".to_owned()
+                } else {
+                    format!("the lowest of {bids} bids")
+                };
+                note(
+                    task,
+                    ms,
+                    format!("awarded to {winner}: {} is {why}", score_text(score)),
+                );
+                task.winner = Some(WinnerView {
+                    bidder: winner.to_string(),
+                    score,
+                    bids,
+                });
+                if !task.state.ended() {
+                    task.state = TaskState::Awarded;
+                }
+            }
+            Negotiation::Ack { bidder, .. } => {
+                task.state = TaskState::Running;
+                note(task, ms, format!("{bidder} took it and started"));
+            }
+            Negotiation::Renew { by, progress, .. } => {
+                task.renewals += 1;
+                let by_winner = task
+                    .winner
+                    .as_ref()
+                    .is_some_and(|w| w.bidder == by.as_str());
+                if by_winner {
+                    if progress.is_some() {
+                        task.progress = progress;
+                    }
+                    if task.state == TaskState::Awarded {
+                        task.state = TaskState::Running;
+                    }
+                }
+            }
+            Negotiation::Done { bidder, .. } => {
+                if task.state != TaskState::Done {
+                    task.state = TaskState::Done;
+                    task.progress = Some(1.0);
+                    note(task, ms, format!("{bidder} finished it"));
+                }
+            }
+            Negotiation::Abandon { bidder, reason, .. } => {
+                task.state = TaskState::Abandoned;
+                note(task, ms, format!("{bidder} gave it up: {reason}"));
+                task.reason = reason;
+            }
+            Negotiation::Cancel { reason, .. } => {
+                task.state = TaskState::Cancelled;
+                note(task, ms, format!("the announcer withdrew it: {reason}"));
+                task.reason = reason;
+            }
+            Negotiation::Unachievable { name, reason, .. } => {
+                if task.name.is_empty() {
+                    task.name = name;
+                }
+                task.state = TaskState::Unachievable;
+                note(task, ms, format!("unachievable: {reason}"));
+                task.reason = reason;
+            }
+        }
+    }
+
+    fn on_robot(&mut self, now: Instant, r: RobotReport) {
+        let name = r.name.to_string();
+        if !self.robots.contains_key(&name) && self.robots.len() >= MAX_ROBOTS {
+            return;
+        }
+        let last = self.ms(now);
+        self.robots.insert(
+            name.clone(),
+            RobotView {
+                name,
+                mode: r.mode.as_str(),
+                battery: r.battery,
+                resources: r.resources.iter().map(|s| s.to_string()).collect(),
+                task: r.task.as_ref().map(|(id, _)| *id),
+                task_name: r.task.map(|(_, n)| n),
+                last,
+                silent: false,
+            },
+        );
+    }
+
+    /// The board for the page at `now`: tasks with the most recent first.
+    pub fn json(&self, now: Instant) -> String {
+        let ms = self.ms(now);
+        let mut tasks: Vec<&TaskView> = self.tasks.values().collect();
+        tasks.sort_by_key(|t| std::cmp::Reverse(t.first));
+        let silent_ms = ROBOT_SILENT_AFTER.as_millis() as u64;
+        let robots = self
+            .robots
+            .values()
+            .map(|r| RobotView {
+                silent: ms.saturating_sub(r.last) >= silent_ms,
+                ..r.clone()
+            })
+            .collect();
+        let json = BoardJson {
+            t: "tasks",
+            now: ms,
+            tasks,
+            robots,
+            forgotten: self.forgotten,
+            bad: self.bad,
+        };
+        serde_json::to_string(&json).unwrap_or_else(|_| "{}".into())
+    }
+}
+
+/// A score as the board writes it.
+fn score_text(score: f64) -> String {
+    format!("{score:.1}")
+}
+
+fn note(task: &mut TaskView, at: u64, text: String) {
+    if task.timeline.len() == MAX_TIMELINE {
+        task.timeline.pop_front();
+    }
+    task.timeline.push_back(Moment { at, text });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use colony_proto::murdoch::{negotiation_subject, Bid, RobotMode, TaskSpec, Token};
+
+    fn token(s: &str) -> Token {
+        Token::new(s).unwrap()
+    }
+
+    fn announcement(round: u32) -> Announcement {
+        Announcement {
+            spec: TaskSpec::new("sentry-duty", "camera laser".parse().unwrap()).length(2.0),
+            id: 17,
+            negotiation: negotiation_subject(&token("user"), 17, round),
+            deadline: Duration::from_millis(200),
+            announcer: token("user"),
+        }
+    }
+
+    fn feed(board: &mut TaskBoard, at: Instant, bytes: &[u8]) {
+        board.on_packet(at, &Packet::parse(bytes).unwrap());
+    }
+
+    fn say(board: &mut TaskBoard, at: Instant, round: u32, m: Negotiation) {
+        let subject = negotiation_subject(&token("user"), 17, round);
+        feed(board, at, &m.encode(&subject).unwrap());
+    }
+
+    fn bid(bidder: &str, score: f64) -> Negotiation {
+        Negotiation::Bid(Bid {
+            task: 17,
+            bidder: token(bidder),
+            score,
+        })
+    }
+
+    fn award(winner: &str, score: f64, bids: u32) -> Negotiation {
+        Negotiation::Award {
+            task: 17,
+            winner: token(winner),
+            score,
+            bids,
+        }
+    }
+
+    fn state(board: &TaskBoard) -> TaskState {
+        board.task("user", 17).unwrap().state
+    }
+
+    #[test]
+    fn a_task_moves_from_announced_to_done_with_its_bids_and_winner() {
+        let t0 = Instant::now();
+        let ms = |n| t0 + Duration::from_millis(n);
+        let mut b = TaskBoard::new(t0);
+        feed(&mut b, ms(10), &announcement(1).encode().unwrap());
+        assert_eq!(state(&b), TaskState::Announced);
+        say(&mut b, ms(20), 1, bid("r2", 182.5));
+        say(&mut b, ms(25), 1, bid("r5", 90.0));
+        say(
+            &mut b,
+            ms(26),
+            1,
+            Negotiation::Decline {
+                task: 17,
+                bidder: token("r2"),
+            },
+        );
+        assert_eq!(state(&b), TaskState::Bidding);
+        say(&mut b, ms(210), 1, award("r5", 90.0, 3));
+        assert_eq!(state(&b), TaskState::Awarded);
+        say(
+            &mut b,
+            ms(211),
+            1,
+            Negotiation::Ack {
+                task: 17,
+                bidder: token("r5"),
+            },
+        );
+        say(
+            &mut b,
+            ms(1211),
+            1,
+            Negotiation::Renew {
+                task: 17,
+                by: token("r5"),
+                progress: Some(0.5),
+            },
+        );
+        let t = b.task("user", 17).unwrap();
+        assert_eq!(t.state, TaskState::Running);
+        assert_eq!(t.progress, Some(0.5));
+        assert_eq!(
+            (t.name.as_str(), t.resources.len(), t.length_s),
+            ("sentry-duty", 2, 2.0)
+        );
+        assert_eq!(t.bids.len(), 2);
+        assert!(t.bids[0].withdrawn && !t.bids[1].withdrawn);
+        // The announcer heard three bids; the board two.
+        assert_eq!(t.bids_missed, 1);
+        assert_eq!(t.winner.as_ref().unwrap().bidder, "r5");
+        assert!(t
+            .timeline
+            .iter()
+            .any(|m| m.text == "awarded to r5: 90.0 is the lowest of 3 bids"));
+        say(
+            &mut b,
+            ms(2300),
+            1,
+            Negotiation::Done {
+                task: 17,
+                bidder: token("r5"),
+            },
+        );
+        assert_eq!(state(&b), TaskState::Done);
+        let json: serde_json::Value = serde_json::from_str(&b.json(ms(2400))).unwrap();
+        assert_eq!(json["t"], "tasks");
+        assert_eq!(json["tasks"][0]["state"], "done");
+        assert_eq!(json["tasks"][0]["bids"][1]["score"], 90.0);
+        assert_eq!(json["tasks"][0]["first"], 10);
+    }
+
+    #[test]
+    fn a_cancelled_task_auctioned_again_counts_a_reallocation() {
+        let t0 = Instant::now();
+        let mut b = TaskBoard::new(t0);
+        feed(&mut b, t0, &announcement(1).encode().unwrap());
+        say(&mut b, t0, 1, bid("r2", 5.0));
+        say(&mut b, t0, 1, award("r2", 5.0, 1));
+        say(
+            &mut b,
+            t0,
+            1,
+            Negotiation::Ack {
+                task: 17,
+                bidder: token("r2"),
+            },
+        );
+        say(
+            &mut b,
+            t0,
+            1,
+            Negotiation::Cancel {
+                task: 17,
+                reason: "presumed failed: no renewal for 3.0 s".into(),
+            },
+        );
+        assert_eq!(state(&b), TaskState::Cancelled);
+        feed(&mut b, t0, &announcement(2).encode().unwrap());
+        say(&mut b, t0, 2, bid("r3", 7.0));
+        say(&mut b, t0, 2, award("r3", 7.0, 1));
+        let t = b.task("user", 17).unwrap();
+        assert_eq!(
+            (t.state, t.round, t.reallocations),
+            (TaskState::Awarded, 2, 1)
+        );
+        assert_eq!(t.winner.as_ref().unwrap().bidder, "r3");
+        assert_eq!(t.reason, "presumed failed: no renewal for 3.0 s");
+        assert_eq!(t.bids.iter().map(|b| b.round).collect::<Vec<_>>(), [1, 2]);
+    }
+
+    #[test]
+    fn a_task_whose_announcement_was_missed_is_followed_from_its_subject() {
+        let t0 = Instant::now();
+        let mut b = TaskBoard::new(t0);
+        say(&mut b, t0, 3, award("r1", 1.0, 1));
+        let t = b.task("user", 17).unwrap();
+        assert_eq!(
+            (t.state, t.round, t.name.as_str()),
+            (TaskState::Awarded, 3, "")
+        );
+        // A message naming another task than its subject is refused.
+        let wrong = Negotiation::Done {
+            task: 99,
+            bidder: token("r1"),
+        };
+        say(&mut b, t0, 3, wrong);
+        assert_eq!(b.bad(), 1);
+        assert_eq!(state(&b), TaskState::Awarded);
+    }
+
+    #[test]
+    fn robots_are_shown_from_their_reports_and_silent_when_unheard() {
+        let t0 = Instant::now();
+        let mut b = TaskBoard::new(t0);
+        let report = RobotReport {
+            name: token("r2"),
+            mode: RobotMode::Working,
+            battery: 0.4,
+            resources: "camera".parse().unwrap(),
+            task: Some((17, "sentry-duty".into())),
+        };
+        feed(&mut b, t0, &report.encode().unwrap());
+        let json: serde_json::Value = serde_json::from_str(&b.json(t0)).unwrap();
+        let r = &json["robots"][0];
+        assert_eq!(
+            (r["name"].as_str(), r["mode"].as_str()),
+            (Some("r2"), Some("working"))
+        );
+        assert_eq!(
+            (r["battery"].as_f64(), r["task"].as_u64()),
+            (Some(0.4), Some(17))
+        );
+        assert_eq!(r["silent"], false);
+        let later = t0 + ROBOT_SILENT_AFTER;
+        let json: serde_json::Value = serde_json::from_str(&b.json(later)).unwrap();
+        assert_eq!(json["robots"][0]["silent"], true);
+    }
+
+    #[test]
+    fn the_board_stays_bounded_and_forgets_ended_tasks_first() {
+        let t0 = Instant::now();
+        let mut b = TaskBoard::new(t0);
+        let running = negotiation_subject(&token("keep"), 1, 1);
+        let ack = Negotiation::Ack {
+            task: 1,
+            bidder: token("r1"),
+        };
+        feed(&mut b, t0, &ack.encode(&running).unwrap());
+        for id in 0..(MAX_TASKS as u64 * 2) {
+            let at = t0 + Duration::from_millis(id + 1);
+            let s = negotiation_subject(&token("u"), id, 1);
+            let done = Negotiation::Done {
+                task: id,
+                bidder: token("r1"),
+            };
+            feed(&mut b, at, &done.encode(&s).unwrap());
+            for n in 0..(MAX_BIDS as u32 + 3) {
+                let m = Negotiation::Bid(Bid {
+                    task: id,
+                    bidder: token(&format!("b{n}")),
+                    score: 1.0,
+                });
+                feed(&mut b, at, &m.encode(&s).unwrap());
+            }
+        }
+        assert_eq!(b.tasks().count(), MAX_TASKS);
+        assert!(
+            b.task("keep", 1).is_some(),
+            "a running task outlives ended ones"
+        );
+        let t = b.tasks().last().unwrap();
+        assert_eq!(t.bids.len(), MAX_BIDS);
+        assert_eq!(t.bids_missed, 3);
+        assert!(t.timeline.len() <= MAX_TIMELINE);
+    }
+
+    #[test]
+    fn other_traffic_and_bad_murdoch_packets_change_nothing_but_the_count() {
+        let t0 = Instant::now();
+        let mut b = TaskBoard::new(t0);
+        feed(&mut b, t0, b"@ <vision> 0\nrobot id 1 x 2 y 3\n");
+        assert_eq!((b.version(), b.bad()), (0, 0));
+        feed(
+            &mut b,
+            t0,
+            b"@ <murdoch.u.1.1> 0\nbid task 1 bidder r1 score nan\n",
+        );
+        feed(
+            &mut b,
+            t0,
+            b"@ <murdoch.robots> 0\nrobot name r1 mode idle battery 7 resources \"\"\n",
+        );
+        assert_eq!((b.version(), b.bad(), b.tasks().count()), (0, 2, 0));
+        assert_eq!(read_subject("murdoch..1.1"), None);
+        assert_eq!(read_subject("murdoch.a.b.1.2"), Some(("a.b", 1, 2)));
+    }
+}

@@ -1,0 +1,89 @@
+//! The task board's server side on loopback, next to a real hub: MURDOCH
+//! messages published on subjects nobody subscribes to (a task's negotiation
+//! subject, robots' reports) reach the board through the monitor's tap, and
+//! the page gets the task from announced to done with its bids and winner.
+
+mod common;
+
+use std::time::Duration;
+
+use colony_client::UdpClient;
+use serde_json::Value;
+
+use common::{get, monitor, with_token, Hub, Ws};
+
+const ANNOUNCE: &str = "@ <camera> <idle> 0\ntask name inspect id 4 negotiation murdoch.user.4.1 deadline_ms 200 length_s 2 announcer user\nmetric name distance weight 1\n";
+const BID: &str = "@ <murdoch.user.4.1> 0\nbid task 4 bidder r2 score 12.5\n";
+const AWARD: &str = "@ <murdoch.user.4.1> 0\naward task 4 winner r2 score 12.5 bids 1\n";
+const DONE: &str = "@ <murdoch.user.4.1> 0\ndone task 4 bidder r2\n";
+const REPORT: &str = "@ <murdoch.robots> 0\nrobot name r2 mode working battery 0.7 resources \"camera\" task 4 task_name inspect\n";
+
+/// Publishes `packet` until the board the page gets passes `seen`; that board.
+fn until(
+    ws: &mut Ws,
+    publisher: &mut UdpClient,
+    packet: &str,
+    what: &str,
+    seen: impl Fn(&Value) -> bool,
+) -> Value {
+    let deadline = std::time::Instant::now() + Duration::from_secs(20);
+    while std::time::Instant::now() < deadline {
+        publisher.publish(packet.as_bytes()).unwrap();
+        let v = ws.recv();
+        if v["t"] == "tasks" && seen(&v) {
+            return v;
+        }
+    }
+    panic!("the board never showed {what}");
+}
+
+#[test]
+fn the_board_follows_a_task_from_announced_to_done_on_subjects_nobody_subscribes_to() {
+    let hub = Hub::start();
+    let m = monitor(&hub);
+    let page = get(m.local_addr(), &with_token(&m, "/tasks"));
+    assert!(
+        page.starts_with("HTTP/1.0 200") && page.contains("<title>colony task board</title>"),
+        "{page:.300}"
+    );
+    assert!(get(m.local_addr(), "/tasks.js").contains("text/javascript"));
+
+    let mut ws = Ws::connect(m.local_addr(), &with_token(&m, "/ws?view=tasks"));
+    let mut publisher = UdpClient::connect(hub.addr).unwrap();
+    let task = |v: &Value| v["tasks"][0].clone();
+    let b = until(&mut ws, &mut publisher, ANNOUNCE, "the announcement", |v| {
+        task(v)["name"] == "inspect"
+    });
+    assert_eq!(task(&b)["state"], "announced");
+    assert_eq!(task(&b)["resources"], serde_json::json!(["camera"]));
+    let b = until(&mut ws, &mut publisher, BID, "the bid", |v| {
+        task(v)["bids"].as_array().is_some_and(|a| !a.is_empty())
+    });
+    assert_eq!(task(&b)["state"], "bidding");
+    assert_eq!(task(&b)["bids"][0]["bidder"], "r2");
+    assert_eq!(task(&b)["bids"][0]["score"], 12.5);
+    until(&mut ws, &mut publisher, AWARD, "the award", |v| {
+        task(v)["winner"]["bidder"] == "r2"
+    });
+    let b = until(&mut ws, &mut publisher, REPORT, "the robot", |v| {
+        v["robots"][0]["name"] == "r2"
+    });
+    assert_eq!(b["robots"][0]["mode"], "working");
+    assert_eq!(b["robots"][0]["battery"], 0.7);
+    let b = until(&mut ws, &mut publisher, DONE, "the end", |v| {
+        task(v)["state"] == "done"
+    });
+    let done = task(&b);
+    let timeline: Vec<&str> = done["timeline"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|m| m["text"].as_str())
+        .collect();
+    assert!(
+        timeline.contains(&"awarded to r2: 12.5 is the only bid"),
+        "{timeline:?}"
+    );
+    assert!(timeline.contains(&"r2 finished it"), "{timeline:?}");
+    m.shutdown().unwrap();
+}

@@ -1,0 +1,102 @@
+// The task board (/tasks) over a real hub with MURDOCH deployed as the paper
+// does it: each robot's agent its own `colony tasks agent` process, tasks
+// introduced with `colony tasks announce`. The page shows a task go from
+// announced to done with its bid and winner; then the winner of a longer
+// task is killed (SIGKILL) mid-task, and the page shows the task auctioned
+// again and taken by the other robot.
+import assert from 'node:assert/strict';
+import { after, before, describe, test } from 'node:test';
+import {
+  ColonyProcess, colony, launchBrowser, screenshot, startHub, startMonitor, until,
+} from './lib.mjs';
+
+/** The board's task cards as the page draws them. */
+const cards = () => [...document.querySelectorAll('.task')].map((el) => ({
+  name: el.querySelector('h3').textContent,
+  key: el.dataset.task,
+  state: el.dataset.state,
+  bidders: [...el.querySelectorAll('tr.bid')].map((r) => r.dataset.bidder),
+  winner: el.querySelector('.winner')?.textContent ?? null,
+  reallocations: Number(el.querySelector('[data-reallocations]')?.dataset.reallocations ?? 0),
+}));
+
+describe('the task board', { concurrency: false }, () => {
+  const procs = [];
+  const agents = {};
+  let hub;
+  let browser;
+  let page;
+
+  before(async () => {
+    hub = await startHub();
+    procs.push(hub);
+    const monitor = await startMonitor(hub.addr, 'monitor-tasks');
+    procs.push(monitor);
+    for (const name of ['ra', 'rb']) {
+      const a = new ColonyProcess(`agent-${name}`, ['tasks', 'agent', '--hub', hub.addr, '--name', name, '--resources', 'camera,mobile']);
+      await a.waitFor(/joins with/);
+      agents[name] = a;
+      procs.push(a);
+    }
+    browser = await launchBrowser();
+    page = browser.page;
+    await page.goto(monitor.url.replace('/?', '/tasks?'));
+  });
+
+  after(async () => {
+    if (browser) await browser.close();
+    for (const p of procs.reverse()) await p.stop();
+  });
+
+  test('shows both robots from their reports, idle with their resources', async () => {
+    await until(page, () => ['ra', 'rb'].every((n) => document.querySelector(`tr[data-robot="${n}"][data-mode="idle"]`)),
+      undefined, 30000, 'the robots never showed as idle');
+    const text = await page.textContent('tr[data-robot="ra"]');
+    assert.match(text, /camera mobile/);
+  });
+
+  test('a task announced from the command line goes from announced to done with its bids and winner', async () => {
+    const out = await colony(['tasks', 'announce', '--hub', hub.addr, '--name', 'inspect', '--needs', 'camera', '--length', '1', '--as', 'ops'], 60000);
+    assert.match(out, /done by r[ab]/);
+    const done = await until(page, () => {
+      const c = [...document.querySelectorAll('.task')].find((el) => el.dataset.state === 'done');
+      return c && c.querySelectorAll('tr.bid').length > 0 && c.dataset.task;
+    }, undefined, 30000, 'the task never showed as done with its bids');
+    const card = (await page.evaluate(cards)).find((c) => c.key === done);
+    assert.match(card.name, /inspect/);
+    assert.ok(card.bidders.length >= 1, JSON.stringify(card));
+    assert.ok(['ra', 'rb'].includes(card.winner), JSON.stringify(card));
+    // The timeline says who won and why.
+    await page.click(`.task[data-task="${done}"] summary`);
+    const timeline = await page.textContent(`.task[data-task="${done}"] .timeline`);
+    assert.match(timeline, /announced to \{camera\}/);
+    assert.match(timeline, /awarded to r[ab]: .* is the (only bid|lowest of \d bids)/);
+    assert.match(timeline, /finished it/);
+    await screenshot(page, 't-task-done');
+  });
+
+  test('killing the winner mid-task shows the task re-allocated to the other robot', async () => {
+    const announce = new ColonyProcess('announce-patrol', ['tasks', 'announce', '--hub', hub.addr, '--name', 'patrol', '--needs', 'mobile', '--length', '6', '--as', 'ops2']);
+    procs.push(announce);
+    const winner = await until(page, () => {
+      const c = [...document.querySelectorAll('.task')].find((el) => /patrol/.test(el.querySelector('h3').textContent));
+      return c && c.dataset.state === 'running' && c.querySelector('.winner')?.textContent;
+    }, undefined, 30000, 'the patrol task never showed as running');
+    await agents[winner].stop('SIGKILL');
+    const other = winner === 'ra' ? 'rb' : 'ra';
+    await until(page, (o) => {
+      const c = [...document.querySelectorAll('.task')].find((el) => /patrol/.test(el.querySelector('h3').textContent));
+      return c && c.querySelector('[data-reallocations]') && c.querySelector('.winner')?.textContent === o;
+    }, other, 30000, 'the patrol task never showed re-allocated to the other robot');
+    const card = (await page.evaluate(cards)).find((c) => /patrol/.test(c.name));
+    assert.equal(card.reallocations, 1, JSON.stringify(card));
+    await page.click(`.task[data-task="${card.key}"] summary`);
+    assert.match(await page.textContent(`.task[data-task="${card.key}"] .timeline`), /withdrew it: presumed failed/);
+    // The killed robot falls silent on the board.
+    await until(page, (w) => document.querySelector(`tr[data-robot="${w}"][data-mode="silent"]`), winner, 30000,
+      'the killed robot never showed as silent');
+    await screenshot(page, 't-task-reallocated');
+    const { code } = await announce.exited;
+    assert.equal(code, 0, announce.text);
+  });
+});
