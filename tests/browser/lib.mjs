@@ -118,10 +118,10 @@ function sharedKey() {
   return keyFile;
 }
 
-/** `colony hub` on a loopback port (a free one unless given). */
-export async function startHub(port) {
+/** `colony hub` on a loopback port (a free one unless given), with `extra` arguments. */
+export async function startHub(port, extra = []) {
   const p = port ?? (await freeUdpPort());
-  const hub = new ColonyProcess('hub', ['hub', '--bind', `127.0.0.1:${p}`, '--key', sharedKey()]);
+  const hub = new ColonyProcess('hub', ['hub', '--bind', `127.0.0.1:${p}`, '--key', sharedKey(), ...extra]);
   await hub.waitFor(/addr=/);
   hub.addr = `127.0.0.1:${p}`;
   hub.port = p;

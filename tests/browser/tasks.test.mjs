@@ -3,8 +3,12 @@
 // introduced with `colony tasks announce`. The page shows a task go from
 // announced to done with its bid and winner; then the winner of a longer
 // task is killed (SIGKILL) mid-task, and the page shows the task auctioned
-// again and taken by the other robot.
+// again and taken by the other robot. Last, the first hub's traffic log is
+// replayed into a fresh hub, and a fresh monitor's board shows the same story.
 import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
 import { after, before, describe, test } from 'node:test';
 import {
   ColonyProcess, colony, launchBrowser, screenshot, startHub, startMonitor, until,
@@ -24,11 +28,13 @@ describe('the task board', { concurrency: false }, () => {
   const procs = [];
   const agents = {};
   let hub;
+  let log;
   let browser;
   let page;
 
   before(async () => {
-    hub = await startHub();
+    log = path.join(fs.mkdtempSync(path.join(os.tmpdir(), 'colony-tasks-log-')), 'tasks.clog');
+    hub = await startHub(undefined, ['--log', log]);
     procs.push(hub);
     const monitor = await startMonitor(hub.addr, 'monitor-tasks');
     procs.push(monitor);
@@ -98,5 +104,24 @@ describe('the task board', { concurrency: false }, () => {
     await screenshot(page, 't-task-reallocated');
     const { code } = await announce.exited;
     assert.equal(code, 0, announce.text);
+  });
+
+  test('a replayed traffic log shows the same tasks on a fresh hub\'s board', async () => {
+    const again = await startHub();
+    procs.push(again);
+    const monitor = await startMonitor(again.addr, 'monitor-replay');
+    procs.push(monitor);
+    const second = await browser.context.newPage();
+    await second.goto(monitor.url.replace('/?', '/tasks?'));
+    await until(second, () => document.querySelector('#conn.ok'), undefined, 30000, 'the replay page never connected');
+    await colony(['replay', log, '--hub', again.addr, '--speed', '4'], 120000);
+    await until(second, () => {
+      const all = [...document.querySelectorAll('.task')];
+      const inspect = all.find((el) => /inspect/.test(el.querySelector('h3').textContent));
+      const patrol = all.find((el) => /patrol/.test(el.querySelector('h3').textContent));
+      return inspect?.dataset.state === 'done' && patrol?.dataset.state === 'done'
+        && patrol.querySelector('[data-reallocations="1"]');
+    }, undefined, 30000, 'the replayed board never showed both tasks done, patrol re-allocated once');
+    await screenshot(second, 't-task-replayed');
   });
 });
