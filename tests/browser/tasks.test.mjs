@@ -5,6 +5,8 @@
 // task is killed (SIGKILL) mid-task, and the page shows the task auctioned
 // again and taken by the other robot. Last, the first hub's traffic log is
 // replayed into a fresh hub, and a fresh monitor's board shows the same story.
+// And box pushing run live: the monitor draws the robots, the box and the
+// goal (which moves mid-run), and the board shows the watcher's push tasks.
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import os from 'node:os';
@@ -123,5 +125,29 @@ describe('the task board', { concurrency: false }, () => {
         && patrol.querySelector('[data-reallocations="1"]');
     }, undefined, 30000, 'the replayed board never showed both tasks done, patrol re-allocated once');
     await screenshot(second, 't-task-replayed');
+  });
+
+  test('box pushing run live is drawn in the monitor and its push auctions are on the board', async () => {
+    const monitorUrl = (await page.evaluate(() => location.href)).replace('/tasks?', '/?');
+    const view = await browser.context.newPage();
+    await view.goto(monitorUrl);
+    const run = new ColonyProcess('boxpush-live', ['tasks', 'boxpush', '--hub', hub.addr, '--speed', '10', '--move-goal-at', '20', '--moved-goal', '520,430']);
+    procs.push(run);
+    await until(view, () => window.colony.robots === 3 && window.colony.boxes.length === 1 && window.colony.goal,
+      undefined, 30000, 'the monitor never drew the watcher, the pushers, the box and the goal');
+    const first = await view.evaluate(() => window.colony.goal);
+    // The field's (360, 400) is drawn at (10, 100): the arena is centred on the origin.
+    assert.deepEqual(first, [10, 100]);
+    await until(view, () => window.colony.goal[0] === 170 && window.colony.goal[1] === 130, undefined, 60000,
+      'the goal never moved on the monitor');
+    await until(page, () => [...document.querySelectorAll('.task h3')].some((h) => /push-(left|right)-end/.test(h.textContent)),
+      undefined, 30000, 'the board never showed a push task');
+    await until(page, () => document.querySelector('tr[data-robot="watcher"][data-mode="working"]'), undefined, 30000,
+      'the board never showed the watcher at work');
+    await screenshot(view, 't-boxpush-live');
+    const { code } = await run.exited;
+    assert.equal(code, 0, run.text);
+    assert.match(run.text, /the goal moved to \(520, 430\)/);
+    assert.match(run.text, /box at the goal/);
   });
 });

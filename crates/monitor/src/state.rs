@@ -728,6 +728,19 @@ mod tests {
             .map(String::as_str)
             .collect();
         assert!(text.starts_with(r#"{"t":"world","now":"#), "{text}");
-        assert_eq!(keys.len(), 16, "{keys:?}");
+        assert_eq!(keys.len(), 18, "{keys:?}");
+        // No box and no goal in a sorting arena.
+        assert_eq!(json["boxes"], serde_json::json!([]));
+        assert_eq!(json["goal"], serde_json::Value::Null);
+        s.on_packet(
+            t0,
+            &parse("@ <vision> 20\nstep n 8\nbox id 0 x 1 y 2 theta 0.5 length 60 width 8\ngoal x 3 y 4\n"),
+        );
+        let json: serde_json::Value = serde_json::from_str(&s.world_json(t0)).unwrap();
+        assert_eq!(
+            json["boxes"][0],
+            serde_json::json!([0, 1.0, 2.0, 0.5, 60.0, 8.0])
+        );
+        assert_eq!(json["goal"], serde_json::json!([3.0, 4.0]));
     }
 }

@@ -79,6 +79,8 @@ function onWorld(w) {
   api.worlds += 1;
   api.robots = w.robots.length;
   api.pucks = w.pucks.length;
+  api.boxes = (w.boxes ?? []).map((b) => [b[1], b[2]]);
+  api.goal = w.goal ?? null;
   api.step = w.step;
   api.held = w.held;
   api.all = w.all;
@@ -275,6 +277,30 @@ function draw() {
     }
     ctx.fillStyle = KIND_COLOURS[kind % KIND_COLOURS.length];
     ctx.fill();
+  }
+
+  // A goal (box pushing): a ringed cross.
+  if (w.goal) {
+    const [gx, gy] = w.goal;
+    const gr = 12;
+    ctx.lineWidth = 2 * px;
+    ctx.strokeStyle = '#23794a';
+    ctx.beginPath();
+    ctx.arc(gx, gy, gr, 0, 2 * Math.PI);
+    ctx.moveTo(gx - gr * 1.5, gy);
+    ctx.lineTo(gx + gr * 1.5, gy);
+    ctx.moveTo(gx, gy - gr * 1.5);
+    ctx.lineTo(gx, gy + gr * 1.5);
+    ctx.stroke();
+  }
+  // Boxes robots push: rectangles along their heading.
+  for (const [, bx, by, theta, length, width] of w.boxes ?? []) {
+    ctx.save();
+    ctx.translate(bx, by);
+    ctx.rotate(theta);
+    ctx.fillStyle = '#9c6b30';
+    ctx.fillRect(-length / 2, -width / 2, length, width);
+    ctx.restore();
   }
 
   // Cache points: squares in their kind's colour.

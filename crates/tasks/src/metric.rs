@@ -18,6 +18,8 @@ use crate::protocol::TaskSpec;
 pub struct RobotView<'a> {
     /// Where the robot believes it is, cm (none for a robot with no localisation).
     pub position: Option<Vec2>,
+    /// Which way it faces, rad (none when it does not know).
+    pub heading: Option<f64>,
     /// Its battery's charge, 0 (flat) to 1 (full).
     pub battery: f64,
     /// Its resources.
@@ -48,7 +50,7 @@ pub enum MetricError {
 ///     .param("x", 30.0).param("y", 40.0)
 ///     .metric("distance", 1.0).metric("battery", 100.0);
 /// let resources: ResourceSet = "mobile camera".parse().unwrap();
-/// let me = RobotView { position: Some(Vec2::ZERO), battery: 0.75, resources: &resources };
+/// let me = RobotView { position: Some(Vec2::ZERO), heading: None, battery: 0.75, resources: &resources };
 /// assert_eq!(metrics.score(&task, &me).unwrap(), 50.0 + 25.0);
 /// ```
 pub struct Metrics {
@@ -144,6 +146,7 @@ mod tests {
     fn view(resources: &ResourceSet, position: Option<Vec2>, battery: f64) -> RobotView<'_> {
         RobotView {
             position,
+            heading: None,
             battery,
             resources,
         }

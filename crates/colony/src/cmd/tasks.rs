@@ -17,6 +17,8 @@ const HOURS: Bounds = Bounds::new(0.001, 720.0, "hours");
 /// The box-pushing experiment's simulated time: up to a week, as its settings allow.
 const SIM_TIME: Bounds = Bounds::new(0.0, 604_800.0, "seconds");
 const MAX_SECONDS: Bounds = Bounds::new(0.1, 604_800.0, "seconds");
+/// A live run's speed-up over the wall clock.
+const SPEED: Bounds = Bounds::new(0.01, 1000.0, "times real time");
 
 #[derive(clap::Subcommand, Debug)]
 pub enum TasksCommand {
@@ -123,6 +125,19 @@ pub struct BoxpushArgs {
     /// The goal, `X,Y` in cm (the field is 700 x 600 cm).
     #[arg(long, value_name = "X,Y")]
     pub goal: Option<String>,
+    /// Move the goal at this simulated time, s (to --moved-goal); the watcher follows it.
+    #[arg(long = "move-goal-at", value_name = "S", value_parser = SIM_TIME, requires = "moved_goal")]
+    pub move_goal_at: Option<f64>,
+    /// Where the goal moves to, `X,Y` in cm.
+    #[arg(long = "moved-goal", value_name = "X,Y", requires = "move_goal_at")]
+    pub moved_goal: Option<String>,
+    /// Run live over this hub, paced to the wall clock: the monitor draws the
+    /// field and its task board shows the pushing auctions.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub hub: Option<String>,
+    /// How much faster than real time a live run goes.
+    #[arg(long, default_value_t = 1.0, value_parser = SPEED, requires = "hub")]
+    pub speed: f64,
     /// Give up after this many simulated seconds.
     #[arg(long, default_value_t = 900.0, value_parser = MAX_SECONDS)]
     pub max_seconds: f64,
@@ -333,16 +348,16 @@ fn longterm(args: LongtermArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn parse_goal(s: &str) -> anyhow::Result<colony_sim::Vec2> {
+fn parse_goal(flag: &str, s: &str) -> anyhow::Result<colony_sim::Vec2> {
     let (x, y) = s
         .split_once(',')
-        .with_context(|| format!("--goal `{s}` is not X,Y"))?;
+        .with_context(|| format!("{flag} `{s}` is not X,Y"))?;
     let num = |v: &str| {
         v.trim()
             .parse::<f64>()
             .ok()
             .filter(|v| v.is_finite())
-            .with_context(|| format!("--goal `{s}`: `{v}` is not a number"))
+            .with_context(|| format!("{flag} `{s}`: `{v}` is not a number"))
     };
     Ok(colony_sim::Vec2::new(num(x)?, num(y)?))
 }
@@ -355,12 +370,32 @@ fn boxpush(args: BoxpushArgs) -> anyhow::Result<()> {
         ..Default::default()
     };
     if let Some(g) = &args.goal {
-        cfg.goal = parse_goal(g)?;
+        cfg.goal = parse_goal("--goal", g)?;
     }
-    let out = boxpush::run(&cfg).map_err(anyhow::Error::msg)?;
-    for (t, e) in &out.events {
-        println!("{t:7.1} s  {e}");
+    if let (Some(at), Some(to)) = (args.move_goal_at, &args.moved_goal) {
+        cfg.move_goal = Some((at, parse_goal("--moved-goal", to)?));
     }
+    let out = match &args.hub {
+        Some(hub) => {
+            let hub = super::HubAddr { addr: hub.clone() }.connect()?.hub_addr();
+            let stop = super::stop_flag()?;
+            println!(
+                "box pushing live on the hub at {hub}, {}x real time",
+                args.speed
+            );
+            boxpush::run_live(hub, &cfg, args.speed, &stop, |t, e| {
+                println!("{t:7.1} s  {e}")
+            })
+            .map_err(anyhow::Error::msg)?
+        }
+        None => {
+            let out = boxpush::run(&cfg).map_err(anyhow::Error::msg)?;
+            for (t, e) in &out.events {
+                println!("{t:7.1} s  {e}");
+            }
+            out
+        }
+    };
     let r = &out.report;
     println!(
         "box {} after {:.1} s ({:.1} cm from the goal); {} push tasks announced, {} left and {} right pushes done, by pusher {:?}; {} unachievable, {} re-allocated, {} role swaps, {} messages",

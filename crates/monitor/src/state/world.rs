@@ -59,6 +59,10 @@ pub(super) struct WorldJson<'a> {
     intents: Vec<(u32, &'a str, Option<f64>, Option<f64>)>,
     /// `[robot, kind, x, y]`
     caches: Vec<(u32, u8, f64, f64)>,
+    /// `[id, x, y, theta, length, width]`
+    boxes: Vec<(u32, f64, f64, f64, f64, f64)>,
+    /// `[x, y]`
+    goal: Option<(f64, f64)>,
     pc: Option<(u64, f64)>,
 }
 
@@ -205,6 +209,12 @@ impl WorldView {
                 .iter()
                 .map(|(&(r, k), p)| (r, k.0, p.x, p.y))
                 .collect(),
+            boxes: f
+                .boxes
+                .iter()
+                .map(|b| (b.id, b.pose.x, b.pose.y, b.pose.theta, b.length, b.width))
+                .collect(),
+            goal: f.goal.map(|g| (g.x, g.y)),
             pc: self.pc.back().copied(),
         }
     }

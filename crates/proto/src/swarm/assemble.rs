@@ -63,6 +63,8 @@ impl VisionAssembler {
         m.frame.sizes = frame.sizes.or(m.frame.sizes);
         m.frame.robots.extend(frame.robots);
         m.frame.pucks.extend(frame.pucks);
+        m.frame.boxes.extend(frame.boxes);
+        m.frame.goal = frame.goal.or(m.frame.goal);
         if !m.seen.iter().all(|s| *s) {
             return None;
         }
@@ -151,6 +153,18 @@ mod tests {
                     pos: Vec2::new(-1.25, 3.5),
                 })
                 .collect(),
+            // In the last part: the assembler keeps them from any part.
+            boxes: vec![vision::VisionBox {
+                id: 4,
+                pose: Pose {
+                    x: 1.0,
+                    y: 2.0,
+                    theta: 0.5,
+                },
+                length: 60.0,
+                width: 8.0,
+            }],
+            goal: Some(Vec2::new(7.0, 8.0)),
         };
         let parts = vision::encode(&frame).unwrap();
         assert!(parts.len() > 1);

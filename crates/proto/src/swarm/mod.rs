@@ -66,7 +66,9 @@ pub use assemble::VisionAssembler;
 pub use camera::{camera_channel, CameraView, Observation, SeenPuck};
 pub use debug::{CachePoint, Intent, Intentions, DEBUG};
 pub use metrics::{Progress, METRICS};
-pub use vision::{Arena, Sizes, VisionFrame, VisionPart, VisionPuck, VisionRobot, VISION};
+pub use vision::{
+    Arena, Sizes, VisionBox, VisionFrame, VisionPart, VisionPuck, VisionRobot, VISION,
+};
 
 /// A puck's type (its colour), 0-based.
 #[derive(

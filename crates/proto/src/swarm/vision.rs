@@ -7,7 +7,12 @@
 //! sizes robot_length 12.5 robot_width 10.8 gripper_radius 3.6 puck_diameter 6.3
 //! robot id 0 x 12.5 y -40.1 theta 1.57 carrying 7
 //! puck id 7 kind 0 x 20 y -38
+//! box id 0 x 10 y -170 theta 0.1 length 60 width 8
+//! goal x 10 y 100
 //! ```
+//!
+//! `box` (a body robots push, drawn to scale) and `goal` (where something is to go) are for
+//! worlds other than the sorting arena, such as MURDOCH's box pushing; older readers skip them.
 //!
 //! A large swarm does not fit in one datagram, so [`encode`] splits a [`VisionFrame`] into
 //! parts of at most [`PART_BUDGET`] bytes. Each part starts `step n N part I parts P` and stands
@@ -91,6 +96,19 @@ pub struct VisionPuck {
     pub pos: Vec2,
 }
 
+/// A box the robots push: a rectangle, its length along `pose.theta`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VisionBox {
+    /// Which box.
+    pub id: u32,
+    /// Its centre and the heading of its length, world frame.
+    pub pose: Pose,
+    /// End to end, cm.
+    pub length: f64,
+    /// Side to side, cm.
+    pub width: f64,
+}
+
 /// The world at one control step (or, inside a [`VisionPart`], the share of it one part holds).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct VisionFrame {
@@ -104,6 +122,10 @@ pub struct VisionFrame {
     pub robots: Vec<VisionRobot>,
     /// Every puck.
     pub pucks: Vec<VisionPuck>,
+    /// Every box.
+    pub boxes: Vec<VisionBox>,
+    /// Where something is to go, when the world has such a place.
+    pub goal: Option<Vec2>,
 }
 
 /// One `vision` packet: part `part` of `parts` of the frame of `frame.step`.
@@ -160,6 +182,20 @@ pub fn encode(frame: &VisionFrame) -> Result<Vec<Vec<u8>>, ParseError> {
             r(pk.pos.x),
             r(pk.pos.y)
         ));
+    }
+    for b in &frame.boxes {
+        lines.push(format!(
+            "box id {} x {} y {} theta {} length {} width {}",
+            b.id,
+            r(b.pose.x),
+            r(b.pose.y),
+            r(b.pose.theta),
+            r(b.length),
+            r(b.width)
+        ));
+    }
+    if let Some(g) = frame.goal {
+        lines.push(format!("goal x {} y {}", r(g.x), r(g.y)));
     }
     let mut chunks: Vec<Vec<&str>> = vec![Vec::new()];
     let mut size = 0;
@@ -227,6 +263,11 @@ fn read(packet: &Packet<'_>, policy: &mut LinePolicy) -> Result<VisionPart, Deco
         match line.label() {
             "robot" => frame.robots.extend(policy.take(robot(&line))?),
             "puck" => frame.pucks.extend(policy.take(puck(&line))?),
+            "box" => frame.boxes.extend(policy.take(a_box(&line))?),
+            "goal" => {
+                let g = policy.take(goal(&line))?;
+                frame.goal = g.or(frame.goal);
+            }
             "arena" => {
                 let a = policy.take(arena(&line))?;
                 frame.arena = a.or(frame.arena);
@@ -266,6 +307,24 @@ fn puck(line: &colony_wire::Line<'_>) -> Result<VisionPuck, DecodeError> {
         kind: puck_kind(line, "kind")?,
         pos: Vec2::new(coord(line, "x")?, coord(line, "y")?),
     })
+}
+
+fn a_box(line: &colony_wire::Line<'_>) -> Result<VisionBox, DecodeError> {
+    let size = |name| within(line, name, 0.0..MAX_SIZE);
+    Ok(VisionBox {
+        id: robot_id(line, "id")?,
+        pose: Pose {
+            x: coord(line, "x")?,
+            y: coord(line, "y")?,
+            theta: finite(line, "theta")?,
+        },
+        length: size("length")?,
+        width: size("width")?,
+    })
+}
+
+fn goal(line: &colony_wire::Line<'_>) -> Result<Vec2, DecodeError> {
+    Ok(Vec2::new(coord(line, "x")?, coord(line, "y")?))
 }
 
 fn arena(line: &colony_wire::Line<'_>) -> Result<Arena, DecodeError> {
@@ -339,6 +398,7 @@ mod tests {
                     pos: Vec2::new(-123.45, 67.89),
                 })
                 .collect(),
+            ..VisionFrame::default()
         }
     }
 
@@ -396,13 +456,42 @@ mod tests {
                 kind: PuckKind(1),
                 pos: Vec2::new(17.0, 0.5),
             }],
+            boxes: vec![VisionBox {
+                id: 0,
+                pose: Pose {
+                    x: 10.0,
+                    y: -70.0,
+                    theta: 0.1,
+                },
+                length: 60.0,
+                width: 8.0,
+            }],
+            goal: Some(Vec2::new(10.0, 60.0)),
         };
         let bytes = encode(&frame).unwrap();
         assert_eq!(
             std::str::from_utf8(&bytes[0]).unwrap(),
             "@ <vision> 20\nstep n 7 part 0 parts 1\narena width 187 height 187 corner 15\n\
-             robot id 1 x 10 y 0 theta 1.57 carrying 3\npuck id 3 kind 1 x 17 y 0.5\n"
+             robot id 1 x 10 y 0 theta 1.57 carrying 3\npuck id 3 kind 1 x 17 y 0.5\n\
+             box id 0 x 10 y -70 theta 0.1 length 60 width 8\ngoal x 10 y 60\n"
         );
+        let back = decode(&Packet::parse(&bytes[0]).unwrap()).unwrap().frame;
+        let frame = VisionFrame {
+            arena: back.arena,
+            robots: frame
+                .robots
+                .iter()
+                .map(|r| VisionRobot {
+                    pose: Pose {
+                        theta: 1.57,
+                        ..r.pose
+                    },
+                    ..*r
+                })
+                .collect(),
+            ..frame
+        };
+        assert_eq!(back, frame);
     }
 
     #[test]
@@ -443,6 +532,7 @@ mod tests {
                 sizes: None,
                 robots: robots.iter().map(|&(id, x, y, theta, carrying)| VisionRobot { id, pose: Pose { x, y, theta }, carrying }).collect(),
                 pucks: pucks.iter().map(|&(id, k, x, y)| VisionPuck { id, kind: PuckKind(k), pos: Vec2::new(x, y) }).collect(),
+                ..VisionFrame::default()
             };
             let parts = encode(&frame).unwrap();
             prop_assert_eq!(parts.len(), 1);

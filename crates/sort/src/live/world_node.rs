@@ -213,6 +213,7 @@ fn vision_frame(world: &World) -> Result<VisionFrame, LiveError> {
         }),
         robots,
         pucks,
+        ..VisionFrame::default()
     })
 }
 

@@ -47,6 +47,7 @@ impl Agent {
         }
         let view = RobotView {
             position: self.position,
+            heading: self.heading,
             battery: self.battery,
             resources: &self.resources,
         };

@@ -59,6 +59,7 @@ pub struct Agent {
     config: AgentConfig,
     metrics: Metrics,
     position: Option<Vec2>,
+    heading: Option<f64>,
     battery: f64,
     mode: AgentMode,
     pending: BTreeMap<Subject, Pending>,
@@ -85,6 +86,7 @@ impl Agent {
             config,
             metrics: Metrics::standard(),
             position: None,
+            heading: None,
             battery: 1.0,
             mode: AgentMode::Idle,
             pending: BTreeMap::new(),
@@ -148,6 +150,11 @@ impl Agent {
     /// Where it is, for the `distance` metric.
     pub fn set_position(&mut self, p: Vec2) {
         self.position = Some(p);
+    }
+
+    /// Which way it faces, rad, for metrics that look (a NaN or infinite heading is unknown).
+    pub fn set_heading(&mut self, theta: f64) {
+        self.heading = theta.is_finite().then(|| colony_proto::wrap_angle(theta));
     }
 
     /// Its charge, 0 to 1 (clamped; NaN counts as flat).

@@ -223,6 +223,7 @@ pub fn compare(cfg: &CompareConfig) -> Result<Comparison, CompareError> {
         }
         let view = RobotView {
             position: Some(r.position),
+            heading: None,
             battery: r.battery,
             resources: &r.resources,
         };

@@ -1,6 +1,7 @@
-//! The robots' control: where the watcher wants each end pushed, how a
-//! pusher gets behind its end and pushes, and where a pusher switched on
-//! again is put back.
+//! The robots' control and senses: where the watcher drives (ahead of the box,
+//! towards the goal) and what it can see, where it wants each end pushed, how
+//! a pusher scores a push by what it sees, gets behind its end and pushes,
+//! and where a pusher switched on again is put back.
 
 use std::f64::consts::PI;
 
@@ -8,6 +9,7 @@ use colony_proto::{wrap_angle, Pose, Vec2, WheelCommand};
 use colony_sim::field::{BoxSpec, Field, RobotSpec};
 
 use super::{PUSH_LEFT, PUSH_RIGHT};
+use crate::metric::RobotView;
 use crate::protocol::{Announcement, ResourceSet, TaskSpec};
 
 pub(super) const BOX: BoxSpec = BoxSpec {
@@ -17,12 +19,86 @@ pub(super) const BOX: BoxSpec = BoxSpec {
     damping: 6.0,
 };
 
+/// Every robot's body, the watcher's too (the paper's were all Pioneers).
 pub(super) const PUSHER: RobotSpec = RobotSpec {
     radius: 8.0,
     max_speed: 20.0,
     max_turn: 2.0,
     amphibious: false,
 };
+
+/// How far the watcher's laser sees the box, cm: beyond it, it cannot tell
+/// how the box lies, and announces nothing until it is close again.
+pub(super) const LASER_RANGE: f64 = 250.0;
+/// How far a pusher's camera makes out an end of the box, cm: a pusher that
+/// cannot see the end it is offered does not bid for it.
+pub(super) const CAMERA_RANGE: f64 = 450.0;
+/// How far ahead of the box, towards the goal, the watcher drives, cm...
+const LEAD: f64 = 110.0;
+/// ...and how far to the side of the box's path, so the box never meets it.
+const SIDE: f64 = 70.0;
+/// What a turn costs a pusher in its `placement` score, cm per radian.
+const TURN_COST: f64 = 25.0;
+
+/// The metric a pusher bids with: how well placed it is, by what it sees.
+pub(super) const PLACEMENT: &str = "placement";
+
+/// Where the watcher wants to be: ahead of the box towards the goal (never
+/// past it) and off to the side of the box's path.
+pub(super) fn lead_point(box_pose: Pose, goal: Vec2) -> Vec2 {
+    let centre = box_pose.position();
+    let g = goal - centre;
+    let d = g.length();
+    if d < 1e-6 {
+        return centre + Vec2::new(0.0, SIDE);
+    }
+    let ahead = g * (1.0 / d);
+    let left = Vec2::new(-ahead.y, ahead.x);
+    centre + ahead * d.min(LEAD) + left * SIDE
+}
+
+/// The watcher's wheels: to its lead point, then facing the box.
+pub(super) fn watcher_wheels(me: Pose, box_pose: Pose, goal: Vec2) -> WheelCommand {
+    let target = lead_point(box_pose, goal);
+    if me.position().distance(target) > 6.0 {
+        return drive_to(me, target);
+    }
+    let e = wrap_angle((box_pose.position() - me.position()).angle() - me.theta);
+    WheelCommand {
+        forward: 0.0,
+        turn: (2.0 * e).clamp(-1.0, 1.0),
+    }
+}
+
+/// Whether the watcher, at `me`, sees the box with its laser.
+pub(super) fn watcher_sees(me: Pose, box_pose: Pose) -> bool {
+    me.position().distance(box_pose.position()) <= LASER_RANGE
+}
+
+/// A pusher's score for a push task (a cost, cm): the way to stand behind
+/// the end (around the box when it is on the wrong side), plus the turn to
+/// face it. `None` when it cannot see that end.
+pub(super) fn placement(task: &TaskSpec, robot: &RobotView<'_>) -> Option<f64> {
+    let p = Vec2::new(task.number("x")?, task.number("y")?);
+    let n = Vec2::new(task.number("nx")?, task.number("ny")?);
+    let pos = robot.position?;
+    if pos.distance(p) > CAMERA_RANGE {
+        return None;
+    }
+    let stand = p - n * (PUSHER.radius + 10.0);
+    let behind = dot(pos - p, n) < 0.0;
+    // Going round the end: out past the end and back, about twice the box's length.
+    let detour = if behind { 0.0 } else { 4.0 * BOX.half_length };
+    let turn = robot
+        .heading
+        .map_or(PI / 2.0, |h| wrap_angle((stand - pos).angle() - h).abs());
+    Some(pos.distance(stand) + detour + TURN_COST * turn)
+}
+
+/// What the watcher needs: to drive, range the box and find the goal.
+pub(super) fn watcher_resources() -> ResourceSet {
+    resources(["camera", "laser", "mobile"])
+}
 
 /// Which way the watcher wants the box to go, and which ends are which.
 #[derive(Debug, Clone, Copy)]
@@ -74,14 +150,19 @@ pub(super) fn push_task(f: &Frame, side: f64, push_s: f64) -> TaskSpec {
         .param("y", p.y)
         .param("nx", f.n.x)
         .param("ny", f.n.y)
-        .metric("distance", 1.0)
+        .metric(PLACEMENT, 1.0)
 }
 
 pub(super) fn pusher_resources() -> ResourceSet {
+    resources(["bumpers", "camera", "mobile"])
+}
+
+fn resources<const N: usize>(names: [&str; N]) -> ResourceSet {
     let mut r = ResourceSet::new();
-    // Both names are valid resources; a failure here would be a typo in this file.
-    let _ = r.insert("mobile");
-    let _ = r.insert("bumpers");
+    for name in names {
+        // Every name here is a valid resource; a failure would be a typo in this file.
+        let _ = r.insert(name);
+    }
     r
 }
 

@@ -1,19 +1,25 @@
 //! The tightly coupled experiment of section 6.1: a watcher and two pushers
 //! move a long box to a goal in the physics field.
 //!
-//! The watcher is the machine with the overhead camera. A user agent
-//! introduces one high-level task, `move-box` (needs `overhead-camera`); the
-//! watcher wins it, and executing it means watching the box and announcing
-//! pushing tasks through an [`Announcer`] of its own: while the box faces the
-//! goal, `push-left-end` and `push-right-end` together; when it is turned away,
-//! only the end that turns it back. The pushers (`mobile bumpers`) are not
-//! handed: both run the same program and bid by how far they are from the end
-//! to push. A pusher switched off mid-run stops renewing; its task is auctioned
-//! again, and the other pusher, alone, see-saws the box to the goal, switching
-//! ends as the watcher asks. Switched on again (on the other side), it is
-//! brought straight back into the team.
+//! The watcher is a robot with a laser and a camera, as in the paper. A user
+//! agent introduces one high-level task, `move-box` (needs `camera laser
+//! mobile`); the watcher wins it, and executing it means driving ahead of the
+//! box towards the goal (which it finds with its camera, wherever the goal is
+//! now: it may be moved during the run), ranging the box with its laser, and
+//! announcing pushing tasks through an [`Announcer`] of its own: while the box
+//! faces the goal, `push-left-end` and `push-right-end` together; when it is
+//! turned away, only the end that turns it back. It announces nothing while
+//! the box is out of its laser's range. The pushers (`bumpers camera mobile`)
+//! are not handed: both run the same program and bid by what they see
+//! (`placement`: the way to stand behind that end, round the box if needed,
+//! and the turn to face it; no bid for an end out of camera range). A pusher
+//! switched off mid-run stops renewing; its task is auctioned again, and the
+//! other pusher, alone, see-saws the box to the goal, switching ends as the
+//! watcher asks. Switched on again (on the other side), it is brought straight
+//! back into the team.
 
 mod control;
+mod live;
 mod report;
 mod settings;
 
@@ -23,18 +29,23 @@ use colony_proto::{Pose, Vec2, WheelCommand};
 use colony_sim::field::{Field, FieldBoxId, FieldConfig, FieldRobotId, TileMap};
 use colony_sim::SimError;
 
+pub use live::{run_live, LiveBoxPushError};
 pub use report::{BoxPushOutcome, BoxPushReport};
 pub use settings::{BoxPushConfig, MOVE_BOX, PUSH_LEFT, PUSH_RIGHT};
 
 use super::Progress;
 use crate::agent::{Agent, AgentConfig, AgentEvent};
 use crate::announcer::{Announcer, AnnouncerEvent, AuctionConfig};
+use crate::metric::Metrics;
 use crate::protocol::{ResourceError, SpecError, TaskSpec, Token, TokenError};
 use crate::user::{Backoff, UserAgent, UserEvent};
 use colony_node::Bus;
 use colony_node::Node;
 use colony_node::Time;
-use control::{comeback_pose, frame, push_point, push_task, pusher_resources, Push, BOX, PUSHER};
+use control::{
+    comeback_pose, frame, lead_point, placement, push_point, push_task, pusher_resources,
+    watcher_resources, watcher_sees, watcher_wheels, Push, BOX, PLACEMENT, PUSHER,
+};
 
 /// The watcher's side of `move-box`: look, decide, announce, wait for the round.
 struct Watcher {
@@ -71,12 +82,9 @@ fn quick_auction() -> AuctionConfig {
 }
 
 fn pusher_agent(name: &str, now: Time) -> Result<Agent, TokenError> {
-    Ok(Agent::new(
-        Token::new(name)?,
-        pusher_resources(),
-        quick_agent(),
-        now,
-    ))
+    let mut metrics = Metrics::standard();
+    metrics.insert(PLACEMENT, placement);
+    Ok(Agent::new(Token::new(name)?, pusher_resources(), quick_agent(), now).with_metrics(metrics))
 }
 
 /// Why a run could not be made or could not go on.
@@ -104,6 +112,9 @@ pub enum BoxPushError {
     /// Switched on without being switched off.
     #[error("--on-at needs --off-at")]
     OnWithoutOff,
+    /// The goal moved to a time that is not a time.
+    #[error("the goal's move must be at a time in seconds, not {0}")]
+    BadMoveTime(f64),
     /// A goal outside the field.
     #[error("the goal ({}, {}) is off the {} x {} cm field", .goal.x, .goal.y, .size.x, .size.y)]
     GoalOffField {
@@ -141,6 +152,13 @@ pub struct BoxPush {
     dt: f64,
     pushers: Vec<Pusher>,
     watcher_agent: Agent,
+    /// The watcher's body.
+    watcher_robot: FieldRobotId,
+    /// Where the goal is now (it may move during the run).
+    goal: Vec2,
+    goal_moved: bool,
+    /// Whether the watcher saw the box at its last look.
+    saw_box: bool,
     /// The watcher at work on `move-box`, once it has won it.
     watcher: Option<Watcher>,
     user: UserAgent,
@@ -186,11 +204,19 @@ impl BoxPush {
         }
         let map = TileMap::open(70, 60, 10.0)?;
         let size = map.size_cm();
-        if !(cfg.goal.x > 0.0 && cfg.goal.x < size.x && cfg.goal.y > 0.0 && cfg.goal.y < size.y) {
-            return Err(BoxPushError::GoalOffField {
-                goal: cfg.goal,
-                size,
-            });
+        let goals = std::iter::once(cfg.goal).chain(cfg.move_goal.map(|(_, g)| g));
+        for goal in goals {
+            if !(goal.x.is_finite() && goal.y.is_finite()) {
+                return Err(BoxPushError::NotFinite);
+            }
+            if !(goal.x > 0.0 && goal.x < size.x && goal.y > 0.0 && goal.y < size.y) {
+                return Err(BoxPushError::GoalOffField { goal, size });
+            }
+        }
+        if let Some((t, _)) = cfg.move_goal {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(BoxPushError::BadMoveTime(t));
+            }
         }
         let field_cfg = FieldConfig::default();
         let dt = field_cfg.control_step;
@@ -214,14 +240,23 @@ impl BoxPush {
                 name,
             });
         }
+        let lead = lead_point(cfg.box_start, cfg.goal);
+        let watcher_robot = field.add_robot(
+            PUSHER,
+            Pose {
+                x: lead.x,
+                y: lead.y,
+                theta: (cfg.box_start.position() - lead).angle(),
+            },
+        )?;
         let watcher_agent = Agent::new(
             Token::new("watcher")?,
-            "overhead-camera".parse()?,
+            watcher_resources(),
             quick_agent(),
             Time::ZERO,
         );
         let mut user = UserAgent::new(Token::new("user")?, quick_auction(), Backoff::default(), 1);
-        let goal_task = TaskSpec::new(MOVE_BOX, "overhead-camera".parse()?)
+        let goal_task = TaskSpec::new(MOVE_BOX, watcher_resources())
             .param("x", cfg.goal.x)
             .param("y", cfg.goal.y)
             .length(cfg.max_s);
@@ -238,6 +273,10 @@ impl BoxPush {
             dt,
             pushers,
             watcher_agent,
+            watcher_robot,
+            goal: cfg.goal,
+            goal_moved: false,
+            saw_box: true,
             watcher: None,
             user,
             spare_announcer,
@@ -264,6 +303,22 @@ impl BoxPush {
         self.field.box_pose(self.bx).unwrap_or(self.cfg.box_start)
     }
 
+    /// Where the goal is now.
+    pub fn goal(&self) -> Vec2 {
+        self.goal
+    }
+
+    /// Every robot's pose (the two pushers, then the watcher); a robot
+    /// switched off is left out.
+    pub fn robot_poses(&self) -> Vec<Pose> {
+        self.pushers
+            .iter()
+            .map(|p| p.robot)
+            .chain([self.watcher_robot])
+            .filter_map(|r| self.field.robot_pose(r))
+            .collect()
+    }
+
     /// The counts so far.
     pub fn report(&self) -> &BoxPushReport {
         &self.report
@@ -288,6 +343,7 @@ impl BoxPush {
         let now_s = step as f64 * self.dt;
         let now = Time::from_secs_f64(now_s);
         self.switch_pusher(now, now_s)?;
+        self.move_goal(now_s);
         self.run_protocol(now)?;
         self.follow_watcher(now_s)?;
         let box_pose = self.field.box_pose(self.bx).unwrap_or(self.cfg.box_start);
@@ -298,7 +354,12 @@ impl BoxPush {
             self.done = true;
             return Ok(Progress::Done);
         }
-        let commands = self.drive_pushers(now, now_s, box_pose);
+        let mut commands = self.drive_pushers(now, now_s, box_pose);
+        if self.watcher.is_some() {
+            if let Some(me) = self.field.robot_pose(self.watcher_robot) {
+                commands[self.watcher_robot.0] = watcher_wheels(me, box_pose, self.goal);
+            }
+        }
         self.field.step(&commands);
         self.report.time_s = now_s;
         Ok(if self.step >= self.steps {
@@ -307,6 +368,20 @@ impl BoxPush {
         } else {
             Progress::Running
         })
+    }
+
+    /// Moves the goal when the settings say: the watcher's camera finds it there from then on.
+    fn move_goal(&mut self, now_s: f64) {
+        if let Some((at, to)) = self.cfg.move_goal {
+            if now_s >= at && !self.goal_moved {
+                self.goal_moved = true;
+                self.goal = to;
+                self.events.push((
+                    now_s,
+                    format!("the goal moved to ({:.0}, {:.0})", to.x, to.y),
+                ));
+            }
+        }
     }
 
     /// Switches the first pusher off, and on again behind the box, when the settings say.
@@ -326,7 +401,7 @@ impl BoxPush {
                 .field
                 .robot_pose(self.pushers[1].robot)
                 .unwrap_or_default();
-            if let Some(pose) = comeback_pose(&self.field, box_pose, self.cfg.goal, other) {
+            if let Some(pose) = comeback_pose(&self.field, box_pose, self.goal, other) {
                 if self.field.respawn(self.pushers[0].robot, pose).is_ok() {
                     self.switched_on = true;
                     let name = self.pushers[0].name.clone();
@@ -347,6 +422,7 @@ impl BoxPush {
         for p in &mut self.pushers {
             if let (Some(a), Some(pose)) = (p.agent.as_mut(), self.field.robot_pose(p.robot)) {
                 a.set_position(pose.position());
+                a.set_heading(pose.theta);
             }
         }
         // The protocol.
@@ -398,7 +474,11 @@ impl BoxPush {
 
     /// The watcher at work: counts what its auctions did, and looks at the box: at the goal (true), or time to announce the next pushes.
     fn watch(&mut self, now: Time, now_s: f64, box_pose: Pose) -> Result<bool, BoxPushError> {
-        let distance = box_pose.position().distance(self.cfg.goal);
+        let distance = box_pose.position().distance(self.goal);
+        let sees = self
+            .field
+            .robot_pose(self.watcher_robot)
+            .is_some_and(|me| watcher_sees(me, box_pose));
         if let Some(w) = self.watcher.as_mut() {
             while let Some(e) = w.announcer.poll_event() {
                 match e {
@@ -451,8 +531,17 @@ impl BoxPush {
                     .push((now_s, format!("the box is at the goal ({distance:.1} cm)")));
                 return Ok(true);
             }
-            if w.open.is_empty() && now_s >= w.next_look {
-                let f = frame(box_pose, self.cfg.goal);
+            if sees != self.saw_box {
+                self.saw_box = sees;
+                let what = if sees {
+                    "sees the box again"
+                } else {
+                    "lost sight of the box"
+                };
+                self.events.push((now_s, format!("the watcher {what}")));
+            }
+            if w.open.is_empty() && now_s >= w.next_look && sees {
+                let f = frame(box_pose, self.goal);
                 let sides: &[f64] = if f.error > self.cfg.align_tolerance {
                     &[1.0]
                 } else if f.error < -self.cfg.align_tolerance {
@@ -512,7 +601,7 @@ impl BoxPush {
     pub fn finish(self) -> BoxPushOutcome {
         let mut report = self.report;
         let box_pose = self.field.box_pose(self.bx).unwrap_or(self.cfg.box_start);
-        report.final_distance_cm = box_pose.position().distance(self.cfg.goal);
+        report.final_distance_cm = box_pose.position().distance(self.goal);
         report.messages = self.bus.stats().sent;
         BoxPushOutcome {
             report,

@@ -16,6 +16,8 @@ pub struct BoxPushConfig {
     pub box_start: Pose,
     /// Where it must go, cm.
     pub goal: Vec2,
+    /// The goal moves at this time, s, to this place, cm.
+    pub move_goal: Option<(f64, Vec2)>,
     /// Close enough, cm from the box's centre.
     pub tolerance_cm: f64,
     /// Switch one pusher off at this time, s.
@@ -39,6 +41,7 @@ impl Default for BoxPushConfig {
                 theta: 0.0,
             },
             goal: Vec2::new(360.0, 400.0),
+            move_goal: None,
             tolerance_cm: 25.0,
             off_at: None,
             on_at: None,
