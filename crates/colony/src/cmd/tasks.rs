@@ -286,11 +286,8 @@ fn longterm(args: LongtermArgs) -> anyhow::Result<()> {
     let out = longterm::run(&cfg).map_err(anyhow::Error::msg)?;
     let r = &out.report;
     println!(
-        "MURDOCH long-term run: {} agents, {} h of tasks, seed {} ({:.1} simulated hours in all)",
-        r.agents,
-        r.hours,
-        r.seed,
-        r.simulated_s / 3600.0
+        "MURDOCH long-term run: {} agents on bodies in the field, {} h exactly, seed {}",
+        r.agents, r.hours, r.seed
     );
     println!(
         "  tasks introduced           {:>6} ({} achievable by the roster)",
@@ -324,7 +321,9 @@ fn longterm(args: LongtermArgs) -> anyhow::Result<()> {
         "  given up by the user agent {:>6} ({} achievable)",
         r.gave_up, r.gave_up_achievable
     );
+    println!("  still open at the end      {:>6}", r.open_at_end);
     println!("  recharges                  {:>6}", r.recharges);
+    println!("  trips ended short (jammed) {:>6}", r.stuck_arrivals);
     println!(
         "  failures injected          {:>6} ({} at work)",
         r.failures, r.failures_at_work

@@ -1,7 +1,8 @@
 //! The paper's two experiments, and MURDOCH's greedy allocation against the optimum.
 //!
 //! - [`longterm`]: section 6.2, seven agents and four task types for hours,
-//!   with batteries, chargers and failures (abstract robots on a plane).
+//!   with batteries, chargers and failures (robots as bodies in the physics
+//!   field; the run needs the `field` feature, its settings and report do not).
 //! - `boxpush`: section 6.1, a watcher and two pushers moving a long box in
 //!   the physics field, with a pusher switched off and on again (with the
 //!   `field` feature, which brings in the physics engine).

@@ -77,10 +77,15 @@ pub struct LongtermReport {
     pub gave_up: u64,
     /// Achievable requests given up.
     pub gave_up_achievable: u64,
+    /// Requests still open (waiting, in an auction or at work) when the hours ran out.
+    pub open_at_end: u64,
     /// Trips to a charger.
     pub recharges: u64,
     /// Failures injected.
     pub failures: u64,
+    /// Trips a robot ended short of its target because it made no headway
+    /// (a crowded charger, a place taken by a robot at work).
+    pub stuck_arrivals: u64,
     /// Of those, failures of an agent at work.
     pub failures_at_work: u64,
     /// Packets published on the bus.

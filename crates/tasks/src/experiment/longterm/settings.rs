@@ -118,8 +118,6 @@ pub struct LongtermConfig {
     pub mtbf_s: f64,
     /// Time to repair a failed agent, s, uniform in this range.
     pub repair_s: (f64, f64),
-    /// After the last introduction, how long to let open tasks finish, s.
-    pub wind_down_s: f64,
     /// The user agent's backoff.
     pub backoff: Backoff,
     /// The auctions' timings.
@@ -145,7 +143,6 @@ impl Default for LongtermConfig {
             chargers: vec![Vec2::new(100.0, 100.0), Vec2::new(1900.0, 1900.0)],
             mtbf_s: 7200.0,
             repair_s: (300.0, 900.0),
-            wind_down_s: 4.0 * 3600.0,
             backoff: Backoff {
                 initial: Duration::from_secs(10),
                 max: Duration::from_secs(300),
