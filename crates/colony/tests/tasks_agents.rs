@@ -1,6 +1,7 @@
 //! MURDOCH as the paper deploys it, on loopback: a hub, one `colony tasks
 //! agent` process per robot, tasks introduced with `colony tasks announce`;
-//! a winner killed mid-task and replaced, a sensor failing on another.
+//! a winner killed mid-task and replaced, a sensor failing on another; and
+//! agents driving bodies of a `colony tasks room` to where a task is.
 
 mod common;
 
@@ -149,4 +150,54 @@ fn agents_as_processes_take_tasks_from_anyone_survive_a_killed_winner_and_follow
         "{}",
         r5.text()
     );
+}
+
+#[test]
+fn agents_with_bodies_in_a_room_bid_by_where_they_are_and_drive_to_the_task() {
+    let hub = HubProcess::start(&[]);
+    let h = hub.addr.to_string();
+    // Two bodies in a row across the middle of a 10 m room: robot 0 on the left, robot 1 on the right.
+    let room = Proc::start(&["tasks", "room", "--hub", &h, "--bodies", "2"]);
+    assert!(room.when("2 bodies", Duration::from_secs(20)).is_some());
+    let left = agent(&h, "left", "mobile", &["--body", "0"]);
+    let right = agent(&h, "right", "mobile", &["--body", "1"]);
+    // A place up and to the right: the right-hand robot is nearer, wins, and drives there.
+    let mut visit = Proc::start(&[
+        "tasks",
+        "announce",
+        "--hub",
+        &h,
+        "--name",
+        "visit",
+        "--needs",
+        "mobile",
+        "--length",
+        "1",
+        "--at",
+        "300,250",
+        "--deadline",
+        "60",
+    ]);
+    assert_eq!(
+        visit.exit(Duration::from_secs(120)),
+        Some(0),
+        "{}",
+        visit.text()
+    );
+    assert!(visit.text().contains("done by right"), "{}", visit.text());
+    let started = right
+        .when("driving to (300, 250) first", Duration::from_secs(5))
+        .expect("the winner drives to the place");
+    let arrived = right
+        .when("at (300, 250): starts work", Duration::from_secs(5))
+        .expect("and works once there");
+    assert!(arrived > started);
+    assert!(
+        right
+            .when("done with task", Duration::from_secs(5))
+            .is_some(),
+        "{}",
+        right.text()
+    );
+    assert!(!left.text().contains("starts task"), "{}", left.text());
 }

@@ -38,6 +38,9 @@
 //!   one node, [`Mux`] for many on one thread).
 //! - [`experiment`]: long-term autonomy, box pushing, greedy against optimal;
 //!   [`demo`]: the live demonstration `colony tasks demo` runs.
+//! - [`robot`]: one robot's agent as its own process, with an abstract body
+//!   or (with the `field` feature) one of the bodies of a `room`, driven over
+//!   `radio` from what it sees on `vision`.
 //!
 //! # The messages
 //!
@@ -56,6 +59,8 @@ pub mod experiment;
 pub mod metric;
 pub mod request;
 pub mod robot;
+#[cfg(feature = "field")]
+pub mod room;
 mod user;
 
 pub use agent::{Agent, AgentConfig, AgentEvent, AgentMode, AgentStats, StopReason};

@@ -1,8 +1,13 @@
 //! One robot's agent as its own process, as the paper deploys MURDOCH: "the
-//! same program on every machine", each with its own resources. The body is
-//! abstract: a task takes its announced length, each costs some battery, and
-//! charging takes a while. Resources can fail and be repaired at given times,
-//! as a sensor would.
+//! same program on every machine", each with its own resources. Its body is
+//! either abstract (a task takes its announced length where the robot is) or
+//! one robot of a world that publishes `vision` and takes `radio` commands,
+//! such as `colony tasks room`: then the robot sees where it is (its bids'
+//! `distance` is real), drives to a task's `x`, `y` (steering round the other
+//! robots it sees) before the task's length starts, and stops when it ends.
+//! Either way each task costs some battery and charging takes a while (where
+//! the robot stands). Resources can fail and be repaired at given times, as a
+//! sensor would.
 
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -10,7 +15,10 @@ use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
 use colony_node::{Link, LiveError};
-use colony_wire::Request;
+use colony_proto::radio::{self, RadioCommand};
+use colony_proto::swarm::{vision, VisionAssembler, VISION};
+use colony_proto::{wrap_angle, Pose, Vec2, WheelCommand};
+use colony_wire::{Priority, Request};
 
 use crate::agent::{Agent, AgentConfig, AgentEvent, StopReason};
 use crate::protocol::{ResourceSet, Token};
@@ -41,6 +49,9 @@ pub struct RobotConfig {
     pub charge_for: Duration,
     /// Resources failing and repaired as it runs.
     pub faults: Vec<Fault>,
+    /// The body it drives: this robot of the world on `vision` and `radio`
+    /// (`None`: an abstract body).
+    pub body: Option<u32>,
     /// The agent's timings.
     pub agent: AgentConfig,
 }
@@ -55,6 +66,7 @@ impl RobotConfig {
             drain_per_task: 0.1,
             charge_for: Duration::from_secs(3),
             faults: Vec::new(),
+            body: None,
             agent: AgentConfig::default(),
         }
     }
@@ -71,6 +83,111 @@ pub struct RobotSummary {
     pub stopped: u64,
     /// Trips to the charger.
     pub charges: u64,
+}
+
+/// A body is at a task's place within this, cm.
+pub const REACH: f64 = 30.0;
+/// Other robots closer than this push the driving robot's heading away, cm.
+const KEEP_CLEAR: f64 = 100.0;
+
+/// A body driven over the hub: what the robot sees of itself and the others
+/// on `vision`, and where it is going.
+struct Driver {
+    id: u32,
+    eyes: UdpClient,
+    assembler: VisionAssembler,
+    pose: Option<Pose>,
+    others: Vec<Vec2>,
+    /// Where the current task is, and how long it lasts once there.
+    goal: Option<(Vec2, Duration)>,
+    /// A frame came since the last command.
+    fresh: bool,
+}
+
+impl Driver {
+    fn new(hub: SocketAddr, id: u32) -> Result<Driver, LiveError> {
+        let mut eyes = UdpClient::connect(hub)?;
+        eyes.subscribe(VISION)?;
+        Ok(Driver {
+            id,
+            eyes,
+            assembler: VisionAssembler::new(),
+            pose: None,
+            others: Vec::new(),
+            goal: None,
+            fresh: false,
+        })
+    }
+
+    /// Takes in what came on `vision`.
+    fn look(&mut self, now: Instant) -> Result<(), LiveError> {
+        self.eyes.poll(now)?;
+        while let Some(packet) = self.eyes.recv()? {
+            let Ok(part) = vision::decode(&packet) else {
+                continue;
+            };
+            if let Some(frame) = self.assembler.offer(part) {
+                self.pose = frame
+                    .robots
+                    .iter()
+                    .find(|r| r.id == self.id)
+                    .map(|r| r.pose);
+                self.others = frame
+                    .robots
+                    .iter()
+                    .filter(|r| r.id != self.id)
+                    .map(|r| r.pose.position())
+                    .collect();
+                self.fresh = true;
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether it is at its goal (and so stopped); otherwise, with a new
+    /// frame, the next wheel command towards it.
+    fn drive(&mut self) -> Result<bool, LiveError> {
+        let (Some((goal, _)), Some(me)) = (self.goal, self.pose) else {
+            return Ok(false);
+        };
+        if me.position().distance(goal) <= REACH {
+            self.send(WheelCommand::STOP)?;
+            return Ok(true);
+        }
+        if std::mem::take(&mut self.fresh) {
+            self.send(steer(me, goal, &self.others))?;
+        }
+        Ok(false)
+    }
+
+    fn send(&mut self, wheels: WheelCommand) -> Result<(), LiveError> {
+        let cmd = RadioCommand::new(self.id, wheels.forward, wheels.turn);
+        if let Ok(p) = radio::encode(&[cmd], Priority(0)) {
+            self.eyes.publish(&p)?;
+        }
+        Ok(())
+    }
+}
+
+/// Towards `goal`, the heading pushed away from robots closer than
+/// [`KEEP_CLEAR`] (and to the right of one straight ahead, so two robots
+/// meeting head-on pass each other).
+fn steer(me: Pose, goal: Vec2, others: &[Vec2]) -> WheelCommand {
+    let to = goal - me.position();
+    let d = to.length().max(1e-6);
+    let mut dir = to * (1.0 / d);
+    for o in others {
+        let away = me.position() - *o;
+        let dist = away.length();
+        if dist > 1e-6 && dist < KEEP_CLEAR {
+            let push = 1.5 * (1.0 - dist / KEEP_CLEAR);
+            let right = Vec2::new(dir.y, -dir.x);
+            dir = dir + away * (push / dist) + right * (0.5 * push);
+        }
+    }
+    let e = wrap_angle(dir.angle() - me.theta);
+    let speed = (d / 60.0 + 0.2).min(1.0);
+    WheelCommand::clamped(if e.abs() < 0.6 { speed * e.cos() } else { 0.0 }, 2.0 * e)
 }
 
 /// Runs the robot against the hub at `hub` until `stop` is set, passing each
@@ -100,6 +217,7 @@ pub fn run(
     let mut busy_until: Option<Instant> = None;
     let mut charging_until: Option<Instant> = None;
     let mut summary = RobotSummary::default();
+    let mut driver = config.body.map(|id| Driver::new(hub, id)).transpose()?;
     let stamp = |now: Instant| format!("{:7.2}", now.duration_since(epoch).as_secs_f64());
     say(&format!(
         "{} {} joins with {} (battery {:.2})",
@@ -120,13 +238,31 @@ pub fn run(
         .flatten()
         .map(|t| t.saturating_duration_since(now_i))
         .min();
-        let wait = body_due.map_or(Duration::from_millis(50), |d| {
-            d.min(Duration::from_millis(50))
-        });
+        // A body is steered at the pace its world sends frames (10 a second for a room).
+        let tick = Duration::from_millis(if driver.is_some() { 20 } else { 50 });
+        let wait = body_due.map_or(tick, |d| d.min(tick));
         link.wait(&agent, Some(wait))?;
         link.pump(&mut agent)?;
         let now_i = Instant::now();
         let now = link.now();
+        if let Some(d) = driver.as_mut() {
+            d.look(now_i)?;
+            if let Some(pose) = d.pose {
+                agent.set_position(pose.position());
+                agent.set_heading(pose.theta);
+            }
+            if d.drive()? {
+                if let Some((at, length)) = d.goal.take() {
+                    busy_until = Some(now_i + length);
+                    say(&format!(
+                        "{} at ({:.0}, {:.0}): starts work",
+                        stamp(now_i),
+                        at.x,
+                        at.y
+                    ));
+                }
+            }
+        }
         while let Some(fault) = faults.next_if(|f| epoch + f.at <= now_i) {
             let mut names: Vec<String> = agent.resources().iter().map(|s| s.to_string()).collect();
             if fault.fails {
@@ -145,6 +281,10 @@ pub fn run(
             ));
             if agent.set_resources(now, resources).is_some() {
                 busy_until = None;
+                if let Some(d) = driver.as_mut() {
+                    d.goal = None;
+                    d.send(WheelCommand::STOP)?;
+                }
             }
             link.client_mut().set_standing(vec![about(&agent)])?;
         }
@@ -153,9 +293,17 @@ pub fn run(
                 AgentEvent::Start(ann) => {
                     summary.started += 1;
                     let length = Duration::try_from_secs_f64(ann.spec.length_s).unwrap_or_default();
-                    busy_until = Some(now_i + length);
+                    let place = ann.spec.number("x").zip(ann.spec.number("y"));
+                    match (driver.as_mut(), place) {
+                        (Some(d), Some((x, y))) => d.goal = Some((Vec2::new(x, y), length)),
+                        _ => busy_until = Some(now_i + length),
+                    }
+                    let whither = match (&driver, place) {
+                        (Some(_), Some((x, y))) => format!(", driving to ({x:.0}, {y:.0}) first"),
+                        _ => String::new(),
+                    };
                     say(&format!(
-                        "{} starts task #{} {} for {:.1} s (from {})",
+                        "{} starts task #{} {} for {:.1} s (from {}){whither}",
                         stamp(now_i),
                         ann.id,
                         ann.spec.name,
@@ -166,6 +314,10 @@ pub fn run(
                 AgentEvent::Stop { task, name, reason } => {
                     summary.stopped += 1;
                     busy_until = None;
+                    if let Some(d) = driver.as_mut() {
+                        d.goal = None;
+                        d.send(WheelCommand::STOP)?;
+                    }
                     let why = match reason {
                         StopReason::Cancelled(r) => format!("cancelled: {r}"),
                         StopReason::AnnouncerSilent => "its announcer fell silent".to_owned(),

@@ -30,6 +30,9 @@ pub enum TasksCommand {
     /// Introduce one task into a running system and follow it to its end
     /// (exit 0 when done, 1 when no robot could before the deadline).
     Announce(AnnounceArgs),
+    /// A room of robot bodies in the physics field, over a hub: agents started
+    /// with `--body N` drive one each, seeing the room on `vision`.
+    Room(RoomArgs),
     /// The long-term experiment: 7 agents, 4 task types, batteries, failures.
     Longterm(LongtermArgs),
     /// The box-pushing experiment: a watcher and two pushers in the physics field.
@@ -78,7 +81,31 @@ pub struct AgentArgs {
     /// When the matching `--fail` happens, seconds after the start.
     #[arg(long, value_name = "SECONDS", value_parser = TASK_SECONDS)]
     pub at: Vec<f64>,
+    /// Drive robot N of the world on `vision` and `radio` (such as `colony
+    /// tasks room`) to each task's place, instead of an abstract body.
+    #[arg(long, value_name = "N")]
+    pub body: Option<u32>,
 }
+
+#[derive(clap::Args, Debug)]
+pub struct RoomArgs {
+    #[command(flatten)]
+    pub hub: super::HubAddr,
+    /// How many bodies (robots 0 to N-1 on `vision` and `radio`).
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u16).range(1..=64))]
+    pub bodies: u16,
+    /// The room's side, cm (it is square, centred on the origin).
+    #[arg(long, default_value_t = 1000.0, value_parser = ROOM_SIDE)]
+    pub side: f64,
+    /// The bodies' top speed, cm/s.
+    #[arg(long, default_value_t = 30.0, value_parser = BODY_SPEED)]
+    pub speed: f64,
+}
+
+/// A room's side: from a few bodies' width to 80 m (the field's largest map).
+const ROOM_SIDE: Bounds = Bounds::new(200.0, 8_000.0, "cm");
+/// A body's top speed.
+const BODY_SPEED: Bounds = Bounds::new(1.0, 500.0, "cm/s");
 
 #[derive(clap::Args, Debug)]
 pub struct AnnounceArgs {
@@ -96,6 +123,10 @@ pub struct AnnounceArgs {
     /// Give up if no robot has taken it this long after it was introduced.
     #[arg(long, default_value_t = 60.0, value_parser = MAX_SECONDS)]
     pub deadline: f64,
+    /// Where it is to be done, `X,Y` in cm (robots bid by their distance to it,
+    /// and one with a body drives there first).
+    #[arg(long = "at", value_name = "X,Y")]
+    pub place: Option<String>,
     /// Who announces it (bids and awards name it) [default: user-XXXX, random].
     #[arg(long = "as", value_name = "NAME")]
     pub announcer: Option<String>,
@@ -165,6 +196,7 @@ pub fn run(cmd: TasksCommand) -> anyhow::Result<()> {
         TasksCommand::Longterm(a) => longterm(a),
         TasksCommand::Agent(a) => agent(a),
         TasksCommand::Announce(a) => announce(a),
+        TasksCommand::Room(a) => room(a),
         TasksCommand::Boxpush(a) => boxpush(a),
         TasksCommand::Compare(a) => compare(a),
     }
@@ -220,6 +252,7 @@ fn agent(args: AgentArgs) -> anyhow::Result<()> {
         );
     }
     let mut config = RobotConfig::new(token(args.name, "robot")?, resources);
+    config.body = args.body;
     config.battery = args.battery;
     config.drain_per_task = args.drain;
     for (resource, at) in args.fail.iter().zip(&args.at) {
@@ -240,13 +273,35 @@ fn agent(args: AgentArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+fn room(args: RoomArgs) -> anyhow::Result<()> {
+    let mut room = colony_tasks::room::Room::new(args.side, usize::from(args.bodies), args.speed)
+        .map_err(anyhow::Error::msg)?;
+    let hub = args.hub.connect()?.hub_addr();
+    let stop = super::stop_flag()?;
+    println!(
+        "room {} cm across with {} bodies on the hub at {hub}: robots 0 to {} on vision and radio",
+        args.side,
+        args.bodies,
+        args.bodies - 1
+    );
+    colony_tasks::room::serve(&mut room, hub, &stop).context("the room's hub client failed")?;
+    Ok(())
+}
+
 fn announce(args: AnnounceArgs) -> anyhow::Result<()> {
     use colony_tasks::request::Outcome;
     let needs = args
         .needs
         .parse()
         .map_err(|e| anyhow::anyhow!("--needs {}: {e}", args.needs))?;
-    let spec = colony_tasks::protocol::TaskSpec::new(&args.name, needs).length(args.length);
+    let mut spec = colony_tasks::protocol::TaskSpec::new(&args.name, needs).length(args.length);
+    if let Some(place) = &args.place {
+        let at = parse_goal("--at", place)?;
+        spec = spec
+            .param("x", at.x)
+            .param("y", at.y)
+            .metric("distance", 1.0);
+    }
     let hub = args.hub.connect()?.hub_addr();
     let stop = super::stop_flag()?;
     let outcome = colony_tasks::request::introduce(
