@@ -146,6 +146,7 @@ mod tests {
             idle_ms: 0,
             subscriptions: subs.iter().map(|s| (s.to_string(), 1000)).collect(),
             about: about.into(),
+            tap: false,
         }
     }
 

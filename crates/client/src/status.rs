@@ -102,9 +102,10 @@ pub fn format_report(r: &StatusReport) -> String {
             .collect();
         let _ = writeln!(
             out,
-            "  {:<22} idle {:>6.1} s  {}",
+            "  {:<22} idle {:>6.1} s  {}{}",
             c.addr,
             c.idle_ms as f64 / 1000.0,
+            if c.tap { "[taps every channel] " } else { "" },
             subs.join(", ")
         );
         if !c.about.is_empty() {
@@ -162,6 +163,7 @@ mod tests {
                 idle_ms: 0,
                 subscriptions: vec![("a".into(), 900)],
                 about: "bridge site lab\u{1b}[2J".into(),
+                tap: false,
             }],
             ..StatusReport::default()
         };

@@ -161,6 +161,14 @@ fn agents_with_bodies_in_a_room_bid_by_where_they_are_and_drive_to_the_task() {
     assert!(room.when("2 bodies", Duration::from_secs(20)).is_some());
     let left = agent(&h, "left", "mobile", &["--body", "0"]);
     let right = agent(&h, "right", "mobile", &["--body", "1"]);
+    // Each must know where it is before it can bid its distance.
+    for a in [&left, &right] {
+        assert!(
+            a.when("sees itself at", Duration::from_secs(30)).is_some(),
+            "{}",
+            a.text()
+        );
+    }
     // A place up and to the right: the right-hand robot is nearer, wins, and drives there.
     let mut visit = Proc::start(&[
         "tasks",

@@ -28,6 +28,9 @@ const MAX_REPLY_BYTES: usize = 8 << 20;
 /// Clients that may tap at once ([`Request::Tap`]): each costs the hub one
 /// more send for every packet it forwards, so a handful at most.
 pub const MAX_TAPS: usize = 8;
+/// Taps one host may hold, unless it is a console: one host with many ports
+/// cannot keep every other monitor out.
+pub const MAX_TAPS_PER_HOST: usize = 2;
 /// The longest lease, signature window and status interval a hub takes:
 /// anything longer is a mistake, and would overflow instants.
 const LONGEST: Duration = Duration::from_secs(86_400);
@@ -76,6 +79,8 @@ struct Client {
     about: Box<str>,
     /// Gets every forwarded packet ([`Request::Tap`]).
     tap: bool,
+    /// Its tap was asked for with a console's authority (it is never displaced).
+    console_tap: bool,
 }
 
 /// How a datagram proved where it came from.
@@ -293,7 +298,11 @@ impl Hub {
         self.route_subscribers(packet);
         let clients = &self.clients;
         for tap in &self.taps {
-            if clients.get(tap).is_some_and(|c| c.tap) && !self.dests.contains(tap) {
+            // Already a destination exactly when it subscribes to every subject.
+            let Some(c) = clients.get(tap).filter(|c| c.tap) else {
+                continue;
+            };
+            if !packet.subjects().all(|s| c.subs.contains_key(s)) {
                 self.dests.push(*tap);
             }
         }
@@ -398,7 +407,7 @@ impl Hub {
                         c.about = text.into_boxed_str();
                     }
                 }
-                Request::Tap => self.tap(src),
+                Request::Tap => self.tap(src, proof),
             }
         }
         if subscribed {
@@ -409,23 +418,52 @@ impl Hub {
     }
 
     /// Lets a client with a lease tap, while fewer than [`MAX_TAPS`] do.
-    fn tap(&mut self, src: SocketAddr) {
+    /// Lets a client with a lease tap, while fewer than [`MAX_TAPS`] do and
+    /// its host holds fewer than [`MAX_TAPS_PER_HOST`]. A console (by
+    /// address or key) always may: if every place is taken, it takes the
+    /// place of the oldest tap that is not a console's.
+    fn tap(&mut self, src: SocketAddr, proof: Proof) {
         let Some(client) = self.clients.get(&src) else {
             return;
         };
         if client.tap {
             return;
         }
+        let console = self.is_console(src, proof);
         let clients = &self.clients;
         self.taps.retain(|a| clients.get(a).is_some_and(|c| c.tap));
-        if self.taps.len() >= MAX_TAPS {
+        let same_host = self.taps.iter().filter(|a| a.ip() == src.ip()).count();
+        let full = self.taps.len() >= MAX_TAPS;
+        if !console && (full || same_host >= MAX_TAPS_PER_HOST) {
             self.counters.drop(DropReason::TooManyTaps, 1);
             return;
         }
+        if full {
+            let clients = &self.clients;
+            let Some(i) = self
+                .taps
+                .iter()
+                .position(|a| clients.get(a).is_some_and(|c| !c.console_tap))
+            else {
+                self.counters.drop(DropReason::TooManyTaps, 1);
+                return;
+            };
+            let displaced = self.taps.remove(i);
+            if let Some(c) = self.clients.get_mut(&displaced) {
+                c.tap = false;
+            }
+            self.counters.drop(DropReason::TooManyTaps, 1);
+        }
         if let Some(c) = self.clients.get_mut(&src) {
             c.tap = true;
+            c.console_tap = console;
             self.taps.push(src);
         }
+    }
+
+    /// Whether `src` may act as an operator: signed with the key, or a console's address.
+    fn is_console(&self, src: SocketAddr, proof: Proof) -> bool {
+        proof == Proof::Key || self.config.consoles.iter().any(|c| c.contains(&src))
     }
 
     /// Answers an unproven request with the cookie for its source: never
@@ -458,8 +496,7 @@ impl Hub {
     /// signed with the key. A raised minimum lasts one lease unless renewed,
     /// so a console that dies hands the robots back.
     fn set_min_priority(&mut self, now: Instant, src: SocketAddr, p: Priority, proof: Proof) {
-        let console = proof == Proof::Key || self.config.consoles.iter().any(|c| c.contains(&src));
-        if !console {
+        if !self.is_console(src, proof) {
             self.counters.drop(DropReason::NotConsole, 1);
             self.log_operator(now, src, "minimum priority refused: not a console");
             return;
@@ -524,6 +561,7 @@ impl Hub {
             no_local: false,
             about: Box::from(""),
             tap: false,
+            console_tap: false,
         });
         let expiry = now + self.config.lease;
         if let Some(e) = client.subs.get_mut(&subject) {
@@ -648,6 +686,7 @@ impl Hub {
                 idle_ms: ms(now.saturating_duration_since(c.last_heard)),
                 subscriptions,
                 about: c.about.to_string(),
+                tap: c.tap,
             });
         }
         let min_priority = if self.min_priority_lapsed(now) {

@@ -435,27 +435,64 @@ fn a_tap_hears_every_forwarded_packet_once_for_as_long_as_its_lease() {
     assert_eq!(forwarded(&mut hub, later, addr(1), "@ <b> 0\nx v 1\n"), []);
 }
 
+/// Port `port` of host 10.0.0.`host`.
+fn on_host(host: u8, port: u16) -> SocketAddr {
+    SocketAddr::from(([10, 0, 0, host], port))
+}
+
 #[test]
-fn a_hub_lets_only_a_few_clients_tap_and_frees_a_place_when_one_goes() {
+fn a_hub_lets_only_a_few_clients_tap_few_from_one_host_and_frees_a_place_when_one_goes() {
     let now = Instant::now();
-    let mut hub = Hub::new(HubConfig::default(), now);
-    let max = colony_hub::MAX_TAPS as u16;
-    for port in 0..=max {
-        control(&mut hub, now, addr(100 + port), "subscribe ch a\ntap\n");
+    let config = HubConfig {
+        consoles: vec!["10.0.0.99".parse().unwrap()],
+        ..HubConfig::default()
+    };
+    let mut hub = Hub::new(config, now);
+    let max = colony_hub::MAX_TAPS as u8;
+    // One host with many ports holds two places at most.
+    for port in 0..4 {
+        control(
+            &mut hub,
+            now,
+            on_host(1, 100 + port),
+            "subscribe ch a\ntap\n",
+        );
     }
-    assert_eq!(hub.drops(DropReason::TooManyTaps), 1);
+    assert_eq!(hub.drops(DropReason::TooManyTaps), 2);
+    let heard = forwarded(&mut hub, now, addr(1), "@ <b> 0\nx v 1\n");
+    assert_eq!(heard, [on_host(1, 100), on_host(1, 101)]);
+    // Other hosts fill the rest; the next is refused.
+    for host in 2..max {
+        control(&mut hub, now, on_host(host, 100), "subscribe ch a\ntap\n");
+    }
+    control(&mut hub, now, on_host(50, 100), "subscribe ch a\ntap\n");
+    assert_eq!(hub.drops(DropReason::TooManyTaps), 3);
     let heard = forwarded(&mut hub, now, addr(1), "@ <b> 0\nx v 1\n");
     assert_eq!(heard.len(), max as usize);
-    assert!(!heard.contains(&addr(100 + max)));
+    assert!(!heard.contains(&on_host(50, 100)));
     // One tap lets go of its lease at once: the next may take its place.
-    control(&mut hub, now, addr(100), "unsubscribe_all\n");
-    assert_eq!(
-        forwarded(&mut hub, now, addr(1), "@ <b> 0\nx v 1\n").len(),
-        max as usize - 1
-    );
-    control(&mut hub, now, addr(100 + max), "tap\n");
+    control(&mut hub, now, on_host(2, 100), "unsubscribe_all\n");
+    control(&mut hub, now, on_host(50, 100), "tap\n");
     let heard = forwarded(&mut hub, now, addr(1), "@ <b> 0\nx v 1\n");
-    assert!(heard.contains(&addr(100 + max)) && !heard.contains(&addr(100)));
+    assert!(heard.contains(&on_host(50, 100)) && !heard.contains(&on_host(2, 100)));
+    // Full again: a console still gets a place, the oldest other tap's.
+    control(&mut hub, now, on_host(99, 100), "subscribe ch a\ntap\n");
+    let heard = forwarded(&mut hub, now, addr(1), "@ <b> 0\nx v 1\n");
+    assert_eq!(heard.len(), max as usize);
+    assert!(heard.contains(&on_host(99, 100)) && !heard.contains(&on_host(1, 100)));
+    // And the status report says who taps.
+    control(&mut hub, now, on_host(99, 100), "status\n");
+    let r = replies(&mut hub);
+    let report = StatusReport::from_packet(&Packet::parse(&r.last().unwrap().1).unwrap()).unwrap();
+    let tapping = |who: SocketAddr| {
+        report
+            .clients
+            .iter()
+            .find(|c| c.addr == who.to_string())
+            .unwrap()
+            .tap
+    };
+    assert!(tapping(on_host(99, 100)) && !tapping(on_host(1, 100)));
 }
 
 #[test]

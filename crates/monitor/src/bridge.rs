@@ -321,7 +321,11 @@ impl Bridge {
         for _ in 0..50_000 {
             match self.data.recv() {
                 Ok(Some(packet)) => {
-                    self.state.on_packet(now, &packet);
+                    // The tap brings every subject anyone publishes on; the hub view keeps
+                    // to the channels it chose, so a forger's new subjects cannot crowd it.
+                    if packet.subjects().all(|s| self.subscribed.contains(s)) {
+                        self.state.on_packet(now, &packet);
+                    }
                     self.game.on_packet(now, &packet);
                     self.tasks.on_packet(now, &packet);
                 }

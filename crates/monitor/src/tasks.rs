@@ -15,7 +15,12 @@
 //! A task is named by its announcer and number, so a board that missed the
 //! announcement (it started late, or the hub dropped it) still follows the
 //! task from its negotiation subject, without a name until one is heard.
-//! Everything kept is bounded: tasks, bids, timeline entries and robots.
+//! Everything kept is bounded: tasks, bids, timeline entries, texts and
+//! robots, and the page gets the newest [`MAX_SHOWN`] tasks.
+//!
+//! A message of an earlier round than the task's newest (a late abandon
+//! from the winner the announcer already replaced) goes on the timeline and
+//! changes nothing else; `ack` and `done` count only from the round's winner.
 //!
 //! To the page:
 //!
@@ -24,7 +29,7 @@
 //!   bids:[{round,bidder,score,withdrawn}],bids_missed:N,winner:{bidder,score,bids}|null,
 //!   progress,renewals,reallocations,reason,timeline:[{at:MS,text}],first:MS,last:MS}],
 //!  "robots":[{name,mode,battery,resources:[..],task,task_name,last:MS,silent}],
-//!  "forgotten":N,"bad":N}
+//!  "forgotten":N,"robots_forgotten":N,"bad":N}
 //! ```
 //! Times are milliseconds since the monitor started.
 
@@ -37,12 +42,17 @@ use serde::Serialize;
 
 /// Tasks kept; past this the oldest ended task (or, failing one, the oldest) is forgotten.
 pub const MAX_TASKS: usize = 256;
+/// Tasks sent to the page, the newest first: what a person can read, and a
+/// snapshot small enough to build ten times a second whatever is kept.
+pub const MAX_SHOWN: usize = 100;
 /// Bids kept per task (over every round).
 const MAX_BIDS: usize = 64;
 /// Timeline entries kept per task: the newest.
-const MAX_TIMELINE: usize = 48;
-/// Robots kept.
+const MAX_TIMELINE: usize = 24;
+/// Robots kept; past this the one silent longest is forgotten.
 const MAX_ROBOTS: usize = 256;
+/// The longest reason or timeline text kept, in characters.
+const MAX_TEXT: usize = 160;
 /// A robot unheard this long (it reports every second) is shown as silent.
 pub const ROBOT_SILENT_AFTER: Duration = Duration::from_secs(3);
 
@@ -174,6 +184,7 @@ pub struct TaskBoard {
     tasks: BTreeMap<(String, u64), TaskView>,
     robots: BTreeMap<String, RobotView>,
     forgotten: u64,
+    robots_forgotten: u64,
     bad: u64,
     version: u64,
 }
@@ -185,6 +196,7 @@ struct BoardJson<'a> {
     tasks: Vec<&'a TaskView>,
     robots: Vec<RobotView>,
     forgotten: u64,
+    robots_forgotten: u64,
     bad: u64,
 }
 
@@ -213,6 +225,7 @@ impl TaskBoard {
             tasks: BTreeMap::new(),
             robots: BTreeMap::new(),
             forgotten: 0,
+            robots_forgotten: 0,
             bad: 0,
             version: 0,
         }
@@ -316,12 +329,16 @@ impl TaskBoard {
         task.name = a.spec.name.clone();
         task.resources = a.spec.resources.iter().map(|s| s.to_string()).collect();
         task.length_s = a.spec.length_s;
-        let again =
-            round > task.round || matches!(task.state, TaskState::Cancelled | TaskState::Abandoned);
-        let text = if again {
-            task.reallocations += 1;
-            task.winner = None;
-            task.progress = None;
+        if round < task.round {
+            note(task, ms, format!("(round {round}) announced, late"));
+            return;
+        }
+        let again = round > task.round;
+        if again {
+            new_round(task, round);
+            task.state = TaskState::Announced;
+        }
+        let text = if round > 1 {
             format!("auctioned again (round {round})")
         } else {
             format!(
@@ -330,10 +347,6 @@ impl TaskBoard {
                 a.deadline.as_millis()
             )
         };
-        if again || task.state == TaskState::Announced {
-            task.state = TaskState::Announced;
-        }
-        task.round = task.round.max(round);
         note(task, ms, text);
     }
 
@@ -351,13 +364,17 @@ impl TaskBoard {
         }
         let ms = self.ms(now);
         let task = self.entry(now, announcer, id);
+        if round < task.round {
+            note(task, ms, format!("(round {round}) {}", describe(&m)));
+            return;
+        }
         if round > task.round {
             // A new round whose announcement this board did not hear.
-            task.round = round;
-            task.reallocations += 1;
-            task.winner = None;
-            task.progress = None;
+            new_round(task, round);
+            task.state = TaskState::Bidding;
         }
+        let from_winner =
+            |task: &TaskView, who: &str| task.winner.as_ref().is_none_or(|w| w.bidder == who);
         match m {
             Negotiation::Bid(b) => {
                 let bidder = b.bidder.to_string();
@@ -419,7 +436,9 @@ impl TaskBoard {
                 }
             }
             Negotiation::Ack { bidder, .. } => {
-                task.state = TaskState::Running;
+                if from_winner(task, bidder.as_str()) && !task.state.ended() {
+                    task.state = TaskState::Running;
+                }
                 note(task, ms, format!("{bidder} took it and started"));
             }
             Negotiation::Renew { by, progress, .. } => {
@@ -438,21 +457,25 @@ impl TaskBoard {
                 }
             }
             Negotiation::Done { bidder, .. } => {
-                if task.state != TaskState::Done {
+                if task.state != TaskState::Done && from_winner(task, bidder.as_str()) {
                     task.state = TaskState::Done;
                     task.progress = Some(1.0);
                     note(task, ms, format!("{bidder} finished it"));
                 }
             }
             Negotiation::Abandon { bidder, reason, .. } => {
-                task.state = TaskState::Abandoned;
+                if from_winner(task, bidder.as_str()) && !task.state.ended() {
+                    task.state = TaskState::Abandoned;
+                }
                 note(task, ms, format!("{bidder} gave it up: {reason}"));
-                task.reason = reason;
+                task.reason = clip(&reason);
             }
             Negotiation::Cancel { reason, .. } => {
-                task.state = TaskState::Cancelled;
+                if !task.state.ended() {
+                    task.state = TaskState::Cancelled;
+                }
                 note(task, ms, format!("the announcer withdrew it: {reason}"));
-                task.reason = reason;
+                task.reason = clip(&reason);
             }
             Negotiation::Unachievable { name, reason, .. } => {
                 if task.name.is_empty() {
@@ -460,7 +483,7 @@ impl TaskBoard {
                 }
                 task.state = TaskState::Unachievable;
                 note(task, ms, format!("unachievable: {reason}"));
-                task.reason = reason;
+                task.reason = clip(&reason);
             }
         }
     }
@@ -468,7 +491,15 @@ impl TaskBoard {
     fn on_robot(&mut self, now: Instant, r: RobotReport) {
         let name = r.name.to_string();
         if !self.robots.contains_key(&name) && self.robots.len() >= MAX_ROBOTS {
-            return;
+            let silent = self
+                .robots
+                .values()
+                .min_by_key(|r| r.last)
+                .map(|r| r.name.clone());
+            if let Some(k) = silent {
+                self.robots.remove(&k);
+                self.robots_forgotten += 1;
+            }
         }
         let last = self.ms(now);
         self.robots.insert(
@@ -491,6 +522,7 @@ impl TaskBoard {
         let ms = self.ms(now);
         let mut tasks: Vec<&TaskView> = self.tasks.values().collect();
         tasks.sort_by_key(|t| std::cmp::Reverse(t.first));
+        tasks.truncate(MAX_SHOWN);
         let silent_ms = ROBOT_SILENT_AFTER.as_millis() as u64;
         let robots = self
             .robots
@@ -505,7 +537,8 @@ impl TaskBoard {
             now: ms,
             tasks,
             robots,
-            forgotten: self.forgotten,
+            forgotten: self.forgotten + (self.tasks.len().saturating_sub(MAX_SHOWN) as u64),
+            robots_forgotten: self.robots_forgotten,
             bad: self.bad,
         };
         serde_json::to_string(&json).unwrap_or_else(|_| "{}".into())
@@ -521,7 +554,40 @@ fn note(task: &mut TaskView, at: u64, text: String) {
     if task.timeline.len() == MAX_TIMELINE {
         task.timeline.pop_front();
     }
-    task.timeline.push_back(Moment { at, text });
+    task.timeline.push_back(Moment {
+        at,
+        text: clip(&text),
+    });
+}
+
+/// At most [`MAX_TEXT`] characters of `text`.
+fn clip(text: &str) -> String {
+    text.chars().take(MAX_TEXT).collect()
+}
+
+/// The task is auctioned again, as round `round`: every round before it was a re-allocation.
+fn new_round(task: &mut TaskView, round: u32) {
+    task.round = round;
+    task.reallocations = round.saturating_sub(1);
+    task.winner = None;
+    task.progress = None;
+}
+
+/// A message of an earlier round, as its timeline entry says it.
+fn describe(m: &Negotiation) -> String {
+    match m {
+        Negotiation::Bid(b) => format!("{} bid {}, late", b.bidder, score_text(b.score)),
+        Negotiation::Award { winner, .. } => format!("awarded to {winner}, late"),
+        Negotiation::Ack { bidder, .. } => format!("{bidder} acknowledged, late"),
+        Negotiation::Decline { bidder, .. } => format!("{bidder} withdrew, late"),
+        Negotiation::Renew { by, .. } => format!("renewal by {by}, late"),
+        Negotiation::Done { bidder, .. } => format!("{bidder} says it finished, late"),
+        Negotiation::Abandon { bidder, reason, .. } => {
+            format!("{bidder} gave it up, late: {reason}")
+        }
+        Negotiation::Cancel { reason, .. } => format!("withdrawn, late: {reason}"),
+        Negotiation::Unachievable { reason, .. } => format!("unachievable, late: {reason}"),
+    }
 }
 
 #[cfg(test)]
@@ -686,6 +752,63 @@ mod tests {
     }
 
     #[test]
+    fn late_messages_of_an_earlier_round_and_words_from_others_than_the_winner_change_nothing() {
+        let t0 = Instant::now();
+        let mut b = TaskBoard::new(t0);
+        feed(&mut b, t0, &announcement(2).encode().unwrap());
+        say(&mut b, t0, 2, bid("r3", 7.0));
+        say(&mut b, t0, 2, award("r3", 7.0, 1));
+        say(
+            &mut b,
+            t0,
+            2,
+            Negotiation::Ack {
+                task: 17,
+                bidder: token("r3"),
+            },
+        );
+        // The replaced winner of round 1 gives up late, and says it finished.
+        let late = Negotiation::Abandon {
+            task: 17,
+            bidder: token("r2"),
+            reason: "announcer user silent for 3.0 s".into(),
+        };
+        say(&mut b, t0, 1, late);
+        say(
+            &mut b,
+            t0,
+            1,
+            Negotiation::Done {
+                task: 17,
+                bidder: token("r2"),
+            },
+        );
+        // A bystander claims this round.
+        say(
+            &mut b,
+            t0,
+            2,
+            Negotiation::Done {
+                task: 17,
+                bidder: token("r9"),
+            },
+        );
+        let t = b.task("user", 17).unwrap();
+        assert_eq!(
+            (t.state, t.round, t.reallocations),
+            (TaskState::Running, 2, 1)
+        );
+        assert!(t
+            .timeline
+            .iter()
+            .any(|m| m.text.starts_with("(round 1) r2 gave it up, late")));
+        // A late announcement of round 1 neither counts nor resets anything.
+        feed(&mut b, t0, &announcement(1).encode().unwrap());
+        let t = b.task("user", 17).unwrap();
+        assert_eq!((t.state, t.reallocations), (TaskState::Running, 1));
+    }
+
+    #[test]
     fn a_task_whose_announcement_was_missed_is_followed_from_its_subject() {
         let t0 = Instant::now();
         let mut b = TaskBoard::new(t0);
@@ -761,6 +884,8 @@ mod tests {
             }
         }
         assert_eq!(b.tasks().count(), MAX_TASKS);
+        let json: serde_json::Value = serde_json::from_str(&b.json(t0)).unwrap();
+        assert_eq!(json["tasks"].as_array().unwrap().len(), MAX_SHOWN);
         assert!(
             b.task("keep", 1).is_some(),
             "a running task outlives ended ones"

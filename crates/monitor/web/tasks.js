@@ -76,7 +76,8 @@ function draw(board) {
     }
   }
   const notes = [];
-  if (board.forgotten > 0) notes.push({ cls: 'stale-banner', text: `${board.forgotten} older tasks are no longer shown` });
+  if (board.forgotten > 0) notes.push({ cls: 'stale-banner', text: `${board.forgotten} older tasks are not shown` });
+  if (board.robots_forgotten > 0) notes.push({ cls: 'stale-banner', text: `${board.robots_forgotten} robots silent longest are no longer shown` });
   if (board.bad > 0) notes.push({ cls: 'stale-banner', text: `${board.bad} MURDOCH packets did not read and were ignored` });
   showBanners($('banners'), notes);
 }

@@ -55,7 +55,12 @@ pub struct Link<C = UdpClient> {
     client: C,
     applied: BTreeSet<Subject>,
     epoch: Instant,
+    /// When the wait for the first cookie ends (set when the node first subscribes).
+    first_contact: Option<Instant>,
 }
+
+/// How long, at most, a node's packets wait for the hub's first cookie (see [`Link::flush`]).
+pub const FIRST_CONTACT: Duration = Duration::from_millis(500);
 
 impl Link {
     /// A link over a new client of the hub at `hub`, its clock counting from `epoch`.
@@ -74,6 +79,7 @@ impl<C: BorrowMut<UdpClient>> Link<C> {
             client,
             applied: BTreeSet::new(),
             epoch,
+            first_contact: None,
         }
     }
 
@@ -128,12 +134,31 @@ impl<C: BorrowMut<UdpClient>> Link<C> {
 
     /// Sends what the node wants sent, its subscriptions first (so a bidder is
     /// subscribed to a negotiation before its bid can be answered).
+    ///
+    /// Before the hub knows this address (no cookie yet), a subscription takes
+    /// a round trip, and what the node publishes meanwhile could be answered
+    /// before the subscription is in place (an announcement's bids, lost
+    /// because the announcer is not subscribed yet): so it waits for the
+    /// cookie, for at most [`FIRST_CONTACT`].
     pub fn flush(&mut self, node: &mut dyn Node) -> Result<(), LiveError> {
         self.sync(node)?;
+        if self.holding(Instant::now()).is_some() {
+            return Ok(());
+        }
         while let Some(p) = node.poll_transmit() {
             self.client_mut().publish(&p)?;
         }
         Ok(())
+    }
+
+    /// Until when the node's packets wait for the first cookie, if they do now.
+    fn holding(&mut self, now: Instant) -> Option<Instant> {
+        let session = self.client().session();
+        if session.cookie().is_some() || session.subscriptions().next().is_none() {
+            return None;
+        }
+        let until = *self.first_contact.get_or_insert(now + FIRST_CONTACT);
+        (now < until).then_some(until)
     }
 
     /// Does everything due now: hands the node every waiting packet, runs its
@@ -154,13 +179,18 @@ impl<C: BorrowMut<UdpClient>> Link<C> {
         self.flush(node)
     }
 
-    /// When the link next has work: the node's timer or the client's.
+    /// When the link next has work: the node's timer or the client's, or the
+    /// end of a wait for the first cookie.
     pub fn next_deadline(&self, node: &dyn Node) -> Option<Instant> {
         let node_due = node.poll_timeout().map(|t| self.instant_of(t));
-        match (node_due, self.client().next_deadline()) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        }
+        // Only a wait still running: one that ran out must not wake the link for ever.
+        let held = self
+            .first_contact
+            .filter(|t| *t > Instant::now() && self.client().session().cookie().is_none());
+        [node_due, self.client().next_deadline(), held]
+            .into_iter()
+            .flatten()
+            .min()
     }
 
     /// Blocks until a datagram arrives, the next deadline, or `at_most` passes.

@@ -255,3 +255,55 @@ fn two_nodes_on_one_mio_loop_talk_through_the_hub_and_obey_its_minimum_priority(
     assert!(mux.node(1).is_none());
     assert!(mux.node(0).is_some());
 }
+
+/// Subscribes to `echo` and, at once, publishes one packet on it.
+struct Echo {
+    subs: BTreeSet<Subject>,
+    sent: bool,
+    heard: u32,
+}
+
+impl Node for Echo {
+    fn subscriptions(&self) -> &BTreeSet<Subject> {
+        &self.subs
+    }
+    fn handle_packet(&mut self, _: Time, packet: &Packet<'_>) {
+        if packet.has_subject("echo") {
+            self.heard += 1;
+        }
+    }
+    fn handle_timeout(&mut self, _: Time) {}
+    fn poll_timeout(&self) -> Option<Time> {
+        None
+    }
+    fn poll_transmit(&mut self) -> Option<Vec<u8>> {
+        (!std::mem::replace(&mut self.sent, true)).then(|| b"@ <echo> 0\nhello\n".to_vec())
+    }
+}
+
+#[test]
+fn a_new_clients_first_packet_waits_for_its_subscription_so_the_answer_is_not_lost() {
+    // A new address's first subscription takes a cookie round trip; a packet
+    // published at once would reach the hub first and find nobody subscribed
+    // (here the node itself: it is its own answer). The link holds it until
+    // the hub knows the address.
+    let hub = Hub::start();
+    let mut link = Link::new(UdpClient::connect(hub.addr).unwrap(), Instant::now());
+    let mut echo = Echo {
+        subs: subjects("echo"),
+        sent: false,
+        heard: 0,
+    };
+    let stop = AtomicBool::new(false);
+    let start = Instant::now();
+    run(&mut echo, &mut link, &stop, |e, _| {
+        if e.heard > 0 || start.elapsed() > LIMIT {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    })
+    .unwrap();
+    assert!(echo.sent);
+    assert_eq!(echo.heard, 1, "the packet went out before the subscription");
+}

@@ -85,8 +85,17 @@ pub struct RobotSummary {
     pub charges: u64,
 }
 
-/// A body is at a task's place within this, cm.
-pub const REACH: f64 = 30.0;
+/// A body is at a task's place within this, cm: a Pioneer's width and a
+/// little, so a robot already standing there does not keep it away.
+pub const REACH: f64 = 50.0;
+/// A body that has not come this much closer in [`NO_HEADWAY`] works from
+/// where it is (a robot at work on the very spot, a wall), cm...
+const HEADWAY: f64 = 20.0;
+/// ...see [`HEADWAY`].
+const NO_HEADWAY: Duration = Duration::from_secs(30);
+/// A body that cannot see itself on `vision` this long after it took a task
+/// gives the task up, so the announcer can give it to another.
+const BLIND_AFTER: Duration = Duration::from_secs(5);
 /// Other robots closer than this push the driving robot's heading away, cm.
 const KEEP_CLEAR: f64 = 100.0;
 
@@ -100,6 +109,10 @@ struct Driver {
     others: Vec<Vec2>,
     /// Where the current task is, and how long it lasts once there.
     goal: Option<(Vec2, Duration)>,
+    /// When it set off, and the closest it has been since it last came
+    /// [`HEADWAY`] closer (and when).
+    set_off: Instant,
+    best: (f64, Instant),
     /// A frame came since the last command.
     fresh: bool,
 }
@@ -115,6 +128,8 @@ impl Driver {
             pose: None,
             others: Vec::new(),
             goal: None,
+            set_off: Instant::now(),
+            best: (f64::INFINITY, Instant::now()),
             fresh: false,
         })
     }
@@ -144,20 +159,41 @@ impl Driver {
         Ok(())
     }
 
-    /// Whether it is at its goal (and so stopped); otherwise, with a new
-    /// frame, the next wheel command towards it.
-    fn drive(&mut self) -> Result<bool, LiveError> {
-        let (Some((goal, _)), Some(me)) = (self.goal, self.pose) else {
-            return Ok(false);
+    /// Sets off for `goal`, to work there for `length`.
+    fn set_off(&mut self, goal: Vec2, length: Duration, now: Instant) {
+        self.goal = Some((goal, length));
+        self.set_off = now;
+        self.best = (f64::INFINITY, now);
+    }
+
+    /// Where it stands with its goal, and with a new frame, the next wheel
+    /// command towards it.
+    fn drive(&mut self, now: Instant) -> Result<Trip, LiveError> {
+        let Some((goal, _)) = self.goal else {
+            return Ok(Trip::None);
         };
-        if me.position().distance(goal) <= REACH {
+        let Some(me) = self.pose else {
+            if now.duration_since(self.set_off) >= BLIND_AFTER {
+                return Ok(Trip::Blind);
+            }
+            return Ok(Trip::Driving);
+        };
+        let d = me.position().distance(goal);
+        if d + HEADWAY <= self.best.0 {
+            self.best = (d, now);
+        }
+        if d <= REACH {
             self.send(WheelCommand::STOP)?;
-            return Ok(true);
+            return Ok(Trip::There);
+        }
+        if now.duration_since(self.best.1) >= NO_HEADWAY {
+            self.send(WheelCommand::STOP)?;
+            return Ok(Trip::AsCloseAsItGets(d));
         }
         if std::mem::take(&mut self.fresh) {
             self.send(steer(me, goal, &self.others))?;
         }
-        Ok(false)
+        Ok(Trip::Driving)
     }
 
     fn send(&mut self, wheels: WheelCommand) -> Result<(), LiveError> {
@@ -167,6 +203,20 @@ impl Driver {
         }
         Ok(())
     }
+}
+
+/// How a body's trip to its task's place stands.
+enum Trip {
+    /// No trip.
+    None,
+    /// On its way.
+    Driving,
+    /// Within [`REACH`].
+    There,
+    /// No headway for [`NO_HEADWAY`]: this far from the place, cm.
+    AsCloseAsItGets(f64),
+    /// It has not seen itself on `vision` since it took the task.
+    Blind,
 }
 
 /// Towards `goal`, the heading pushed away from robots closer than
@@ -246,13 +296,25 @@ pub fn run(
         let now_i = Instant::now();
         let now = link.now();
         if let Some(d) = driver.as_mut() {
+            let seen = d.pose.is_some();
             d.look(now_i)?;
             if let Some(pose) = d.pose {
+                if !seen {
+                    say(&format!(
+                        "{} sees itself at ({:.0}, {:.0}) on vision",
+                        stamp(now_i),
+                        pose.x,
+                        pose.y
+                    ));
+                }
                 agent.set_position(pose.position());
                 agent.set_heading(pose.theta);
             }
-            if d.drive()? {
-                if let Some((at, length)) = d.goal.take() {
+            let trip = d.drive(now_i)?;
+            let at = d.goal.map(|(at, _)| at);
+            match (trip, d.goal) {
+                (Trip::There, Some((at, length))) => {
+                    d.goal = None;
                     busy_until = Some(now_i + length);
                     say(&format!(
                         "{} at ({:.0}, {:.0}): starts work",
@@ -261,6 +323,28 @@ pub fn run(
                         at.y
                     ));
                 }
+                (Trip::AsCloseAsItGets(off), Some((_, length))) => {
+                    d.goal = None;
+                    busy_until = Some(now_i + length);
+                    say(&format!(
+                        "{} gets no closer to ({:.0}, {:.0}) than {off:.0} cm: starts work here",
+                        stamp(now_i),
+                        at.map_or(0.0, |a| a.x),
+                        at.map_or(0.0, |a| a.y),
+                    ));
+                }
+                (Trip::Blind, Some(_)) => {
+                    d.goal = None;
+                    if let Some(task) = agent.abandon(now, "cannot see itself on vision") {
+                        summary.stopped += 1;
+                        say(&format!(
+                            "{} gives task #{task} up: body {} is not on vision",
+                            stamp(now_i),
+                            d.id
+                        ));
+                    }
+                }
+                _ => {}
             }
         }
         while let Some(fault) = faults.next_if(|f| epoch + f.at <= now_i) {
@@ -295,7 +379,7 @@ pub fn run(
                     let length = Duration::try_from_secs_f64(ann.spec.length_s).unwrap_or_default();
                     let place = ann.spec.number("x").zip(ann.spec.number("y"));
                     match (driver.as_mut(), place) {
-                        (Some(d), Some((x, y))) => d.goal = Some((Vec2::new(x, y), length)),
+                        (Some(d), Some((x, y))) => d.set_off(Vec2::new(x, y), length, now_i),
                         _ => busy_until = Some(now_i + length),
                     }
                     let whither = match (&driver, place) {

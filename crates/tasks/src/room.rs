@@ -33,6 +33,8 @@ pub struct Room {
     hold: CommandHold,
     period: Duration,
     steps: u64,
+    /// When the next control step is due.
+    next: Time,
     subs: BTreeSet<Subject>,
     outbox: VecDeque<Vec<u8>>,
 }
@@ -79,6 +81,7 @@ impl Room {
             ids,
             period,
             steps: 0,
+            next: Time::ZERO,
             subs,
             outbox: VecDeque::new(),
         })
@@ -161,17 +164,22 @@ impl Node for Room {
     }
 
     fn handle_timeout(&mut self, now: Time) {
-        // Catch up on missed steps, but never more than a second's worth at once.
+        // Catch up on a few missed steps; after a longer stall (a suspended
+        // process) the backlog is dropped, not replayed at full speed.
         for _ in 0..10 {
-            match self.poll_timeout() {
-                Some(due) if due <= now => self.step(),
-                _ => break,
+            if self.next > now {
+                return;
             }
+            self.step();
+            self.next = self.next + self.period;
+        }
+        if self.next <= now {
+            self.next = now + self.period;
         }
     }
 
     fn poll_timeout(&self) -> Option<Time> {
-        Some(Time::ZERO + self.period.mul_f64(self.steps as f64))
+        Some(self.next)
     }
 
     fn poll_transmit(&mut self) -> Option<Vec<u8>> {
@@ -221,6 +229,18 @@ mod tests {
             .frame;
         assert_eq!(frame.robots.len(), 2);
         assert!((frame.robots[0].pose.y - moved.y).abs() < 0.01);
+    }
+
+    #[test]
+    fn a_long_stall_is_not_replayed() {
+        let mut room = Room::new(600.0, 1, 30.0).unwrap();
+        let later = Time::ZERO + Duration::from_secs(3600);
+        room.handle_timeout(later);
+        assert_eq!(std::iter::from_fn(|| room.poll_transmit()).count(), 10);
+        assert_eq!(
+            room.poll_timeout(),
+            Some(later + Duration::from_millis(100))
+        );
     }
 
     #[test]

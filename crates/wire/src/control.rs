@@ -59,7 +59,7 @@ pub enum Request {
     /// Send this client every packet the hub forwards, whatever its subjects:
     /// a monitor's or a spy's view of all traffic, new subjects included.
     /// Lasts as long as the client holds a lease; a hub lets only a few
-    /// clients tap at once.
+    /// clients tap at once, and few from one host, unless a console asks.
     Tap,
 }
 
@@ -320,6 +320,8 @@ pub struct ClientInfo {
     pub subscriptions: Vec<(String, u64)>,
     /// What the client says it is ([`Request::About`]); empty if it said nothing.
     pub about: String,
+    /// It taps: it gets every forwarded packet ([`Request::Tap`]).
+    pub tap: bool,
 }
 
 /// Traffic on one channel (or subject set, written `a b`).
@@ -376,6 +378,9 @@ impl StatusReport {
                 let _ = write!(l, "{}{s} {left}", if i > 0 { " " } else { "" });
             }
             l.push(')');
+            if c.tap {
+                l.push_str(" tap 1");
+            }
             if !c.about.is_empty() {
                 l.push_str(" about ");
                 write_quoted(&mut l, &c.about);
@@ -463,6 +468,7 @@ impl StatusReport {
                             Some(_) => clip_about(&line.str("about")?).to_owned(),
                             None => String::new(),
                         },
+                        tap: line.get("tap").is_some(),
                     })
                 }
                 _ => {}

@@ -343,12 +343,14 @@ fn sample_report() -> StatusReport {
                 idle_ms: 12,
                 subscriptions: vec![("vision_out".into(), 4_900), ("radio".into(), 10)],
                 about: "bridge site \"lab\"".into(),
+                tap: false,
             },
             ClientInfo {
                 addr: "[::1]:40002".into(),
                 idle_ms: 0,
                 subscriptions: vec![],
                 about: String::new(),
+                tap: true,
             },
         ],
         channels: vec![
@@ -381,7 +383,7 @@ fn status_report_writes_one_line_per_item() {
          drop reason \"malformed\" count 4\n\
          drop reason \"below \\\"min\\\" priority\\\\\" count 7\n\
          client addr \"127.0.0.1:40001\" idle_ms 12 subs (vision_out 4900 radio 10) about \"bridge site \\\"lab\\\"\"\n\
-         client addr \"[::1]:40002\" idle_ms 0 subs ()\n\
+         client addr \"[::1]:40002\" idle_ms 0 subs () tap 1\n\
          channel ch \"vision_out\" packets 1000 bytes 450000\n\
          channel ch \"task robot:7\" packets 3 bytes 99\n"
     );
@@ -416,6 +418,7 @@ fn huge_report(clients: usize) -> StatusReport {
                 idle_ms: i as u64,
                 subscriptions: (0..4).map(|s| (format!("channel_{s}"), 5_000)).collect(),
                 about: String::new(),
+                tap: i % 2 == 0,
             })
             .collect(),
         channels: vec![ChannelInfo {

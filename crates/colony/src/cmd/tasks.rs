@@ -123,8 +123,9 @@ pub struct AnnounceArgs {
     /// Give up if no robot has taken it this long after it was introduced.
     #[arg(long, default_value_t = 60.0, value_parser = MAX_SECONDS)]
     pub deadline: f64,
-    /// Where it is to be done, `X,Y` in cm (robots bid by their distance to it,
-    /// and one with a body drives there first).
+    /// Where it is to be done, `X,Y` in cm: robots bid by their distance to it,
+    /// and one with a body drives there first (an agent with no body knows no
+    /// distance, and does not bid).
     #[arg(long = "at", value_name = "X,Y")]
     pub place: Option<String>,
     /// Who announces it (bids and awards name it) [default: user-XXXX, random].

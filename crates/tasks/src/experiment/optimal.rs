@@ -187,12 +187,12 @@ pub fn compare(cfg: &CompareConfig) -> Result<Comparison, CompareError> {
     let mut agents = Vec::new();
     for r in &robots {
         let token = Token::new(&r.name)?;
-        let mut a = Agent::new(
-            token,
-            r.resources.clone(),
-            AgentConfig::default(),
-            Time::ZERO,
-        );
+        // Nobody watches: no reports.
+        let config = AgentConfig {
+            report_interval: None,
+            ..AgentConfig::default()
+        };
+        let mut a = Agent::new(token, r.resources.clone(), config, Time::ZERO);
         a.set_position(r.position);
         a.set_battery(r.battery);
         agents.push(a);

@@ -602,7 +602,9 @@ impl BoxPush {
         let mut report = self.report;
         let box_pose = self.field.box_pose(self.bx).unwrap_or(self.cfg.box_start);
         report.final_distance_cm = box_pose.position().distance(self.goal);
-        report.messages = self.bus.stats().sent;
+        // The robots' reports are for watchers, not part of the protocol's cost.
+        let stats = self.bus.stats();
+        report.messages = stats.sent - stats.by_label.get("robot").copied().unwrap_or(0);
         BoxPushOutcome {
             report,
             track: self.track,

@@ -177,6 +177,9 @@ impl LongtermConfig {
         positive("mean gap", self.mean_gap_s)?;
         positive("speed", self.speed_cm_s)?;
         positive("room", self.room_cm)?;
+        if !(ROOM_CM.0..=ROOM_CM.1).contains(&self.room_cm) {
+            return Err(SettingsError::Room(self.room_cm));
+        }
         positive("mtbf", self.mtbf_s)?;
         if !(self.length_s.0 >= 0.0
             && self.length_s.1 >= self.length_s.0
@@ -217,7 +220,13 @@ pub enum SettingsError {
     /// No charger to go to.
     #[error("there must be a charger")]
     NoCharger,
+    /// A room too small for the robots or larger than the field's largest map.
+    #[error("the room must be {lo} to {hi} cm across, not {0}", lo = ROOM_CM.0, hi = ROOM_CM.1)]
+    Room(f64),
 }
+
+/// A room's side, cm: room for six Pioneers, up to the field's largest map.
+pub const ROOM_CM: (f64, f64) = (500.0, 50_000.0);
 
 /// The task a user introduces: placed tasks score by distance, then by charge
 /// left and by how many resources the robot would tie up (a specialist is
