@@ -11,7 +11,7 @@ use std::collections::{BTreeSet, VecDeque};
 use std::time::Duration;
 
 use colony_node::{Node, Time};
-use colony_proto::{radio, CommandHold};
+use colony_proto::CommandHold;
 use colony_sim::field::{
     Field, FieldConfig, FieldRobotId, RobotSpec, Terrain as SimTerrain, TileMap,
 };
@@ -191,17 +191,11 @@ impl GameWorld {
     /// Takes in one packet: a wheel command or the game's state.
     fn handle(&mut self, packet: &Packet<'_>) {
         if packet.has_subject(protocol::RADIO) {
-            match radio::decode(packet) {
-                Ok(cmds) => {
-                    // One of lower priority than a fresh one in force (an operator's) is
-                    // ignored until that one lapses.
-                    let step = self.field.step_count();
-                    for c in cmds {
-                        self.commands
-                            .offer(c.robot as usize, c.wheels, packet.priority().0, step);
-                    }
-                }
-                Err(e) => tracing::debug!(error = %e, "ignored a bad radio packet"),
+            // One of lower priority than a fresh one in force (an operator's) is
+            // ignored until that one lapses.
+            let step = self.field.step_count();
+            if let Err(e) = self.commands.offer_radio(packet, step) {
+                tracing::debug!(error = %e, "ignored a bad radio packet");
             }
         } else if packet.has_subject(protocol::STATE) {
             // The game logic decides who is destroyed; the world only obeys.

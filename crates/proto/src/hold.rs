@@ -7,7 +7,9 @@
 //! command of lower priority for that robot is ignored. Equal or higher priority always replaces
 //! it, so a controller's stream of commands at one priority simply follows the newest.
 
-use crate::WheelCommand;
+use colony_wire::Packet;
+
+use crate::{radio, DecodeError, WheelCommand};
 
 /// The command in force for each robot of a world.
 #[derive(Debug, Clone)]
@@ -59,6 +61,17 @@ impl CommandHold {
         });
     }
 
+    /// Takes every command of a `radio` packet that arrived at control step
+    /// `step`, at the packet's priority. A packet that does not read is
+    /// refused whole ([`radio::decode`]): a robot does not act on half of a
+    /// forged packet.
+    pub fn offer_radio(&mut self, packet: &Packet<'_>, step: u64) -> Result<(), DecodeError> {
+        for c in radio::decode(packet)? {
+            self.offer(c.robot as usize, c.wheels, packet.priority().0, step);
+        }
+        Ok(())
+    }
+
     /// What `robot` does at `step`: its command in force, or stop once that has lapsed.
     pub fn command(&self, robot: usize, step: u64) -> WheelCommand {
         match self.latest.get(robot) {
@@ -78,6 +91,30 @@ impl CommandHold {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn p(text: &str) -> Packet<'_> {
+        Packet::parse(text.as_bytes()).unwrap()
+    }
+
+    #[test]
+    fn a_radio_packet_is_taken_whole_at_its_priority_or_not_at_all() {
+        let mut h = CommandHold::new(3, 10);
+        h.offer_radio(
+            &p("@ <radio> 10\ncmd id 0 forward 1 turn 0\ncmd id 2 forward -1 turn 0.5\n"),
+            1,
+        )
+        .unwrap();
+        assert_eq!(h.command(0, 1).forward, 1.0);
+        assert_eq!(h.command(2, 1).turn, 0.5);
+        // A controller's (priority 0) does not displace the operator's while it holds...
+        h.offer_radio(&p("@ <radio> 0\ncmd id 0 forward 0.2 turn 0\n"), 2)
+            .unwrap();
+        assert_eq!(h.command(0, 2).forward, 1.0);
+        // ...and half a forged packet moves nobody.
+        let forged = p("@ <radio> 20\ncmd id 1 forward 1 turn 0\ncmd id 1 forward nan turn 0\n");
+        assert!(h.offer_radio(&forged, 3).is_err());
+        assert_eq!(h.command(1, 3), WheelCommand::STOP);
+    }
 
     const AI: WheelCommand = WheelCommand {
         forward: 0.5,

@@ -10,7 +10,7 @@ use std::collections::{BTreeSet, VecDeque};
 use std::time::Duration;
 
 use colony_node::{Node, Time};
-use colony_proto::radio::{self, RADIO};
+use colony_proto::radio::RADIO;
 use colony_proto::swarm::{vision, Arena, Sizes, VisionFrame, VisionRobot};
 use colony_proto::{CommandHold, Pose, Vec2};
 use colony_sim::field::{Field, FieldConfig, FieldRobotId, RobotSpec, TileMap};
@@ -151,15 +151,8 @@ impl Node for Room {
         if !packet.has_subject(RADIO) {
             return;
         }
-        match radio::decode(packet) {
-            Ok(cmds) => {
-                for c in cmds {
-                    let robot = c.robot as usize;
-                    self.hold
-                        .offer(robot, c.wheels, packet.priority().0, self.steps);
-                }
-            }
-            Err(e) => tracing::debug!(error = %e, "ignored a bad radio packet"),
+        if let Err(e) = self.hold.offer_radio(packet, self.steps) {
+            tracing::debug!(error = %e, "ignored a bad radio packet");
         }
     }
 
@@ -205,7 +198,7 @@ pub fn serve(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use colony_proto::radio::RadioCommand;
+    use colony_proto::radio::{self, RadioCommand};
     use colony_wire::Priority;
 
     #[test]

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use colony_client::ClientError;
 use colony_node::{Node, Time};
-use colony_proto::radio::{self, RADIO};
+use colony_proto::radio::RADIO;
 use colony_proto::swarm::{
     camera, metrics, vision, Arena, Progress, Sizes, VisionFrame, VisionPuck, VisionRobot,
 };
@@ -140,15 +140,9 @@ impl<W: BorrowMut<World>> Node for WorldNode<W> {
         if !packet.has_subject(RADIO) {
             return;
         }
-        match radio::decode(packet) {
-            Ok(cmds) => {
-                let step = self.world.borrow().step_count();
-                for c in cmds {
-                    self.commands
-                        .offer(c.robot as usize, c.wheels, packet.priority().0, step);
-                }
-            }
-            Err(e) => tracing::debug!(error = %e, "ignored a bad radio packet"),
+        let step = self.world.borrow().step_count();
+        if let Err(e) = self.commands.offer_radio(packet, step) {
+            tracing::debug!(error = %e, "ignored a bad radio packet");
         }
     }
 
@@ -225,6 +219,7 @@ fn puck_id(puck: usize) -> Result<u32, LiveError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use colony_proto::radio;
     use colony_wire::Priority;
 
     fn options(max_steps: Option<u64>) -> WorldOptions {
