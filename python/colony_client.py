@@ -30,6 +30,7 @@ import errno
 import hashlib
 import hmac
 import ipaddress
+import math
 import os
 import random
 import re
@@ -1467,13 +1468,17 @@ def _pump(client, until):
 
 def announce_task(client, name, needs, length_s=5.0, deadline_s=60.0, announcer=None,
                   bid_window=0.2, ack_timeout=1.0, renew_interval=1.0, renew_timeout=3.0,
-                  say=None):
+                  say=None, at=None):
     """Introduces a task into a running MURDOCH system and follows it to its
     end, as ``colony tasks announce`` does: announces it to the idle robots
     that have ``needs``, awards it to the lowest bid, renews the award while
     the winner works, and auctions it again when the winner is lost (an
     abandon, a decline, or silence for ``renew_timeout``). A task nobody can
     take is announced again, with backoff, until ``deadline_s``.
+
+    ``at``, an ``(x, y)`` in cm, says where the task is: robots bid by their
+    distance to it (``--at`` of ``colony tasks announce``), and one driving a
+    body goes there first; a robot with no position does not bid.
 
     Returns ``("done", winner)`` or ``("gave_up", reason)``. ``say``, if
     given, is called with a line for each step."""
@@ -1482,6 +1487,13 @@ def announce_task(client, name, needs, length_s=5.0, deadline_s=60.0, announcer=
     for n in needs:
         if not is_subject(n):
             raise ValueError("{!r} is not a resource name".format(n))
+    extra = []
+    if at is not None:
+        x, y = (float(v) for v in at)
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError("at {!r} is not a place".format(at))
+        extra = [("param", [("name", "x"), ("value", x)]), ("param", [("name", "y"), ("value", y)]),
+                 ("metric", [("name", "distance"), ("weight", 1.0)])]
     announcer = announcer or "py-{:04x}".format(random.getrandbits(16))
     task = random.randint(1, 2**40)
     give_up_at = time.monotonic() + deadline_s
@@ -1497,7 +1509,7 @@ def announce_task(client, name, needs, length_s=5.0, deadline_s=60.0, announcer=
         task_line = ("task", [("name", name), ("id", task), ("negotiation", neg),
                               ("deadline_ms", int(bid_window * 1000)), ("length_s", float(length_s)),
                               ("announcer", announcer)])
-        client.publish(needs + ["idle"], 0, [task_line])
+        client.publish(needs + ["idle"], 0, [task_line] + extra)
         say("auction {} of {} open".format(attempt, name))
         bids = []
         for p in _pump(client, time.monotonic() + bid_window):

@@ -1890,12 +1890,17 @@ if __name__ == "__main__":
 class Murdoch(_HubCase):
     """A task introduced from Python into a system of `colony tasks agent` processes."""
 
-    def agent(self, name, resources):
+    def agent(self, name, resources, *extra, ready=b"joins with"):
+        return self.spawn(["tasks", "agent", "--hub", self.hub.addr_text, "--name", name,
+                           "--resources", resources, *extra], ready)
+
+    def spawn(self, args, ready):
+        """`colony ARGS` in the background, once it has printed `ready`; its output."""
         path, _ = colony_bin()
         log = tempfile.TemporaryFile(mode="a+b")
         self.addCleanup(log.close)
         proc = subprocess.Popen(
-            [path, "tasks", "agent", "--hub", self.hub.addr_text, "--name", name, "--resources", resources],
+            [path, *args],
             stdin=subprocess.DEVNULL,
             stdout=log,
             stderr=subprocess.DEVNULL,
@@ -1911,10 +1916,10 @@ class Murdoch(_HubCase):
         deadline = time.monotonic() + 20.0
         while time.monotonic() < deadline:
             log.seek(0)
-            if b"joins with" in log.read():
+            if ready in log.read():
                 return log
             time.sleep(0.05)
-        self.fail("agent %s never started" % name)
+        self.fail("colony %s never printed %r" % (" ".join(args), ready))
 
     def test_a_task_announced_from_python_is_done_by_the_robot_that_can(self):
         self.agent("r1", "mobile,laser")
@@ -1926,6 +1931,21 @@ class Murdoch(_HubCase):
         self.assertIn("awarded to r2", "\n".join(lines))
         r2.seek(0)
         self.assertIn(b"starts task", r2.read())
+
+    def test_a_placed_task_from_python_goes_to_the_nearer_body_which_drives_there(self):
+        self.spawn(["tasks", "room", "--hub", self.hub.addr_text, "--bodies", "2"], b"2 bodies")
+        # Robot 0 stands left of the room's middle, robot 1 right of it.
+        self.agent("left", "mobile", "--body", "0", ready=b"sees itself at")
+        right = self.agent("right", "mobile", "--body", "1", ready=b"sees itself at")
+        c = self.client()
+        lines = []
+        outcome = cc.announce_task(c, "visit", "mobile", length_s=0.5, deadline_s=60.0,
+                                   say=lines.append, at=(300, 250))
+        self.assertEqual(outcome, ("done", "right"), "\n".join(lines))
+        right.seek(0)
+        self.assertIn(b"at (300, 250): starts work", right.read())
+        with self.assertRaises(ValueError):
+            cc.announce_task(c, "visit", "mobile", at=(float("nan"), 0))
 
     def test_a_task_no_robot_can_do_is_given_up_at_its_deadline(self):
         self.agent("r1", "mobile,laser")
