@@ -12,19 +12,17 @@ use std::time::Duration;
 use colony_node::{Node, Time};
 use colony_proto::radio::RADIO;
 use colony_proto::swarm::{vision, Arena, Sizes, VisionFrame, VisionRobot};
-use colony_proto::{CommandHold, Pose, Vec2};
-use colony_sim::field::{Field, FieldConfig, FieldRobotId, RobotSpec, TileMap};
+use colony_proto::{CommandHold, Pose};
+use colony_sim::field::{Field, FieldConfig, FieldRobotId};
 use colony_sim::SimError;
 use colony_wire::{Packet, Subject};
 
-use crate::experiment::longterm::bodies::RADIUS;
+use crate::experiment::longterm::bodies::{open_room, pioneer, RADIUS};
 
 /// The most bodies a room holds.
 pub const MAX_BODIES: usize = 64;
 /// A wheel command moves its body for this many control steps unless replaced.
 const HOLD_STEPS: u64 = 5;
-/// The room's floor is cut into cells this size (it is open: only its edge is a wall).
-const CELL: f64 = 20.0;
 
 /// The room as a [`Node`]: feed it radio packets and time; it publishes vision.
 pub struct Room {
@@ -49,16 +47,10 @@ impl Room {
                 "a room holds 1 to {MAX_BODIES} bodies, not {bodies}"
             )));
         }
-        let cells = (side_cm / CELL).ceil().max(1.0) as usize;
         let config = FieldConfig::default();
         let period = Duration::from_secs_f64(config.control_step);
-        let mut field = Field::new(TileMap::open(cells, cells, CELL)?, config)?;
-        let spec = RobotSpec {
-            radius: RADIUS,
-            max_speed: speed,
-            max_turn: 1.5,
-            amphibious: false,
-        };
+        let mut field = open_room(side_cm, config)?;
+        let spec = pioneer(speed);
         let size = field.map().size_cm();
         let gap = size.x / (bodies as f64 + 1.0);
         let ids = (0..bodies)
@@ -90,17 +82,7 @@ impl Room {
     /// Body `i`'s pose, in the frame `vision` uses (the room centred on the origin).
     pub fn pose(&self, i: usize) -> Option<Pose> {
         let p = self.field.robot_pose(*self.ids.get(i)?)?;
-        let c = self.centre();
-        Some(Pose {
-            x: p.x - c.x,
-            y: p.y - c.y,
-            theta: p.theta,
-        })
-    }
-
-    fn centre(&self) -> Vec2 {
-        let size = self.field.map().size_cm();
-        Vec2::new(size.x / 2.0, size.y / 2.0)
+        Some(self.field.centred(p))
     }
 
     fn frame(&self) -> VisionFrame {

@@ -325,6 +325,25 @@ impl Field {
     pub fn config(&self) -> &FieldConfig {
         &self.config
     }
+
+    /// `pose` (world frame) in the frame centred on the map's middle, as
+    /// `vision` draws a world (its arena is centred on the origin).
+    ///
+    /// ```
+    /// # use colony_sim::field::{Field, FieldConfig, TileMap};
+    /// # use colony_sim::Pose;
+    /// let field = Field::new(TileMap::open(10, 6, 10.0).unwrap(), FieldConfig::default()).unwrap();
+    /// let p = field.centred(Pose { x: 20.0, y: 50.0, theta: 1.0 });
+    /// assert_eq!((p.x, p.y, p.theta), (-30.0, 20.0, 1.0));
+    /// ```
+    pub fn centred(&self, pose: Pose) -> Pose {
+        let size = self.map.size_cm();
+        Pose {
+            x: pose.x - size.x / 2.0,
+            y: pose.y - size.y / 2.0,
+            theta: pose.theta,
+        }
+    }
 }
 
 impl fmt::Debug for Field {

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
 use colony_proto::swarm::{vision, Arena, Sizes, VisionBox, VisionFrame, VisionRobot};
-use colony_proto::{Pose, Vec2};
+use colony_proto::Pose;
 
 use super::control::{BOX, PUSHER};
 use super::{BoxPush, BoxPushConfig, BoxPushError, BoxPushOutcome};
@@ -34,15 +34,7 @@ impl BoxPush {
     /// the origin, so every position is shifted by half the field.
     pub fn vision_frame(&self) -> VisionFrame {
         let size = self.field.map().size_cm();
-        let shift = |p: Vec2| Vec2::new(p.x - size.x / 2.0, p.y - size.y / 2.0);
-        let pose = |p: Pose| {
-            let at = shift(p.position());
-            Pose {
-                x: at.x,
-                y: at.y,
-                theta: p.theta,
-            }
-        };
+        let pose = |p: Pose| self.field.centred(p);
         let robots = self
             .pushers
             .iter()
@@ -77,7 +69,14 @@ impl BoxPush {
                 length: 2.0 * BOX.half_length,
                 width: 2.0 * BOX.half_width,
             }],
-            goal: Some(shift(self.goal)),
+            goal: Some(
+                pose(Pose {
+                    x: self.goal.x,
+                    y: self.goal.y,
+                    theta: 0.0,
+                })
+                .position(),
+            ),
         }
     }
 }

@@ -18,6 +18,22 @@ use rand_chacha::ChaCha8Rng;
 pub const RADIUS: f64 = 22.0;
 /// The room's floor is cut into cells this size (it is open: only its edge is a wall).
 const CELL: f64 = 20.0;
+
+/// An open square room `side_cm` across, its floor cut into [`CELL`]s.
+pub fn open_room(side_cm: f64, config: FieldConfig) -> Result<Field, SimError> {
+    let cells = (side_cm / CELL).ceil().max(1.0) as usize;
+    Field::new(TileMap::open(cells, cells, CELL)?, config)
+}
+
+/// A Pioneer's body, driving at up to `speed` cm/s.
+pub fn pioneer(speed: f64) -> RobotSpec {
+    RobotSpec {
+        radius: RADIUS,
+        max_speed: speed,
+        max_turn: 1.5,
+        amphibious: false,
+    }
+}
 /// An echo closer than this, with the target further, is steered round, cm.
 const AVOID: f64 = 60.0;
 /// Without this much headway in [`STUCK_AFTER`], a robot stops where it is, cm.
@@ -53,15 +69,13 @@ pub struct Bodies {
 impl Bodies {
     /// An open square room `side_cm` across, with no robot yet.
     pub fn new(side_cm: f64) -> Result<Bodies, SimError> {
-        let cells = (side_cm / CELL).ceil().max(1.0) as usize;
-        let map = TileMap::open(cells, cells, CELL)?;
         let config = FieldConfig {
             sonar_range: 2.0 * AVOID,
             sonar_half_angle: 30f64.to_radians(),
             ..FieldConfig::default()
         };
         Ok(Bodies {
-            field: Field::new(map, config)?,
+            field: open_room(side_cm, config)?,
             ways: Vec::new(),
             stuck: 0,
         })
@@ -70,12 +84,7 @@ impl Bodies {
     /// Adds a robot driving at up to `speed` cm/s at the first free place of
     /// a few tried at random; its index.
     pub fn add(&mut self, speed: f64, rng: &mut ChaCha8Rng) -> Result<usize, SimError> {
-        let spec = RobotSpec {
-            radius: RADIUS,
-            max_speed: speed,
-            max_turn: 1.5,
-            amphibious: false,
-        };
+        let spec = pioneer(speed);
         let size = self.field.map().size_cm();
         let mut last = None;
         for _ in 0..64 {
