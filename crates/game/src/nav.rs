@@ -127,6 +127,36 @@ impl Nav {
         Some(self.points(&found, mover))
     }
 
+    /// A passable route from `from` through a player's drawn `points`, for `mover`: each point
+    /// that lies in water or a wall (water is fine for an amphibian) is moved to the nearest
+    /// passable cell, and a leg that crosses water or walls becomes the optimal way round. None
+    /// when some point cannot be reached at all.
+    pub fn route(&mut self, from: Vec2, points: &[Vec2], mover: Mover) -> Option<Vec<Vec2>> {
+        let mut route = vec![self.centre(self.nearest_free(from, mover)?)];
+        for &p in points {
+            let to = if self.is_free(p, mover) {
+                p
+            } else {
+                self.centre(self.nearest_free(p, mover)?)
+            };
+            let at = *route.last()?;
+            if at.distance(to) < 1.0 {
+                continue;
+            }
+            if self.line_of_sight(at, to, mover) {
+                route.push(to);
+            } else {
+                let way = self.plan(at, to, mover)?;
+                route.extend(way.into_iter().skip(1));
+                // The plan ends at the cell's centre; the drawn point is where the player meant.
+                if let Some(last) = route.last_mut() {
+                    *last = to;
+                }
+            }
+        }
+        Some(route)
+    }
+
     /// A path's turn points in centimetres.
     pub fn points(&self, found: &path::Path, mover: Mover) -> Vec<Vec2> {
         path::turn_points(&self.field.grid, mover, found, CLEARANCE_CELLS)

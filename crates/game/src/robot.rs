@@ -58,6 +58,8 @@ pub struct Ctx {
     pub actions: Vec<Action>,
     /// When it last fired, s.
     last_fire: f64,
+    /// When a Drive being carried out ends, s.
+    drive_until: Option<f64>,
 }
 
 impl Ctx {
@@ -260,6 +262,20 @@ impl Behaviour<Ctx> for CommandBehaviour {
                 finished
             }
             Command::GoTo { to, speed } => go_to(ctx, to, speed),
+            Command::Drive {
+                forward,
+                turn,
+                secs,
+            } => {
+                let now = ctx.sense.time;
+                let until = *ctx.drive_until.get_or_insert(now + secs);
+                let finished = now >= until;
+                ctx.wheels = if finished { (0.0, 0.0) } else { (forward, turn) };
+                if finished {
+                    ctx.drive_until = None;
+                }
+                finished
+            }
             Command::Shoot { target, at } => {
                 let err = ctx.turn_toward((at - ctx.sense.pose.position()).angle());
                 if err.abs() < 0.3 && ctx.sense.time - ctx.last_fire >= ctx.stats.reload_s {
@@ -383,6 +399,7 @@ impl Brain {
                 wheels: (0.0, 0.0),
                 actions: Vec::new(),
                 last_fire: f64::NEG_INFINITY,
+                drive_until: None,
             },
             seq: None,
             ticks: 0,
@@ -398,6 +415,7 @@ impl Brain {
         self.seq = Some(order.seq);
         self.ctx.commands = order.commands.into();
         self.ctx.rotate_to = None;
+        self.ctx.drive_until = None;
         true
     }
 
@@ -483,6 +501,39 @@ mod tests {
         assert!(pose.position().distance(Vec2::new(100.0, 100.0)) < ARRIVED + 1.0);
         assert_eq!(b.commands().count(), 0);
         assert_eq!(b.active(), Some("idle"));
+    }
+
+    #[test]
+    fn a_drive_holds_the_wheels_for_its_time_and_then_the_robot_stands() {
+        let mut b = Brain::new(1, RobotKind::Infantry);
+        b.order(Order {
+            robot: 1,
+            seq: 1,
+            commands: vec![Command::Drive {
+                forward: 0.8,
+                turn: -0.5,
+                secs: 0.5,
+            }],
+        });
+        let pose = Pose::default();
+        assert_eq!(b.tick(sense(10.0, pose)).wheels, (0.8, -0.5));
+        assert_eq!(b.tick(sense(10.4, pose)).wheels, (0.8, -0.5));
+        assert_eq!(b.tick(sense(10.5, pose)).wheels, (0.0, 0.0));
+        assert_eq!(b.active(), Some("command"));
+        assert_eq!(b.tick(sense(10.6, pose)).wheels, (0.0, 0.0));
+        assert_eq!(b.active(), Some("idle"));
+        // A repeat starts its own half second from when it arrives.
+        b.order(Order {
+            robot: 1,
+            seq: 2,
+            commands: vec![Command::Drive {
+                forward: -1.0,
+                turn: 0.0,
+                secs: 0.5,
+            }],
+        });
+        assert_eq!(b.tick(sense(20.0, pose)).wheels, (-1.0, 0.0));
+        assert_eq!(b.tick(sense(20.45, pose)).wheels, (-1.0, 0.0));
     }
 
     #[test]

@@ -14,15 +14,17 @@ use colony_wire::{Packet, Subject};
 use crate::logic::{Referee, RobotEntry};
 use crate::map::Battlefield;
 use crate::nav::Nav;
-use crate::protocol::{
-    self, Action, Command, Event, Order, RobotDebug, SquadCommand, Target, Verb, WorldFrame,
-};
+use crate::protocol::{self, Action, Command, Event, Order, PlayerCommand, RobotDebug, WorldFrame};
 use crate::rules::{KindRules, Rules};
 use crate::squad::{SeenRobot, Squad, SquadMotion, View};
 
+mod player;
+
 /// The squad arbitrators run every this many world frames (0.2 s at 10 Hz):
-/// like the paper's swarm intelligence, which batches player commands.
-const THINK_EVERY: u64 = 2;
+/// like the paper's swarm intelligence, which batches player commands (it waits 300 ms).
+pub const THINK_EVERY: u64 = 2;
+/// The timings of this many of the latest commands are kept.
+const MAX_TIMINGS: usize = 1024;
 /// The game state goes out every this many world frames.
 const STATE_EVERY: u64 = 2;
 /// Each robot's order is repeated every this many world frames, so a robot
@@ -33,6 +35,23 @@ const RESEND_EVERY: u64 = 20;
 const MAP_EVERY: u64 = 30;
 /// Spacing of robots in formation (the paper's d), cm: a body and a half.
 pub const SPACING_CM: f64 = 22.0;
+
+/// How one player command went through the server (the paper's Tables 3 and 4).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CommandTiming {
+    /// The squad's team.
+    pub team: String,
+    /// The squad commanded.
+    pub squad: String,
+    /// When the command came (the server's clock).
+    pub received: Time,
+    /// When the squad's orders went out.
+    pub answered: Time,
+    /// How long the squad's arbitrator computed them.
+    pub compute: Duration,
+    /// The orders sent: robot and sequence number.
+    pub orders: Vec<(u32, u64)>,
+}
 
 /// The game logic and swarm intelligence.
 pub struct Server {
@@ -45,9 +64,12 @@ pub struct Server {
     frames: u64,
     last_centroids: BTreeMap<(String, String), (f64, Vec2)>,
     velocities: BTreeMap<(String, String), Vec2>,
-    /// How long each squad command took to turn into robot commands.
-    pub command_times: Vec<Duration>,
-    pending: Vec<usize>,
+    think_every: u64,
+    timings: VecDeque<CommandTiming>,
+    /// Commands taken and not yet turned into orders: the squad and when each came.
+    pending: Vec<(String, String, Time)>,
+    /// Robots their player drives directly.
+    driven: BTreeSet<u32>,
     subs: BTreeSet<Subject>,
     outbox: VecDeque<Vec<u8>>,
 }
@@ -105,57 +127,29 @@ impl Server {
             frames: 0,
             last_centroids: BTreeMap::new(),
             velocities: BTreeMap::new(),
-            command_times: Vec::new(),
+            think_every: THINK_EVERY,
+            timings: VecDeque::new(),
             pending: Vec::new(),
+            driven: BTreeSet::new(),
         }
+    }
+
+    /// Runs the squad arbitrators every `frames` world frames instead of [`THINK_EVERY`]: the
+    /// paper's server waited 300 ms (3 frames) before turning commands into orders.
+    pub fn with_think_every(mut self, frames: u64) -> Server {
+        self.think_every = frames.max(1);
+        self
+    }
+
+    /// How the latest commands (up to 1024) went: when each came, when its orders left and how
+    /// long the squad's arbitrator took over them.
+    pub fn timings(&self) -> impl Iterator<Item = &CommandTiming> {
+        self.timings.iter()
     }
 
     /// The referee.
     pub fn referee(&self) -> &Referee {
         &self.referee
-    }
-
-    /// Checks a player's command against the rules; the reason when refused.
-    fn check(&self, c: &SquadCommand) -> Result<usize, String> {
-        let squad = self
-            .squads
-            .iter()
-            .position(|s| s.team() == c.team && s.name() == c.squad)
-            .ok_or_else(|| format!("team {} has no squad {}", c.team, c.squad))?;
-        if self.referee.is_over() {
-            return Err("the game is over".into());
-        }
-        let on_map = |p: &Vec2| self.field.cell_at(p.x, p.y).is_some();
-        let team_exists = |t: &str| self.field.teams.iter().any(|s| s.name == t);
-        match &c.verb {
-            Verb::GoTo(p) | Verb::Gather(Some(p)) if !on_map(p) => {
-                Err(format!("({:.0}, {:.0}) is off the map", p.x, p.y))
-            }
-            Verb::Attack(Target::Robot(id)) => match self.referee.team_of(*id) {
-                None => Err(format!("there is no robot {id}")),
-                Some(t) if t == c.team => Err(format!("robot {id} is on your own team")),
-                _ => Ok(squad),
-            },
-            Verb::Defend(Target::Robot(id)) => match self.referee.team_of(*id) {
-                None => Err(format!("there is no robot {id}")),
-                Some(t) if t != c.team => Err(format!("robot {id} is an enemy")),
-                _ => Ok(squad),
-            },
-            Verb::Capture(flag) if flag == &c.team => Err("that is your own flag".into()),
-            Verb::Capture(flag) if self.referee.flag_at(flag).is_none() => {
-                Err(format!("there is no {flag} flag in this game"))
-            }
-            Verb::Defend(Target::Flag(t) | Target::Base(t))
-            | Verb::Attack(Target::Flag(t) | Target::Base(t))
-                if !team_exists(t) =>
-            {
-                Err(format!("there is no team {t}"))
-            }
-            Verb::Defend(Target::Point(p)) | Verb::Attack(Target::Point(p)) if !on_map(p) => {
-                Err(format!("({:.0}, {:.0}) is off the map", p.x, p.y))
-            }
-            _ => Ok(squad),
-        }
     }
 
     fn refuse(&mut self, text: String, out: &mut Vec<Vec<u8>>) {
@@ -181,6 +175,7 @@ impl Server {
                 kind: r.kind,
                 at: r.pose.position(),
                 alive: r.alive,
+                driven: self.driven.contains(&r.id),
             })
             .collect();
         let mut squads = Vec::new();
@@ -237,32 +232,59 @@ impl Server {
         })
     }
 
-    fn think(&mut self, out: &mut Vec<Vec<u8>>) {
+    fn think(&mut self, now: Time, out: &mut Vec<Vec<u8>>) {
         let view = self.view();
         for i in 0..self.squads.len() {
             let t0 = std::time::Instant::now();
             let orders = self.squads[i].tick(view.clone());
-            if let Some(k) = self.pending.iter().position(|&p| p == i) {
-                self.pending.remove(k);
-                self.command_times.push(t0.elapsed());
-            }
+            let compute = t0.elapsed();
+            let mut sent = Vec::new();
             for (robot, commands) in orders {
-                let Some(seq) = self.seq.get_mut(robot as usize) else {
+                if self.driven.contains(&robot) {
                     continue;
-                };
-                *seq += 1;
-                let order = Order {
-                    robot,
-                    seq: *seq,
-                    commands,
-                };
-                match order.encode() {
-                    Ok(p) => out.push(p),
-                    Err(e) => tracing::warn!(robot, error = %e, "an order too large to send"),
                 }
-                self.last_orders[robot as usize] = Some(order);
+                if let Some(seq) = self.send(robot, commands, out) {
+                    sent.push((robot, seq));
+                }
+            }
+            let (team, name) = (self.squads[i].team(), self.squads[i].name());
+            if let Some(k) = self
+                .pending
+                .iter()
+                .position(|(t, n, _)| t == team && n == name)
+            {
+                let (team, squad, received) = self.pending.remove(k);
+                if self.timings.len() == MAX_TIMINGS {
+                    self.timings.pop_front();
+                }
+                self.timings.push_back(CommandTiming {
+                    team,
+                    squad,
+                    received,
+                    answered: now,
+                    compute,
+                    orders: sent,
+                });
             }
         }
+    }
+
+    /// Sends robot `robot` a new order; its sequence number, when it could be sent.
+    fn send(&mut self, robot: u32, commands: Vec<Command>, out: &mut Vec<Vec<u8>>) -> Option<u64> {
+        let seq = self.seq.get_mut(robot as usize)?;
+        *seq += 1;
+        let order = Order {
+            robot,
+            seq: *seq,
+            commands,
+        };
+        let seq = order.seq;
+        match order.encode() {
+            Ok(p) => out.push(p),
+            Err(e) => tracing::warn!(robot, error = %e, "an order too large to send"),
+        }
+        self.last_orders[robot as usize] = Some(order);
+        Some(seq)
     }
 
     /// Repeats every living robot's order from the leg it is on: the GoTo
@@ -319,14 +341,14 @@ impl Server {
 
 impl Server {
     /// Takes in one packet; pushes what it answers.
-    fn handle(&mut self, packet: &Packet<'_>, out: &mut Vec<Vec<u8>>) {
+    fn handle(&mut self, now: Time, packet: &Packet<'_>, out: &mut Vec<Vec<u8>>) {
         if packet.has_subject(protocol::WORLD) {
             match WorldFrame::decode(packet) {
                 Ok(frame) => {
                     self.referee.on_world(&frame);
                     self.frames += 1;
-                    if !self.referee.is_over() && self.frames % THINK_EVERY == 0 {
-                        self.think(out);
+                    if !self.referee.is_over() && self.frames % self.think_every == 0 {
+                        self.think(now, out);
                     }
                     self.flush_events(out);
                     if self.frames % STATE_EVERY == 0 || self.referee.is_over() {
@@ -362,19 +384,11 @@ impl Server {
             .subjects()
             .find_map(|s| s.strip_prefix("game.player."))
         {
-            match SquadCommand::decode(team, packet) {
+            match PlayerCommand::decode(team, packet) {
                 Ok(cmds) => {
                     for c in cmds {
-                        match self.check(&c) {
-                            Ok(i) => {
-                                self.squads[i].command(c.verb, c.formation);
-                                if !self.pending.contains(&i) {
-                                    self.pending.push(i);
-                                }
-                            }
-                            Err(why) => {
-                                self.refuse(format!("{} squad {}: {why}", c.team, c.squad), out)
-                            }
+                        if let Err(why) = self.obey(now, c, out) {
+                            self.refuse(why, out);
                         }
                     }
                 }
@@ -389,9 +403,9 @@ impl Node for Server {
         &self.subs
     }
 
-    fn handle_packet(&mut self, _now: Time, packet: &Packet<'_>) {
+    fn handle_packet(&mut self, now: Time, packet: &Packet<'_>) {
         let mut out = Vec::new();
-        self.handle(packet, &mut out);
+        self.handle(now, packet, &mut out);
         self.outbox.extend(out);
     }
 

@@ -159,7 +159,7 @@ fn illegal_squad_commands_are_refused_with_a_reason_and_change_nothing() {
             "red squad alpha: there is no robot 77",
             "red squad alpha: that is your own flag",
             "red squad alpha: (-500, 10) is off the map",
-            "a bad command from red: line 2: unknown squad command \"dance\" (expected gather, goto, defend, attack, capture or stop)",
+            "a bad command from red: line 2: unknown squad command \"dance\" (expected gather, goto, defend, attack, capture, path or stop)",
         ]
     );
     for _ in 0..20 {

@@ -158,6 +158,13 @@ impl Referee {
         self.bases.iter().find(|b| b.0 == team).map(|b| b.1)
     }
 
+    /// Records the squad a robot now belongs to (after a split, a merge or a single-robot order).
+    pub fn set_squad(&mut self, id: u32, squad: &str) {
+        if let Some(r) = self.robots.get_mut(id as usize) {
+            r.entry.squad = squad.to_string();
+        }
+    }
+
     /// Records a robot's active behaviour, for the state players see.
     pub fn set_behaviour(&mut self, id: u32, behaviour: String, reason: String) {
         if let Some(r) = self.robots.get_mut(id as usize) {

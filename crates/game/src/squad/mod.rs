@@ -46,6 +46,8 @@ pub struct SeenRobot {
     pub at: Vec2,
     /// Not destroyed.
     pub alive: bool,
+    /// Driven by its player directly: no squad gives it orders.
+    pub driven: bool,
 }
 
 /// A squad's motion, for collision mitigation between squads.
@@ -124,11 +126,12 @@ pub struct SquadCtx {
 const ROOM_MARGIN_CM: f64 = 4.0;
 
 impl SquadCtx {
+    /// The members the squad commands: alive and not driven by the player.
     fn alive(&self) -> Vec<&SeenRobot> {
         self.members
             .iter()
             .filter_map(|&id| self.view.robot(id))
-            .filter(|r| r.alive)
+            .filter(|r| r.alive && !r.driven)
             .collect()
     }
 
@@ -331,6 +334,43 @@ impl Squad {
     /// Its robots.
     pub fn members(&self) -> &[u32] {
         &self.ctx.members
+    }
+
+    /// Its formation.
+    pub fn formation(&self) -> Formation {
+        self.ctx.formation
+    }
+
+    /// Takes a formation for its next command.
+    pub fn set_formation(&mut self, formation: Formation) {
+        self.ctx.formation = formation;
+    }
+
+    /// The player's command it carries out.
+    pub fn verb(&self) -> Option<&Verb> {
+        self.ctx.verb.as_ref()
+    }
+
+    /// Robots join the squad.
+    pub fn add_members(&mut self, ids: &[u32]) {
+        for &id in ids {
+            if !self.ctx.members.contains(&id) {
+                self.ctx.members.push(id);
+            }
+        }
+    }
+
+    /// Robots leave the squad.
+    pub fn remove_members(&mut self, ids: &[u32]) {
+        self.ctx.members.retain(|m| !ids.contains(m));
+    }
+
+    /// Carries out its command anew from where the robots are, slots and all: its members
+    /// changed, or one came back from the player's hands.
+    pub fn refresh(&mut self) {
+        if self.ctx.verb.is_some() {
+            self.ctx.fresh = true;
+        }
     }
 
     /// Takes a player's command (already checked by the caller).

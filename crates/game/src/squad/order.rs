@@ -86,6 +86,26 @@ impl OrderBehaviour {
                 // the way hands control back here and the path is resumed.
                 self.phase = Phase::Going;
             }
+            Verb::Path(ref points) => {
+                // Resumed (after a fight or a sidestep) from the drawn point nearest the squad,
+                // not from the start of the drawing.
+                let resume = if gather {
+                    0
+                } else {
+                    (0..points.len())
+                        .min_by(|&a, &b| {
+                            points[a]
+                                .distance(centroid)
+                                .total_cmp(&points[b].distance(centroid))
+                        })
+                        .unwrap_or(0)
+                };
+                if let Some(route) = ctx.nav.route(centroid, &points[resume..], mover) {
+                    self.goal = route.last().copied();
+                    ctx.dispatch(route, ctx.formation, gather, None);
+                }
+                self.phase = Phase::Going;
+            }
             Verb::Defend(ref t) | Verb::Attack(ref t) => {
                 let Some(to) = ctx.target(t) else {
                     self.phase = Phase::Done;
@@ -242,7 +262,7 @@ impl Behaviour<SquadCtx> for OrderBehaviour {
                     self.start(ctx, false);
                 }
             }
-            Some(Verb::GoTo(_) | Verb::Gather(_)) => {
+            Some(Verb::GoTo(_) | Verb::Gather(_) | Verb::Path(_)) => {
                 let n = ctx.alive().len() as f64;
                 let near = cell + n * ctx.spacing;
                 if let (Some(c), Some(g)) = (ctx.centroid(), self.goal) {

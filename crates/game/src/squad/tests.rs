@@ -24,6 +24,7 @@ fn robot(id: u32, team: &str, kind: RobotKind, x: f64, y: f64) -> SeenRobot {
         kind,
         at: Vec2::new(x, y),
         alive: true,
+        driven: false,
     }
 }
 

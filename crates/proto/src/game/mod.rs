@@ -8,7 +8,8 @@
 //! | `game.robot.N` | swarm intelligence → robot N: a sequence command, newest `seq` wins | [`order`] |
 //! | `game.action` | robot → game logic: fire, pick up, beep | [`action`] |
 //! | `game.debug` | robot → game logic, monitor: its active behaviour and why | [`debug`] |
-//! | `game.player.TEAM` | player, bot, game page → game logic: squad commands | [`squad`] |
+//! | `game.player.TEAM` | player, bot, game page → game logic: squad and robot commands, split, merge, direct control | [`player`], [`squad`] |
+//! | `game.chat.TEAM` | player ↔ players of the same team: chat lines | [`chat`] |
 //! | `game.state` | game logic → players, monitor: everything a player sees | [`state`] |
 //! | `game.event` | game logic → players, monitor: hits, kills, flags, refusals, the end | [`event`] |
 //! | `game.map` | game logic → players, monitor: the battlefield, in parts if large | [`map`] |
@@ -19,11 +20,13 @@
 //! decoders and the [`MapAssembler`], which skip and count bad lines.
 
 pub mod action;
+pub mod chat;
 pub mod debug;
 pub mod event;
 pub mod map;
 pub mod names;
 pub mod order;
+pub mod player;
 mod read;
 pub mod sense;
 pub mod squad;
@@ -31,13 +34,15 @@ pub mod state;
 pub mod world;
 
 pub use action::Action;
+pub use chat::ChatLine;
 pub use debug::RobotDebug;
 pub use event::Event;
 pub use map::{GameMap, MapAssembler, Site};
 pub use names::{valid_name, Formation, RobotKind, UnknownFormation, UnknownKind, MAX_NAME};
 pub use order::{Command, Order, MAX_COMMANDS};
+pub use player::{PlayerCommand, DRIVE_HOLD_S};
 pub use sense::Sense;
-pub use squad::{SquadCommand, Target, Verb};
+pub use squad::{SquadCommand, Target, Verb, MAX_DRAWN_POINTS};
 pub use state::{FlagState, GameState, RobotState, SquadState, Status, TeamState};
 pub use world::{RobotPose, WorldFrame};
 
@@ -67,4 +72,9 @@ pub fn robot_channel(id: u32) -> String {
 /// The channel team `team`'s player publishes squad commands on.
 pub fn player_channel(team: &str) -> String {
     format!("game.player.{team}")
+}
+
+/// The channel team `team`'s players chat on.
+pub fn chat_channel(team: &str) -> String {
+    format!("game.chat.{team}")
 }

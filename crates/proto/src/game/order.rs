@@ -15,7 +15,7 @@ use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
 use super::read::name;
 use super::robot_channel;
 use crate::fields::count;
-use crate::fields::{bad, coord, finite, r, robot_id};
+use crate::fields::{bad, coord, finite, r, robot_id, within};
 use crate::{DecodeError, Vec2};
 
 /// One robot command (the paper's Table 2, plus PickUp from its Capture the
@@ -50,6 +50,15 @@ pub enum Command {
     },
     /// Stand still.
     Stop,
+    /// The player's direct control: these wheel fractions for `secs`, then stand still.
+    Drive {
+        /// Forward, -1 to 1.
+        forward: f64,
+        /// Turn, -1 (right) to 1 (left).
+        turn: f64,
+        /// For how long, s.
+        secs: f64,
+    },
 }
 
 impl Command {
@@ -79,6 +88,16 @@ impl Command {
             }
             Command::Stop => {
                 p.line("stop");
+            }
+            Command::Drive {
+                forward,
+                turn,
+                secs,
+            } => {
+                p.line("drive")
+                    .field("forward", r(*forward))
+                    .field("turn", r(*turn))
+                    .field("secs", r(*secs));
             }
         }
     }
@@ -110,6 +129,11 @@ impl Command {
                 flag: name(l, "flag")?,
             },
             "stop" => Command::Stop,
+            "drive" => Command::Drive {
+                forward: within(l, "forward", -1.0..=1.0)?,
+                turn: within(l, "turn", -1.0..=1.0)?,
+                secs: within(l, "secs", 0.0..=10.0)?,
+            },
             _ => return Ok(None),
         }))
     }
@@ -124,6 +148,9 @@ impl fmt::Display for Command {
             Command::Shoot { target, .. } => write!(f, "shoot {target}"),
             Command::PickUp { flag } => write!(f, "pickup {flag}"),
             Command::Stop => f.write_str("stop"),
+            Command::Drive { forward, turn, .. } => {
+                write!(f, "driven by the player ({forward:.1}, {turn:.1})")
+            }
         }
     }
 }

@@ -8,9 +8,9 @@
 
 use std::fmt;
 
-use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
+use colony_wire::{Line, LineBuilder, Packet, PacketBuilder, ParseError, Priority};
 
-use super::read::name;
+use super::read::{name, parse_path, path_text};
 use super::{player_channel, Formation};
 use crate::fields::{bad, coord, r, robot_id};
 use crate::{DecodeError, Vec2};
@@ -52,9 +52,15 @@ pub enum Verb {
     Attack(Target),
     /// Take the flag and bring it to the squad's own base.
     Capture(String),
+    /// Follow these points in formation, as the player drew them (the game makes each leg
+    /// passable).
+    Path(Vec<Vec2>),
     /// Stop where you are.
     Stop,
 }
+
+/// The most points a drawn path may have: a page thins a longer stroke before sending it.
+pub const MAX_DRAWN_POINTS: usize = 64;
 
 impl fmt::Display for Verb {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -65,6 +71,10 @@ impl fmt::Display for Verb {
             Verb::Defend(t) => write!(f, "defend {t}"),
             Verb::Attack(t) => write!(f, "attack {t}"),
             Verb::Capture(t) => write!(f, "capture flag {t}"),
+            Verb::Path(points) => match points.last() {
+                Some(p) => write!(f, "path of {} points to {:.0} {:.0}", points.len(), p.x, p.y),
+                None => f.write_str("path of no points"),
+            },
             Verb::Stop => f.write_str("stop"),
         }
     }
@@ -89,47 +99,7 @@ impl SquadCommand {
         let mut p = PacketBuilder::new([player_channel(&self.team)], Priority(0));
         let mut l = p.line("squad");
         l.bare("name", &self.squad);
-        match &self.verb {
-            Verb::Gather(at) => {
-                l.bare("do", "gather");
-                if let Some(at) = at {
-                    l.field("x", r(at.x)).field("y", r(at.y));
-                }
-            }
-            Verb::GoTo(at) => {
-                l.bare("do", "goto").field("x", r(at.x)).field("y", r(at.y));
-            }
-            Verb::Defend(t) | Verb::Attack(t) => {
-                l.bare(
-                    "do",
-                    if matches!(self.verb, Verb::Defend(_)) {
-                        "defend"
-                    } else {
-                        "attack"
-                    },
-                );
-                match t {
-                    Target::Robot(id) => {
-                        l.field("robot", *id);
-                    }
-                    Target::Flag(team) => {
-                        l.bare("flag", team);
-                    }
-                    Target::Base(team) => {
-                        l.bare("base", team);
-                    }
-                    Target::Point(at) => {
-                        l.field("x", r(at.x)).field("y", r(at.y));
-                    }
-                }
-            }
-            Verb::Capture(team) => {
-                l.bare("do", "capture").bare("flag", team);
-            }
-            Verb::Stop => {
-                l.bare("do", "stop");
-            }
-        }
+        write_verb(&mut l, &self.verb);
         if let Some(f) = self.formation {
             l.bare("formation", f.name());
         }
@@ -140,59 +110,129 @@ impl SquadCommand {
     pub fn decode(team: &str, packet: &Packet<'_>) -> Result<Vec<SquadCommand>, DecodeError> {
         packet
             .lines_labelled("squad")
-            .map(|l| {
-                let verb = match &*l.str("do")? {
-                    "gather" => Verb::Gather(match l.get("x") {
-                        Some(_) => Some(Vec2::new(coord(&l, "x")?, coord(&l, "y")?)),
-                        None => None,
-                    }),
-                    "goto" => Verb::GoTo(Vec2::new(coord(&l, "x")?, coord(&l, "y")?)),
-                    v @ ("defend" | "attack") => {
-                        let target = if l.get("robot").is_some() {
-                            Target::Robot(robot_id(&l, "robot")?)
-                        } else if l.get("flag").is_some() {
-                            Target::Flag(name(&l, "flag")?)
-                        } else if l.get("base").is_some() {
-                            Target::Base(name(&l, "base")?)
-                        } else if l.get("x").is_some() {
-                            Target::Point(Vec2::new(coord(&l, "x")?, coord(&l, "y")?))
-                        } else {
-                            return Err(bad(&l, format!("{v} needs robot, flag, base or x y")));
-                        };
-                        if v == "defend" {
-                            Verb::Defend(target)
-                        } else {
-                            Verb::Attack(target)
-                        }
-                    }
-                    "capture" => Verb::Capture(name(&l, "flag")?),
-                    "stop" => Verb::Stop,
-                    other => {
-                        return Err(bad(
-                            &l,
-                            format!(
-                                "unknown squad command {other:?} (expected gather, goto, defend, attack, capture or stop)"
-                            ),
-                        ))
-                    }
-                };
-                let formation = match l.get("formation") {
-                    Some(_) => Some(
-                        l.str("formation")?
-                            .parse::<Formation>()
-                            .map_err(|e| bad(&l, e.to_string()))?,
-                    ),
-                    None => None,
-                };
-                Ok(SquadCommand {
-                    team: team.to_string(),
-                    squad: name(&l, "name")?,
-                    verb,
-                    formation,
-                })
-            })
+            .map(|l| SquadCommand::read(team.to_string(), &l))
             .collect()
     }
+
+    /// Reads one `squad` line from `team`'s player.
+    pub(crate) fn read(team: String, l: &Line<'_>) -> Result<SquadCommand, DecodeError> {
+        let verb = read_verb(l)?;
+        let formation = match l.get("formation") {
+            Some(_) => Some(
+                l.str("formation")?
+                    .parse::<Formation>()
+                    .map_err(|e| bad(l, e.to_string()))?,
+            ),
+            None => None,
+        };
+        Ok(SquadCommand {
+            team,
+            squad: name(l, "name")?,
+            verb,
+            formation,
+        })
+    }
+}
+
+/// Writes a verb's fields (`do` and its target) onto a squad's or a robot's line.
+pub(crate) fn write_verb(l: &mut LineBuilder<'_>, verb: &Verb) {
+    match verb {
+        Verb::Gather(at) => {
+            l.bare("do", "gather");
+            if let Some(at) = at {
+                l.field("x", r(at.x)).field("y", r(at.y));
+            }
+        }
+        Verb::GoTo(at) => {
+            l.bare("do", "goto").field("x", r(at.x)).field("y", r(at.y));
+        }
+        Verb::Defend(t) | Verb::Attack(t) => {
+            l.bare(
+                "do",
+                if matches!(verb, Verb::Defend(_)) {
+                    "defend"
+                } else {
+                    "attack"
+                },
+            );
+            match t {
+                Target::Robot(id) => {
+                    l.field("robot", *id);
+                }
+                Target::Flag(team) => {
+                    l.bare("flag", team);
+                }
+                Target::Base(team) => {
+                    l.bare("base", team);
+                }
+                Target::Point(at) => {
+                    l.field("x", r(at.x)).field("y", r(at.y));
+                }
+            }
+        }
+        Verb::Capture(team) => {
+            l.bare("do", "capture").bare("flag", team);
+        }
+        Verb::Path(points) => {
+            l.bare("do", "path")
+                .field("points", path_text(points).as_str());
+        }
+        Verb::Stop => {
+            l.bare("do", "stop");
+        }
+    }
+}
+
+/// Reads a verb from a squad's or a robot's line.
+pub(crate) fn read_verb(l: &Line<'_>) -> Result<Verb, DecodeError> {
+    Ok(match &*l.str("do")? {
+        "gather" => Verb::Gather(match l.get("x") {
+            Some(_) => Some(Vec2::new(coord(l, "x")?, coord(l, "y")?)),
+            None => None,
+        }),
+        "goto" => Verb::GoTo(Vec2::new(coord(l, "x")?, coord(l, "y")?)),
+        v @ ("defend" | "attack") => {
+            let target = if l.get("robot").is_some() {
+                Target::Robot(robot_id(l, "robot")?)
+            } else if l.get("flag").is_some() {
+                Target::Flag(name(l, "flag")?)
+            } else if l.get("base").is_some() {
+                Target::Base(name(l, "base")?)
+            } else if l.get("x").is_some() {
+                Target::Point(Vec2::new(coord(l, "x")?, coord(l, "y")?))
+            } else {
+                return Err(bad(l, format!("{v} needs robot, flag, base or x y")));
+            };
+            if v == "defend" {
+                Verb::Defend(target)
+            } else {
+                Verb::Attack(target)
+            }
+        }
+        "capture" => Verb::Capture(name(l, "flag")?),
+        "path" => {
+            let points = parse_path(l, &l.str("points")?)?;
+            if points.is_empty() || points.len() > MAX_DRAWN_POINTS {
+                return Err(bad(
+                    l,
+                    format!(
+                        "a drawn path has 1 to {MAX_DRAWN_POINTS} points, not {}",
+                        points.len()
+                    ),
+                ));
+            }
+            Verb::Path(points)
+        }
+        "stop" => Verb::Stop,
+        other => {
+            return Err(bad(
+                l,
+                format!(
+                    "unknown squad command {other:?} (expected gather, goto, defend, attack, capture, path or stop)"
+                ),
+            ))
+        }
+    })
 }
 
 #[cfg(test)]

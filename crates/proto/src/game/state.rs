@@ -16,10 +16,10 @@
 
 use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
 
-use super::read::{b, name, tally, text};
+use super::read::{b, name, parse_path, path_text, tally, text};
 use super::{Formation, RobotKind, STATE};
 use crate::fields::flag;
-use crate::fields::{bad, coord, finite, r, robot_id, MAX_COORD};
+use crate::fields::{bad, coord, finite, r, robot_id};
 use crate::Skimmed;
 use crate::{DecodeError, Pose, Vec2};
 
@@ -117,31 +117,6 @@ pub struct GameState {
     pub robots: Vec<RobotState>,
     /// The squads.
     pub squads: Vec<SquadState>,
-}
-
-/// The path as the packet carries it: `x,y` turn points, whole centimetres, space-separated.
-fn path_text(path: &[Vec2]) -> String {
-    let mut s = String::new();
-    for (i, p) in path.iter().enumerate() {
-        if i > 0 {
-            s.push(' ');
-        }
-        s.push_str(&format!("{:.0},{:.0}", p.x, p.y));
-    }
-    s
-}
-
-fn parse_path(l: &Line<'_>, text: &str) -> Result<Vec<Vec2>, DecodeError> {
-    text.split_whitespace()
-        .map(|pt| {
-            let point = pt.split_once(',').and_then(|(x, y)| {
-                let (x, y) = (x.parse::<f64>().ok()?, y.parse::<f64>().ok()?);
-                let ok = |v: f64| v.is_finite() && v.abs() <= MAX_COORD;
-                (ok(x) && ok(y)).then(|| Vec2::new(x, y))
-            });
-            point.ok_or_else(|| bad(l, format!("path point {pt:?} is not x,y")))
-        })
-        .collect()
 }
 
 impl Status {

@@ -1,0 +1,88 @@
+//! `game.chat.TEAM`: a chat line between the players of one team. Only the team's players
+//! subscribe to its channel (the game page's server passes a team's lines only to the pages
+//! playing that team).
+//!
+//! ```text
+//! @ <game.chat.red> 0
+//! chat from ada text "bravo, hold the bridge"
+//! ```
+
+use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
+
+use super::chat_channel;
+use super::read::{name, text};
+use crate::fields::bad;
+use crate::DecodeError;
+
+/// The longest chat text, characters: a line to read at a glance, not a document.
+pub const MAX_CHAT: usize = 200;
+
+/// One line of a team's chat.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChatLine {
+    /// The team it is for (from the channel).
+    pub team: String,
+    /// Who wrote it: a player's name.
+    pub from: String,
+    /// What they wrote.
+    pub text: String,
+}
+
+impl ChatLine {
+    /// The packet, on the team's chat channel.
+    pub fn encode(&self) -> Result<Vec<u8>, ParseError> {
+        let mut p = PacketBuilder::new([chat_channel(&self.team)], Priority(0));
+        p.line("chat")
+            .bare("from", &self.from)
+            .field("text", self.text.as_str());
+        p.finish()
+    }
+
+    /// Reads the chat lines of a packet that came on `team`'s chat channel.
+    pub fn decode(team: &str, packet: &Packet<'_>) -> Result<Vec<ChatLine>, DecodeError> {
+        packet
+            .lines_labelled("chat")
+            .map(|l| {
+                let said = text(&l, "text")?;
+                if said.chars().count() > MAX_CHAT || said.chars().any(char::is_control) {
+                    return Err(bad(
+                        &l,
+                        format!("a chat text is at most {MAX_CHAT} printable characters"),
+                    ));
+                }
+                Ok(ChatLine {
+                    team: team.to_string(),
+                    from: name(&l, "from")?,
+                    text: said,
+                })
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_chat_line_is_read_as_sent_and_a_long_or_controlled_one_refused() {
+        let c = ChatLine {
+            team: "red".into(),
+            from: "ada".into(),
+            text: "bravo, \"hold\" the bridge".into(),
+        };
+        let bytes = c.encode().unwrap();
+        let p = Packet::parse(&bytes).unwrap();
+        assert_eq!(ChatLine::decode("red", &p).unwrap(), vec![c]);
+        for bad_text in ["x".repeat(MAX_CHAT + 1), "bell\u{7}".to_string()] {
+            let c = ChatLine {
+                team: "red".into(),
+                from: "ada".into(),
+                text: bad_text,
+            };
+            let bytes = c.encode().unwrap();
+            let p = Packet::parse(&bytes).unwrap();
+            assert!(ChatLine::decode("red", &p).is_err());
+        }
+    }
+}
