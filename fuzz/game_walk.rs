@@ -5,7 +5,8 @@
 //! `cargo test`.
 
 use colony_proto::game::{
-    Action, Event, GameState, MapAssembler, Order, RobotDebug, Sense, SquadCommand, WorldFrame,
+    Action, ChatLine, Event, GameState, MapAssembler, Order, PlayerCommand, RobotDebug, Sense,
+    SquadCommand, WorldFrame,
 };
 use colony_wire::Packet;
 
@@ -28,6 +29,22 @@ pub fn walk_messages(data: &[u8]) {
             let b = c.encode().unwrap();
             let again = SquadCommand::decode("red", &Packet::parse(&b).unwrap()).unwrap();
             assert_eq!(again.len(), 1);
+        }
+    }
+    if let Ok(cmds) = PlayerCommand::decode("red", &p) {
+        for c in cmds {
+            let b = c.encode().unwrap();
+            let again = PlayerCommand::decode("red", &Packet::parse(&b).unwrap()).unwrap();
+            assert_eq!(again.len(), 1);
+        }
+    }
+    if let Ok(lines) = ChatLine::decode("red", &p) {
+        for l in lines {
+            let b = l.encode().unwrap();
+            assert_eq!(
+                ChatLine::decode("red", &Packet::parse(&b).unwrap()).unwrap(),
+                vec![l]
+            );
         }
     }
     let _ = WorldFrame::decode(&p);

@@ -7,12 +7,9 @@ import assert from 'node:assert/strict';
 import path from 'node:path';
 import { after, before, describe, test } from 'node:test';
 import {
-  ColonyProcess, ROOT, freeTcpPort, freeUdpPort, launchBrowser, screenshot, sleep,
+  ColonyProcess, ROOT, SPACING_CM, centroid, freeTcpPort, freeUdpPort, launchBrowser, screenshot, sleep, spread,
+  squadOf as squadIn, untilGame,
 } from './lib.mjs';
-
-// The formation's spacing: a squad in formation keeps every robot within
-// three spacings of its nearest mate.
-const SPACING_CM = 22;
 
 describe('the game page, playing red against the scripted blue', { concurrency: false }, () => {
   let match;
@@ -38,39 +35,8 @@ describe('the game page, playing red against the scripted blue', { concurrency: 
     if (match) await match.stop('SIGINT');
   });
 
-  // Polls the page until `fn` returns something truthy; on a timeout, says what the page had.
-  async function until(fn, arg, timeoutMs, what) {
-    try {
-      const h = await page.waitForFunction(fn, arg, { timeout: timeoutMs, polling: 100 });
-      return await h.jsonValue();
-    } catch (e) {
-      const seen = await page.evaluate(() => {
-        const g = window.colonyGame;
-        return g && {
-          connected: g.connected, stale: g.stale, team: g.team, selected: g.selected, map: g.map && [g.map.width, g.map.height, g.map.cell],
-          squads: g.state && g.state.squads, lastReply: g.lastReply, lastCommand: g.lastCommand, refusal: g.refusal,
-        };
-      }).catch(() => null);
-      throw new Error(`${what} within ${timeoutMs} ms (page: ${JSON.stringify(seen)}): ${e.message.split('\n')[0]}`);
-    }
-  }
-
-  const squadOf = (team, name) => page.evaluate(([t, n]) => {
-    const s = window.colonyGame.state;
-    const q = s.squads.find((x) => x.team === t && x.name === n);
-    const robots = s.robots.filter((r) => r.team === t && r.squad === n && r.alive).map((r) => [r.id, r.x, r.y]);
-    return { ...q, robots, time: s.time };
-  }, [team, name]);
-
-  const centroid = (robots) => [
-    robots.reduce((a, r) => a + r[1], 0) / robots.length,
-    robots.reduce((a, r) => a + r[2], 0) / robots.length,
-  ];
-
-  // The largest distance from a robot to its nearest squad mate.
-  const spread = (robots) => Math.max(...robots.map((r) => Math.min(
-    ...robots.filter((o) => o !== r).map((o) => Math.hypot(o[1] - r[1], o[2] - r[2])),
-  )));
+  const until = (fn, arg, timeoutMs, what) => untilGame(page, fn, arg, timeoutMs, what);
+  const squadOf = (team, name) => squadIn(page, team, name);
 
   test('the page shows the battlefield, both teams and red\'s squads', async () => {
     await until(() => {
@@ -98,7 +64,7 @@ describe('the game page, playing red against the scripted blue', { concurrency: 
 
   test('red\'s first squad, in a wedge, attacks a clicked blue robot: it moves, in formation, along a planned path', async () => {
     const name = await page.evaluate(() => window.colonyGame.state.squads.find((q) => q.team === 'red').name);
-    await page.locator(`#squads [data-squad="${name}"]`).click();
+    await page.locator(`#squads [data-squad="${name}"] .head`).click();
     await until((n) => window.colonyGame.selected === n, name, 15000, `squad ${name} not selected`);
     await page.selectOption('#formation', 'wedge');
 

@@ -205,3 +205,44 @@ export async function until(page, fn, arg, timeoutMs, what) {
     throw new Error(`${what} within ${timeoutMs} ms (page: ${JSON.stringify(state)}): ${e.message.split('\n')[0]}`);
   }
 }
+
+// ---- the game page ------------------------------------------------------------------
+
+/** The formation's spacing: a squad in formation keeps every robot within three spacings of its nearest mate. */
+export const SPACING_CM = 22;
+
+/** Polls the game page until `fn` returns something truthy; on a timeout, says what the page had. */
+export async function untilGame(page, fn, arg, timeoutMs, what) {
+  try {
+    const h = await page.waitForFunction(fn, arg, { timeout: timeoutMs, polling: 100 });
+    return await h.jsonValue();
+  } catch (e) {
+    const seen = await page.evaluate(() => {
+      const g = window.colonyGame;
+      return g && {
+        connected: g.connected, stale: g.stale, team: g.team, selected: g.selected, picked: g.picked, map: g.map && [g.map.width, g.map.height, g.map.cell],
+        squads: g.state && g.state.squads, lastReply: g.lastReply, lastCommand: g.lastCommand, refusal: g.refusal, chat: g.chat,
+      };
+    }).catch(() => null);
+    throw new Error(`${what} within ${timeoutMs} ms (page: ${JSON.stringify(seen)}): ${e.message.split('\n')[0]}`);
+  }
+}
+
+/** A squad as the game page has it, with its living robots as [id, x, y]. */
+export const squadOf = (page, team, name) => page.evaluate(([t, n]) => {
+  const s = window.colonyGame.state;
+  const q = s.squads.find((x) => x.team === t && x.name === n);
+  const robots = s.robots.filter((r) => r.team === t && r.squad === n && r.alive).map((r) => [r.id, r.x, r.y]);
+  return { ...q, robots, time: s.time };
+}, [team, name]);
+
+/** The centroid of robots given as [id, x, y]. */
+export const centroid = (robots) => [
+  robots.reduce((a, r) => a + r[1], 0) / robots.length,
+  robots.reduce((a, r) => a + r[2], 0) / robots.length,
+];
+
+/** The largest distance from a robot to its nearest squad mate. */
+export const spread = (robots) => Math.max(...robots.map((r) => Math.min(
+  ...robots.filter((o) => o !== r).map((o) => Math.hypot(o[1] - r[1], o[2] - r[2])),
+)));

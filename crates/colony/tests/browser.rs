@@ -58,7 +58,7 @@ fn the_monitor_page_passes_its_browser_tests_in_headless_chromium() {
         "the browser tests ran no test:\n{stdout}"
     );
     // node finds every *.test.mjs in the folder; make sure the game's and the
-    // two-site monitor's and the task board's ran.
+    // two-site monitor's and the task board's and the game orders' ran.
     for (suite, file) in [
         (
             "the game page, playing red against the scripted blue",
@@ -69,6 +69,10 @@ fn the_monitor_page_passes_its_browser_tests_in_headless_chromium() {
             "federation.test.mjs",
         ),
         ("the task board", "tasks.test.mjs"),
+        (
+            "the game page's orders: paths, single robots, split, merge, driving, chat",
+            "game-orders.test.mjs",
+        ),
     ] {
         assert!(
             stdout

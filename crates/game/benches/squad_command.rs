@@ -57,6 +57,7 @@ fn view(field: &Battlefield, teams: &[TeamSetup]) -> (View, Vec<colony_game::log
                 kind: e.kind,
                 at: e.spawn.position(),
                 alive: true,
+                driven: false,
             })
             .collect(),
         flags: field

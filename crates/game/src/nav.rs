@@ -133,7 +133,14 @@ impl Nav {
     /// when some point cannot be reached at all.
     pub fn route(&mut self, from: Vec2, points: &[Vec2], mover: Mover) -> Option<Vec<Vec2>> {
         let mut route = vec![self.centre(self.nearest_free(from, mover)?)];
-        for &p in points {
+        // A hand's stroke has a point every few centimetres; a cell apart is plenty to steer
+        // by, and each point is a waypoint for every robot of the formation.
+        let spacing = self.field.cell_cm;
+        let last = points.len().saturating_sub(1);
+        for (k, &p) in points.iter().enumerate() {
+            if k < last && route.last().is_some_and(|r| r.distance(p) < spacing) {
+                continue;
+            }
             let to = if self.is_free(p, mover) {
                 p
             } else {

@@ -31,6 +31,10 @@ pub const D_CRIT: f64 = 5.0;
 pub const SONAR_HALF_ANGLE: f64 = 15.0 * PI / 180.0;
 /// A GoTo is done this close to its point, cm.
 pub const ARRIVED: f64 = 6.0;
+/// A GoTo with another GoTo after it is a point to pass on the way: done this close, cm. A
+/// waypoint another robot happens to stand on must not hold a robot forever, its sonar
+/// turning it away each time it comes within `ARRIVED`.
+pub const PASSED: f64 = 14.0;
 /// A manoeuvre that hasn't finished in this long is given up (s): a robot
 /// wedged against something must not hold its reflex forever.
 const MANOEUVRE_TIMEOUT: f64 = 3.0;
@@ -261,7 +265,10 @@ impl Behaviour<Ctx> for CommandBehaviour {
                 }
                 finished
             }
-            Command::GoTo { to, speed } => go_to(ctx, to, speed),
+            Command::GoTo { to, speed } => {
+                let on_the_way = matches!(ctx.commands.get(1), Some(Command::GoTo { .. }));
+                go_to(ctx, to, speed, if on_the_way { PASSED } else { ARRIVED })
+            }
             Command::Drive {
                 forward,
                 turn,
@@ -270,7 +277,11 @@ impl Behaviour<Ctx> for CommandBehaviour {
                 let now = ctx.sense.time;
                 let until = *ctx.drive_until.get_or_insert(now + secs);
                 let finished = now >= until;
-                ctx.wheels = if finished { (0.0, 0.0) } else { (forward, turn) };
+                ctx.wheels = if finished {
+                    (0.0, 0.0)
+                } else {
+                    (forward, turn)
+                };
                 if finished {
                     ctx.drive_until = None;
                 }
@@ -301,11 +312,11 @@ impl Behaviour<Ctx> for CommandBehaviour {
 }
 
 /// One tick of GoTo: turn on the spot when far off the bearing, else drive
-/// and steer; true once arrived.
-fn go_to(ctx: &mut Ctx, to: Vec2, speed: Option<f64>) -> bool {
+/// and steer; true once within `done` cm.
+fn go_to(ctx: &mut Ctx, to: Vec2, speed: Option<f64>, done: f64) -> bool {
     let pos = ctx.sense.pose.position();
     let d = pos.distance(to);
-    if d < ARRIVED {
+    if d < done {
         ctx.wheels = (0.0, 0.0);
         return true;
     }

@@ -102,7 +102,11 @@ fn one_robot_ordered_alone_leaves_its_squad_which_keeps_its_own_order() {
     assert!(alpha.order.starts_with("goto"), "{alpha:?}");
     let solo = s.squads.iter().find(|q| q.name == "robot-2").unwrap();
     assert!(solo.order.starts_with("goto"), "{solo:?}");
-    assert!(at(&m, 2).distance(east) < 40.0, "robot 2 at {:?}", at(&m, 2));
+    assert!(
+        at(&m, 2).distance(east) < 40.0,
+        "robot 2 at {:?}",
+        at(&m, 2)
+    );
     for id in [0, 1] {
         assert!(
             at(&m, id).distance(north) < 80.0,
@@ -157,7 +161,11 @@ fn a_drawn_path_across_the_river_is_followed_by_the_nearest_passable_route() {
 
 #[test]
 fn a_split_squad_goes_two_ways_and_merges_back() {
-    let mut m = game("alpha:infantry,infantry,infantry,infantry", "alpha:scout", &[]);
+    let mut m = game(
+        "alpha:infantry,infantry,infantry,infantry",
+        "alpha:scout",
+        &[],
+    );
     steps(&mut m, 2);
     send(
         &mut m,
@@ -268,7 +276,11 @@ fn orders_for_an_enemy_or_a_destroyed_robot_are_refused_and_change_nothing() {
     for _ in 0..8000 {
         m.step(&mut |_, _| {});
         if let Some(s) = m.state() {
-            dead = s.robots.iter().find(|r| !r.alive && r.team == "red").map(|r| r.id);
+            dead = s
+                .robots
+                .iter()
+                .find(|r| !r.alive && r.team == "red")
+                .map(|r| r.id);
         }
         if dead.is_some() || m.is_over() {
             break;
@@ -277,7 +289,12 @@ fn orders_for_an_enemy_or_a_destroyed_robot_are_refused_and_change_nothing() {
     let Some(dead) = dead else {
         panic!("no red robot fell in the scripted match")
     };
-    let blue = state(&m).robots.iter().find(|r| r.team == "blue").unwrap().id;
+    let blue = state(&m)
+        .robots
+        .iter()
+        .find(|r| r.team == "blue")
+        .unwrap()
+        .id;
     let before = refusals(&m).len();
     for c in [
         PlayerCommand::Robot {
@@ -313,7 +330,10 @@ fn orders_for_an_enemy_or_a_destroyed_robot_are_refused_and_change_nothing() {
     m.step(&mut |_, _| {});
     let said = refusals(&m)[before..].to_vec();
     if m.is_over() {
-        assert!(said.iter().all(|s| s.ends_with("the game is over")), "{said:?}");
+        assert!(
+            said.iter().all(|s| s.ends_with("the game is over")),
+            "{said:?}"
+        );
         return;
     }
     assert_eq!(said.len(), 5, "{said:?}");
@@ -332,7 +352,10 @@ fn orders_for_an_enemy_or_a_destroyed_robot_are_refused_and_change_nothing() {
             || said[4] == "red robot 0: robot 1 is on your own team",
         "{said:?}"
     );
-    assert!(state(&m).squads.iter().all(|q| !q.name.starts_with("robot-")));
+    assert!(state(&m)
+        .squads
+        .iter()
+        .all(|q| !q.name.starts_with("robot-")));
 }
 
 #[test]
@@ -379,4 +402,38 @@ fn bad_splits_and_merges_are_refused_with_a_reason() {
     );
     let s = state(&m);
     assert_eq!(s.squads.len(), 3, "nothing changed: {:?}", s.squads);
+}
+
+#[test]
+fn a_dense_stroke_drawn_past_robots_standing_at_the_spawn_is_followed_by_every_robot() {
+    // As the game page sends it: a point every few pixels, starting among the idle bravo.
+    let mut m = game(
+        "alpha:infantry,infantry,infantry,infantry bravo:scout,scout",
+        "alpha:tank",
+        &[],
+    );
+    steps(&mut m, 2);
+    let mut stroke: Vec<Vec2> = (0..12)
+        .map(|k| Vec2::new(94.0 + 12.5 * k as f64, 212.0 - 5.2 * k as f64))
+        .collect();
+    stroke.extend((0..12).map(|k| Vec2::new(244.0 + 21.4 * k as f64, 150.0)));
+    stroke.extend((0..13).map(|k| Vec2::new(500.0 + 16.7 * k as f64, 150.0 + 8.3 * k as f64)));
+    let end = *stroke.last().unwrap();
+    send(
+        &mut m,
+        PlayerCommand::Squad(SquadCommand {
+            team: "red".into(),
+            squad: "alpha".into(),
+            verb: Verb::Path(stroke),
+            formation: Some(colony_game::protocol::Formation::Line),
+        }),
+    );
+    steps(&mut m, 1200);
+    for id in 0..4 {
+        assert!(
+            at(&m, id).distance(end) < 60.0,
+            "robot {id} followed the stroke to its end {end:?}: it is at {:?}",
+            at(&m, id)
+        );
+    }
 }

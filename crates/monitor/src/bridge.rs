@@ -29,7 +29,7 @@ use colony_client::UdpClient;
 use colony_wire::{Packet, Reply, Request, HUB_SUBJECT};
 use tokio::sync::{oneshot, watch};
 
-use crate::game::{GameView, GAME_CHANNELS};
+use crate::game::{Chats, GameView, GAME_CHANNELS};
 use crate::state::{Command, CommandError, MonitorState, PageId, CORE_CHANNELS};
 use crate::tasks::TaskBoard;
 
@@ -75,6 +75,7 @@ pub struct Bridge {
     world_tx: watch::Sender<Arc<str>>,
     hub_tx: watch::Sender<Arc<str>>,
     game_tx: watch::Sender<Arc<str>>,
+    chat_tx: watch::Sender<Arc<Chats>>,
     map_tx: watch::Sender<Arc<str>>,
     tasks_tx: watch::Sender<Arc<str>>,
 }
@@ -84,6 +85,8 @@ pub struct Handles {
     pub world: watch::Receiver<Arc<str>>,
     pub hub: watch::Receiver<Arc<str>>,
     pub game: watch::Receiver<Arc<str>>,
+    /// Each team's chat, as JSON for the pages playing it.
+    pub chat: watch::Receiver<Arc<Chats>>,
     pub map: watch::Receiver<Arc<str>>,
     pub tasks: watch::Receiver<Arc<str>>,
 }
@@ -112,6 +115,7 @@ impl Bridge {
         let (hub_tx, hub) = watch::channel(Arc::from(state.hub_json(now)));
         let (game_tx, game_rx) = watch::channel(Arc::from(game.game_json(now)));
         let (map_tx, map) = watch::channel(Arc::from(game.map_json()));
+        let (chat_tx, chat) = watch::channel(Arc::new(game.chats()));
         let tasks = TaskBoard::new(now);
         let (tasks_tx, tasks_rx) = watch::channel(Arc::from(tasks.json(now)));
         Ok((
@@ -126,12 +130,14 @@ impl Bridge {
                 hub_tx,
                 game_tx,
                 map_tx,
+                chat_tx,
                 tasks_tx,
             },
             Handles {
                 world,
                 hub,
                 game: game_rx,
+                chat,
                 map,
                 tasks: tasks_rx,
             },
@@ -176,6 +182,7 @@ impl Bridge {
         let mut next_hub_view = start;
         let mut last_game = start;
         let mut game_version = 0;
+        let mut chat_version = 0;
         let mut map_version = 0;
         let mut last_tasks = start;
         let mut tasks_version = 0;
@@ -289,6 +296,10 @@ impl Bridge {
                 self.game_tx
                     .send_replace(Arc::from(self.game.game_json(now)));
             }
+            if self.game.chat_version() != chat_version {
+                chat_version = self.game.chat_version();
+                self.chat_tx.send_replace(Arc::new(self.game.chats()));
+            }
             let since = now.saturating_duration_since(last_tasks);
             if (self.tasks.version() != tasks_version && since >= TASKS_EVERY)
                 || since >= TASKS_AT_LEAST
@@ -364,7 +375,7 @@ impl Bridge {
             }
             self.control.publish(bytes).map_err(CommandError::Publish)?;
         }
-        if let Command::Squad(order) = &command {
+        if let Command::Game(order) = &command {
             let bytes = order.packet().map_err(CommandError::Write)?;
             self.control
                 .publish(&bytes)

@@ -21,15 +21,17 @@
 //!   "map_version":N,"bad_lines":N}
 //! {"t":"map","version":N,"map":{width,height,cell,rows:["@..T",..],
 //!   sites:[{team,base:[x,y],flag:[x,y]}]}|null}
+//! {"t":"chat","team":T,"lines":[{seq,from,text}]}     only to the pages playing team T
 //! ```
 
 pub mod map;
-pub mod squad;
+pub mod orders;
 
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use colony_proto::game::{Event, GameState};
+use colony_proto::game::{valid_name, ChatLine, Event, GameState};
 use colony_wire::Packet;
 use serde::Serialize;
 
@@ -41,6 +43,10 @@ pub const GAME_CHANNELS: [&str; 3] = [STATE, MAP, EVENT];
 
 /// Events kept for the page's log.
 pub const MAX_EVENTS: usize = 50;
+/// Chat lines kept for each team.
+pub const MAX_CHAT_LINES: usize = 50;
+/// The prefix of a team's chat channel.
+const CHAT_PREFIX: &str = "game.chat.";
 /// With no state for this long the page shows the game as stale.
 pub const GAME_STALE_AFTER: Duration = Duration::from_secs(2);
 /// The longest behaviour, reason, order or event text kept (characters).
@@ -157,6 +163,40 @@ pub struct EventView {
     pub text: String,
 }
 
+/// A chat line for the pages of its team.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ChatView {
+    /// Counts chat lines since the monitor started, so a page can tell new from seen.
+    pub seq: u64,
+    /// Who wrote it.
+    pub from: String,
+    /// What they wrote.
+    pub text: String,
+}
+
+/// Each team's chat lines, for the pages playing that team and no other.
+pub type Chats = BTreeMap<String, Arc<[ChatView]>>;
+
+#[derive(Serialize)]
+struct ChatJson<'a> {
+    t: &'static str,
+    team: &'a str,
+    backlog: bool,
+    lines: &'a [ChatView],
+}
+
+/// A team's chat for one page, `{"t":"chat","team":T,"backlog":B,"lines":[{seq,from,text}]}`:
+/// `backlog` when these are the lines a page finds as it connects rather than news.
+pub fn chat_message(team: &str, backlog: bool, lines: &[ChatView]) -> String {
+    let j = ChatJson {
+        t: "chat",
+        team,
+        backlog,
+        lines,
+    };
+    serde_json::to_string(&j).unwrap_or_else(|_| "{}".into())
+}
+
 /// Everything the monitor knows of the game.
 #[derive(Debug)]
 pub struct GameView {
@@ -170,6 +210,9 @@ pub struct GameView {
     refusal: Option<EventView>,
     bad_lines: u64,
     version: u64,
+    chat: BTreeMap<String, VecDeque<ChatView>>,
+    chat_version: u64,
+    chat_dropped: u64,
 }
 
 #[derive(Serialize)]
@@ -281,6 +324,55 @@ impl GameView {
             refusal: None,
             bad_lines: 0,
             version: 0,
+            chat: BTreeMap::new(),
+            chat_version: 0,
+            chat_dropped: 0,
+        }
+    }
+
+    /// Changes whenever a chat line arrives.
+    pub fn chat_version(&self) -> u64 {
+        self.chat_version
+    }
+
+    /// Chat lines that could not be kept: unreadable, or for a team past the first
+    /// [`MAX_TEAMS`] that chatted (a forger inventing teams).
+    pub fn chat_dropped(&self) -> u64 {
+        self.chat_dropped
+    }
+
+    /// Each team's chat lines.
+    pub fn chats(&self) -> Chats {
+        self.chat
+            .iter()
+            .map(|(team, lines)| (team.clone(), lines.iter().cloned().collect()))
+            .collect()
+    }
+
+    fn on_chat(&mut self, team: &str, packet: &Packet<'_>) {
+        let lines = match ChatLine::decode(team, packet) {
+            Ok(lines) if valid_name(team) => lines,
+            _ => {
+                self.chat_dropped += 1;
+                return;
+            }
+        };
+        if !self.chat.contains_key(team) && self.chat.len() >= MAX_TEAMS {
+            self.chat_dropped += lines.len() as u64;
+            return;
+        }
+        let log = self.chat.entry(team.to_string()).or_default();
+        for l in lines {
+            if log.len() >= MAX_CHAT_LINES {
+                log.pop_front();
+            }
+            log.push_back(ChatView {
+                seq: self.next_seq,
+                from: l.from,
+                text: l.text,
+            });
+            self.next_seq += 1;
+            self.chat_version += 1;
         }
     }
 
@@ -330,6 +422,9 @@ impl GameView {
             self.map.on_packet(packet);
         } else if packet.has_subject(EVENT) {
             self.on_event(packet);
+        } else if let Some(team) = packet.subjects().find_map(|s| s.strip_prefix(CHAT_PREFIX)) {
+            let team = team.to_string();
+            self.on_chat(&team, packet);
         }
     }
 

@@ -10,9 +10,11 @@
 //! {"t":"goto","ids":[0],"x":40.5,"y":-12}              a point on the arena, cm
 //! {"t":"squad","team":"red","squad":"alpha","do":"attack","robot":7,"formation":"wedge"}
 //!                                                      a game squad command
+//! {"t":"robot",...} {"t":"split",...} {"t":"merge",...} {"t":"robot_drive",...}
+//! {"t":"robot_release",...} {"t":"chat",...}           the game's other orders, and chat
 //! ```
 //!
-//! The squad command's fields are in [`crate::game::squad`]; `"type"` is
+//! The game's messages' fields are in [`crate::game::orders`]; `"type"` is
 //! read as `"t"` when `"t"` is missing, since that is how the game's
 //! documentation writes it.
 //!
@@ -22,7 +24,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::game::squad::SquadMsg;
+use crate::game::orders::{ChatMsg, FreeMsg, MergeMsg, RobotMsg, SplitMsg, SquadMsg, SteerMsg};
 use crate::state::{check_forged, Command, MAX_COORD, MAX_HELD};
 
 /// The longest message the server reads from a browser (a forged packet at
@@ -56,6 +58,12 @@ enum ClientMsg {
         y: f64,
     },
     Squad(SquadMsg),
+    Robot(RobotMsg),
+    Split(SplitMsg),
+    Merge(MergeMsg),
+    RobotDrive(SteerMsg),
+    RobotRelease(FreeMsg),
+    Chat(ChatMsg),
 }
 
 /// Why a browser message was refused; `line` and `column` point into a forged packet.
@@ -98,6 +106,10 @@ pub struct ReplyJson<'a> {
     /// The column in that line.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub column: Option<u32>,
+}
+
+fn refused(e: crate::game::orders::OrderRefused) -> Refusal {
+    Refusal::new(e.to_string())
 }
 
 /// Reads the `t` of a message, for the reply, without trusting the rest.
@@ -209,7 +221,13 @@ pub fn parse_message(text: &str) -> Result<Command, Refusal> {
             x: coord("x", x)?,
             y: coord("y", y)?,
         },
-        ClientMsg::Squad(m) => Command::Squad(m.check().map_err(|e| Refusal::new(e.to_string()))?),
+        ClientMsg::Squad(m) => Command::Game(m.check().map_err(refused)?),
+        ClientMsg::Robot(m) => Command::Game(m.check().map_err(refused)?),
+        ClientMsg::Split(m) => Command::Game(m.check().map_err(refused)?),
+        ClientMsg::Merge(m) => Command::Game(m.check().map_err(refused)?),
+        ClientMsg::RobotDrive(m) => Command::Game(m.check().map_err(refused)?),
+        ClientMsg::RobotRelease(m) => Command::Game(m.check().map_err(refused)?),
+        ClientMsg::Chat(m) => Command::Game(m.check().map_err(refused)?),
     })
 }
 
@@ -306,7 +324,7 @@ mod tests {
             r#"{"t":"squad","team":"red","squad":"alpha","do":"attack","robot":7,"formation":"wedge"}"#,
             r#"{"type":"squad","team":"red","squad":"alpha","do":"attack","robot":7,"formation":"wedge"}"#,
         ] {
-            let Command::Squad(order) = parse_message(text).unwrap() else {
+            let Command::Game(order) = parse_message(text).unwrap() else {
                 panic!("{text} is not a squad command");
             };
             assert_eq!(
@@ -371,7 +389,7 @@ mod tests {
             }
             let text = String::from_utf8_lossy(&bytes);
             let _ = kind_of(&text);
-            if let Ok(Command::Squad(o)) = parse_message(&text) {
+            if let Ok(Command::Game(o)) = parse_message(&text) {
                 o.packet().expect("a checked order always makes a packet");
             }
         }

@@ -126,6 +126,7 @@ struct App {
     world: watch::Receiver<Arc<str>>,
     hub: watch::Receiver<Arc<str>>,
     game: watch::Receiver<Arc<str>>,
+    chat: watch::Receiver<Arc<crate::game::Chats>>,
     map: watch::Receiver<Arc<str>>,
     tasks: watch::Receiver<Arc<str>>,
     shutdown: watch::Receiver<bool>,
@@ -182,6 +183,7 @@ impl Monitor {
             world: handles.world,
             hub: handles.hub,
             game: handles.game,
+            chat: handles.chat,
             map: handles.map,
             tasks: handles.tasks,
             shutdown: shutdown.clone(),
@@ -493,12 +495,13 @@ async fn asset(kind: &'static str, body: &'static str) -> Response {
 }
 
 /// What a tab is sent besides replies.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 enum View {
     /// The system monitor: world snapshots and the hub view.
     Monitor,
-    /// The game page: game state, events and the map.
-    Game,
+    /// The game page: game state, events and the map, and the chat of the team it plays
+    /// (`team=` in the socket's address; none without one).
+    Game(Option<String>),
     /// The task board.
     Tasks,
 }
@@ -514,7 +517,13 @@ async fn ws(
             .is_some_and(|q| q.split('&').any(|kv| kv == v))
     };
     let view = if asked("view=game") {
-        View::Game
+        let team = query.as_deref().and_then(|q| {
+            q.split('&')
+                .find_map(|kv| kv.strip_prefix("team="))
+                .filter(|t| colony_proto::game::valid_name(t))
+                .map(str::to_owned)
+        });
+        View::Game(team)
     } else if asked("view=tasks") {
         View::Tasks
     } else {
@@ -605,16 +614,24 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
     let mut world = app.world.clone();
     let mut hub = app.hub.clone();
     let mut game = app.game.clone();
+    let mut chat = app.chat.clone();
     let mut map = app.map.clone();
     let mut tasks = app.tasks.clone();
     let mut shutdown = app.shutdown.clone();
-    let monitor = view == View::Monitor;
-    let playing = view == View::Game;
-    let board = view == View::Tasks;
+    let monitor = matches!(view, View::Monitor);
+    let playing = matches!(view, View::Game(_));
+    let team = match &view {
+        View::Game(team) => team.clone(),
+        _ => None,
+    };
+    let mut chat_sent: Option<Arc<[crate::game::ChatView]>> = None;
+    let at_connect = team.as_ref().and_then(|t| chat.borrow().get(t).cloned());
+    let board = matches!(view, View::Tasks);
     // The newest of each, at once.
     world.mark_changed();
     hub.mark_changed();
     game.mark_changed();
+    chat.mark_changed();
     map.mark_changed();
     tasks.mark_changed();
     let mut next_world = Instant::now();
@@ -670,6 +687,24 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
                 let snapshot = map.borrow_and_update().clone();
                 if socket.send(Message::Text(snapshot.as_ref().into())).await.is_err() {
                     break;
+                }
+            }
+            changed = chat.changed(), if team.is_some() => {
+                if changed.is_err() {
+                    break;
+                }
+                // Only this team's lines, and only when they changed.
+                let mine = team.as_ref().and_then(|t| chat.borrow_and_update().get(t).cloned());
+                if let (Some(mine), Some(team)) = (mine, team.as_deref()) {
+                    if chat_sent.as_deref() != Some(&*mine) {
+                        // What was said before the page came is its backlog, not news.
+                        let backlog = chat_sent.is_none() && at_connect.as_deref() == Some(&*mine);
+                        let text = crate::game::chat_message(team, backlog, &mine);
+                        if socket.send(Message::Text(text.into())).await.is_err() {
+                            break;
+                        }
+                        chat_sent = Some(mine);
+                    }
                 }
             }
             changed = tasks.changed(), if board => {

@@ -62,6 +62,12 @@ export function serverLink(path, { onOpen = () => {}, onMessage, onClose = () =>
       }
       return false;
     },
+    /** Reconnects at another address (the game page playing another team). */
+    setPath(p) {
+      if (p === path) return;
+      path = p;
+      if (socket) socket.close();
+    },
   };
   function connect() {
     const proto = location.protocol === 'https:' ? 'wss:' : 'ws:';
@@ -76,7 +82,9 @@ export function serverLink(path, { onOpen = () => {}, onMessage, onClose = () =>
       try { msg = JSON.parse(ev.data); } catch (e) { return; }
       if (msg && typeof msg === 'object') onMessage(msg);
     };
+    const mine = socket;
     socket.onclose = () => {
+      if (socket !== mine) return;
       const was = link.connected;
       link.connected = false;
       onClose(was);

@@ -1,8 +1,10 @@
 // colony game: the strategy game's player client. Plain JavaScript, no library.
 //
 // The server sends {"t":"game"} (state, the last events, the last refusal)
-// several times a second, {"t":"map"} when the battlefield changes, and
-// {"t":"reply"} answers; the page sends {"t":"squad",...} orders. World
+// several times a second, {"t":"map"} when the battlefield changes, {"t":"chat"}
+// with the chat of the team this page plays, and {"t":"reply"} answers; the page
+// sends {"t":"squad"} and {"t":"robot"} orders, {"t":"split"}, {"t":"merge"},
+// {"t":"robot_drive"} and {"t":"robot_release"} for direct control, and {"t":"chat"}. World
 // coordinates are centimetres with y up, the map's bottom-left corner at the
 // origin. window.colonyGame exposes what the page shows, for people at the
 // console and for the browser tests. The socket, the view transform,
@@ -30,6 +32,17 @@ let terrain = null; // the map drawn one pixel a cell
 let team = new URLSearchParams(location.search).get('team') || null;
 const teamFromUrl = team !== null;
 let selected = null; // the selected squad's name
+let picked = null; // the selected robot's id (orders go to it alone)
+let driving = null; // the robot driven with the keys
+const keys = new Set(); // the driving keys held
+let stroke = null; // a path being drawn: world points
+let press = null; // where a press on the battlefield began
+let suppressClick = false;
+let chatLines = [];
+let lastChatSeq = -1;
+const player = new URLSearchParams(location.search).get('name') || 'player';
+let audio = null;
+let eventsPrimed = false; // a game message came since the socket opened
 let dirty = true;
 let link = null;
 let connected = false;
@@ -40,8 +53,9 @@ const maxHealth = new Map(); // robot id -> the most health it has had
 
 const api = {
   connected: false, state: null, map: null, mapVersion: 0, events: [], refusal: null,
-  stale: true, team: null, selected: null, lastReply: null, lastCommand: null, frames: 0,
-  worldToCanvas, worldToClient, clientToWorld, select, send, order,
+  stale: true, team: null, selected: null, picked: null, driving: null, lastReply: null, lastCommand: null,
+  frames: 0, chat: [], sounds: [],
+  worldToCanvas, worldToClient, clientToWorld, select, pick, send, order,
   get formation() { return $('formation').value; },
 };
 window.colonyGame = api;
@@ -50,12 +64,17 @@ window.colonyGame = api;
 $('monitor-link').href = withToken('/');
 
 // ---- the connection -------------------------------------------------------
+function socketPath() {
+  return team === null ? '/ws?view=game' : `/ws?view=game&team=${encodeURIComponent(team)}`;
+}
+
 function connect() {
-  link = serverLink('/ws?view=game', {
-    onOpen() { connected = true; banners(); },
+  link = serverLink(socketPath(), {
+    onOpen() { connected = true; eventsPrimed = false; banners(); },
     onMessage(msg) {
       if (msg.t === 'game') onGame(msg);
       else if (msg.t === 'map') onMap(msg);
+      else if (msg.t === 'chat') onChat(msg);
       else if (msg.t === 'reply') onReply(msg);
     },
     onClose() { connected = false; banners(); },
@@ -114,6 +133,67 @@ function onGame(g) {
   dirty = true;
 }
 
+function onChat(c) {
+  if (c.team !== team) return;
+  const fresh = c.lines.filter((l) => l.seq > lastChatSeq);
+  if (!c.backlog && fresh.length) beep('chat');
+  if (c.lines.length) lastChatSeq = Math.max(lastChatSeq, ...c.lines.map((l) => l.seq));
+  chatLines = c.lines;
+  api.chat = c.lines.map((l) => ({ from: l.from, text: l.text }));
+  $('chat').replaceChildren(...c.lines.map((l) => {
+    const li = document.createElement('li');
+    li.innerHTML = `<span class="from">${esc(l.from)}</span>: ${esc(l.text)}`;
+    return li;
+  }));
+  $('chat').scrollTop = $('chat').scrollHeight;
+}
+
+$('chat-form').addEventListener('submit', (e) => {
+  e.preventDefault();
+  const text = $('chat-text').value.trim();
+  if (!text) return;
+  if (team === null) { message('no team to chat with yet: wait for the game', false); return; }
+  if (send({ t: 'chat', team, from: player, text })) $('chat-text').value = '';
+});
+
+// ---- sounds: synthesised in the page, no files ----------------------------------
+const TONES = {
+  hit: [660, 0.05, 'square'],
+  destroyed: [110, 0.35, 'sawtooth'],
+  'flag-taken': [880, 0.15, 'triangle'],
+  'flag-dropped': [330, 0.2, 'triangle'],
+  'flag-returned': [550, 0.2, 'triangle'],
+  captured: [1320, 0.3, 'triangle'],
+  refused: [180, 0.2, 'square'],
+  over: [440, 0.6, 'triangle'],
+  chat: [990, 0.06, 'sine'],
+};
+$('sound').checked = localStorage.getItem('colony-game-sound') !== 'off';
+$('sound').onchange = () => localStorage.setItem('colony-game-sound', $('sound').checked ? 'on' : 'off');
+
+function beep(kind) {
+  const tone = TONES[kind];
+  if (!tone || !$('sound').checked) return;
+  try {
+    audio = audio || new AudioContext();
+  } catch (e) {
+    return;
+  }
+  const [hz, secs, type] = tone;
+  const t = audio.currentTime;
+  const osc = audio.createOscillator();
+  const gain = audio.createGain();
+  osc.type = type;
+  osc.frequency.value = hz;
+  gain.gain.setValueAtTime(0.08, t);
+  gain.gain.exponentialRampToValueAtTime(0.0001, t + secs);
+  osc.connect(gain).connect(audio.destination);
+  osc.start(t);
+  osc.stop(t + secs);
+  api.sounds.push(kind);
+  if (api.sounds.length > 50) api.sounds.shift();
+}
+
 function onReply(r) {
   api.lastReply = r;
   message(r.msg, r.ok);
@@ -131,6 +211,7 @@ function chooseTeam(s) {
     if (t) team = t.name;
   }
   api.team = team;
+  if (link) link.setPath(socketPath());
   const names = s.teams.map((t) => t.name);
   if (team !== null && !names.includes(team)) names.push(team);
   const sel = $('team');
@@ -151,6 +232,10 @@ function chooseTeam(s) {
 $('team').onchange = () => {
   team = $('team').value;
   api.team = team;
+  chatLines = [];
+  lastChatSeq = -1;
+  $('chat').replaceChildren();
+  link.setPath(socketPath());
   select(null);
   squadsKey = '';
   renderSquads();
@@ -222,7 +307,7 @@ function renderSquads() {
     const members = s.robots.filter((r) => r.team === q.team && r.squad === q.name);
     const alive = members.filter((r) => r.alive);
     const health = alive.reduce((a, r) => a + r.health, 0);
-    const rows = members.map((r) => `<div class="robot${r.alive ? '' : ' dead'}" data-robot="${r.id}">`
+    const rows = members.map((r) => `<div class="robot${r.alive ? '' : ' dead'}${r.id === picked ? ' picked' : ''}${r.id === driving ? ' driven' : ''}" data-robot="${r.id}">`
       + `<span>#${r.id}</span><span>${esc(r.kind)}</span>${r.alive ? healthBar(r) : '<span>destroyed</span>'}`
       + `<span class="why" title="${esc(r.reason)}"><b>${esc(r.behaviour || '–')}</b>${r.reason ? ` — ${esc(r.reason)}` : ''}</span></div>`).join('');
     return `<div class="squad${q.name === selected ? ' selected' : ''}" data-squad="${esc(q.name)}" style="--team:${colour(q.team)}">`
@@ -241,12 +326,32 @@ function renderSquads() {
     squadsKey = full;
     box.innerHTML = full;
   }
+  const others = squads.map((q) => q.name).filter((n) => n !== selected);
+  const into = $('merge-into');
+  if (into.dataset.key !== others.join(',')) {
+    const keep = into.value;
+    into.dataset.key = others.join(',');
+    into.replaceChildren(...others.map((n) => {
+      const o = document.createElement('option');
+      o.value = n;
+      o.textContent = n;
+      return o;
+    }));
+    if (others.includes(keep)) into.value = keep;
+  }
   if (selected !== null && !squads.some((q) => q.name === selected)) select(null);
+  if (picked !== null && !s.robots.some((r) => r.id === picked && r.team === team && r.alive)) pick(null);
 }
 
 // On press, not click: the list is rebuilt several times a second, and a
 // click whose press and release land on different copies never fires.
 $('squads').addEventListener('pointerdown', (e) => {
+  const row = e.target.closest('[data-robot]');
+  if (row && !row.classList.contains('dead')) {
+    const id = Number(row.dataset.robot);
+    pick(id === picked ? null : id);
+    return;
+  }
   const el = e.target.closest('[data-squad]');
   if (!el) return;
   select(el.dataset.squad === selected ? null : el.dataset.squad);
@@ -254,7 +359,14 @@ $('squads').addEventListener('pointerdown', (e) => {
 
 function renderEvents(g) {
   const last = g.events.length ? g.events[g.events.length - 1].seq : -1;
+  // A sound for each kind of news, not for the backlog the first message after connecting brings.
+  const primed = eventsPrimed;
+  eventsPrimed = true;
   if (last === lastEventSeq) return;
+  if (primed) {
+    const kinds = new Set(g.events.filter((e) => e.seq > lastEventSeq).map((e) => e.kind));
+    for (const k of kinds) beep(k);
+  }
   lastEventSeq = last;
   const list = $('events');
   list.replaceChildren(...g.events.slice().reverse().map((e) => {
@@ -281,30 +393,160 @@ function renderRefusal(r) {
 function select(squad) {
   selected = squad;
   api.selected = squad;
+  if (squad !== null) setPicked(null);
   for (const el of document.querySelectorAll('#squads [data-squad]')) {
     el.classList.toggle('selected', el.dataset.squad === squad);
   }
   // The list's HTML carries the selection too: rebuild it next time.
   squadsKey = '';
-  $('selected-note').textContent = squad === null ? 'no squad selected' : `squad ${squad} selected`;
+  note();
   dirty = true;
+}
+
+function setPicked(id) {
+  if (driving !== null && id !== driving) stopDriving();
+  picked = id;
+  api.picked = id;
+}
+
+/** Selects one robot of the player's (null: none); orders then go to it alone. */
+function pick(id) {
+  if (id !== null) { selected = null; api.selected = null; }
+  setPicked(id);
+  squadsKey = '';
+  renderSquads();
+  note();
+  dirty = true;
+}
+
+function note() {
+  $('selected-note').textContent = picked !== null
+    ? `robot ${picked} selected${driving === picked ? ': driving (arrows or WASD, Esc to give it back)' : ''}`
+    : selected === null ? 'no squad selected' : `squad ${selected} selected`;
+  $('drive').classList.toggle('on', driving !== null);
+  $('drive').textContent = driving !== null ? `Release ${driving}` : 'Drive';
 }
 
 function order(fields) {
   if (team === null) { message('no team to command yet: wait for the game', false); return false; }
-  if (selected === null) { message('select one of your squads first: click it in the list or on the map', false); return false; }
-  const cmd = { t: 'squad', team, squad: selected, ...fields };
-  const f = $('formation').value;
-  if (f) cmd.formation = f;
+  let cmd;
+  if (picked !== null) {
+    cmd = { t: 'robot', team, id: picked, ...fields };
+  } else if (selected !== null) {
+    cmd = { t: 'squad', team, squad: selected, ...fields };
+    const f = $('formation').value;
+    if (f) cmd.formation = f;
+  } else {
+    message('select one of your squads (or one robot) first: click it in the list or on the map', false);
+    return false;
+  }
+  api.lastCommand = cmd;
+  return send(cmd);
+}
+
+function sendCommand(cmd) {
   api.lastCommand = cmd;
   return send(cmd);
 }
 
 $('gather').onclick = () => order({ do: 'gather' });
 $('stop').onclick = () => order({ do: 'stop' });
+
+// A free name for a squad split off `name`: name-2, name-3, ... within the 32 characters a name may have.
+function splitName(name) {
+  const s = game && game.state;
+  const taken = new Set(s ? s.squads.filter((q) => q.team === team).map((q) => q.name) : []);
+  for (let k = 2; k < 1000; k++) {
+    const tail = `-${k}`;
+    const n = name.slice(0, 32 - tail.length) + tail;
+    if (!taken.has(n)) return n;
+  }
+  return null;
+}
+
+$('split').onclick = () => {
+  const s = game && game.state;
+  if (!s || selected === null) { message('select the squad to split first', false); return; }
+  const alive = s.robots.filter((r) => r.team === team && r.squad === selected && r.alive).map((r) => r.id);
+  if (alive.length < 2) { message(`squad ${selected} has fewer than two robots standing: nothing to split`, false); return; }
+  const robots = alive.slice(Math.ceil(alive.length / 2));
+  sendCommand({ t: 'split', team, squad: selected, robots, into: splitName(selected) });
+};
+
+$('merge').onclick = () => {
+  const into = $('merge-into').value;
+  if (selected === null) { message('select the squad to merge first', false); return; }
+  if (!into) { message('choose the squad to merge into', false); return; }
+  sendCommand({ t: 'merge', team, squad: selected, into });
+};
+
+// ---- direct control of one robot -------------------------------------------------------
+const DRIVE_KEYS = {
+  ArrowUp: [1, 0], w: [1, 0], W: [1, 0],
+  ArrowDown: [-1, 0], s: [-1, 0], S: [-1, 0],
+  ArrowLeft: [0, 1], a: [0, 1], A: [0, 1],
+  ArrowRight: [0, -1], d: [0, -1], D: [0, -1],
+};
+
+function steer() {
+  let forward = 0;
+  let turn = 0;
+  for (const k of keys) { forward += DRIVE_KEYS[k][0]; turn += DRIVE_KEYS[k][1]; }
+  const clamp = (v) => Math.max(-1, Math.min(1, v));
+  return { forward: clamp(forward), turn: clamp(turn) };
+}
+
+function startDriving() {
+  if (picked === null) { message('select one robot to drive: its row in the list, or ctrl-click it', false); return; }
+  driving = picked;
+  api.driving = driving;
+  // Taking control stops the robot where it is, until a key says otherwise.
+  sendCommand({ t: 'robot_drive', team, robot: driving, forward: 0, turn: 0 });
+  note();
+  squadsKey = '';
+  renderSquads();
+}
+
+function stopDriving() {
+  const robot = driving;
+  driving = null;
+  api.driving = null;
+  keys.clear();
+  if (robot !== null) sendCommand({ t: 'robot_release', team, robot });
+  note();
+  squadsKey = '';
+}
+
+$('drive').onclick = () => (driving === null ? startDriving() : stopDriving());
+
+// While keys are held, their wheels five times a second: each holds the robot's wheels for half a
+// second, so a closed page or a lost packet leaves it standing.
+setInterval(() => {
+  if (driving === null || keys.size === 0) return;
+  sendCommand({ t: 'robot_drive', team, robot: driving, ...steer() });
+}, 200);
+
 window.addEventListener('keydown', (e) => {
-  if (e.key === 'Escape') select(null);
+  if (e.target instanceof HTMLInputElement) return;
+  if (e.key === 'Escape') {
+    if (driving !== null) stopDriving();
+    else { select(null); pick(null); }
+    return;
+  }
+  if (driving !== null && DRIVE_KEYS[e.key]) {
+    e.preventDefault();
+    if (!keys.has(e.key)) {
+      keys.add(e.key);
+      sendCommand({ t: 'robot_drive', team, robot: driving, ...steer() });
+    }
+  }
 });
+window.addEventListener('keyup', (e) => {
+  if (!DRIVE_KEYS[e.key]) return;
+  keys.delete(e.key);
+  if (driving !== null) sendCommand({ t: 'robot_drive', team, robot: driving, ...steer() });
+});
+window.addEventListener('blur', () => keys.clear());
 
 // ---- the view ------------------------------------------------------------------
 function extent() {
@@ -412,7 +654,7 @@ function draw() {
   for (const b of s.robots) {
     const bx = X(b.x);
     const by = Y(b.y);
-    if (b.squad === selected && b.team === team && b.alive) {
+    if (((b.squad === selected && picked === null) || b.id === picked) && b.team === team && b.alive) {
       ctx.beginPath();
       ctx.arc(bx, by, r + 4 * dpr, 0, 2 * Math.PI);
       ctx.strokeStyle = '#f2b705';
@@ -450,6 +692,16 @@ function draw() {
     if (r >= 7 * dpr) text(KIND_LETTER[b.kind] || '?', bx, by + 4 * dpr, '#fff', 10 * dpr, 'center');
     text(`${b.id}`, bx + r + 2 * dpr, by + r + 8 * dpr, '#fff', 10 * dpr, 'left', true);
   }
+  drawStroke(X, Y, dpr);
+}
+
+function drawStroke(X, Y, dpr) {
+  if (!stroke || stroke.length < 2) return;
+  ctx.beginPath();
+  stroke.forEach((p, i) => (i ? ctx.lineTo(X(p.x), Y(p.y)) : ctx.moveTo(X(p.x), Y(p.y))));
+  ctx.strokeStyle = '#f2b705';
+  ctx.lineWidth = 3 * dpr;
+  ctx.stroke();
 }
 
 function grid(X, Y, k) {
@@ -520,13 +772,18 @@ function hit(at) {
 function click(e) {
   const s = game && game.state;
   if (!s) return;
+  if (suppressClick) { suppressClick = false; return; }
   const at = clientToWorld(e.clientX, e.clientY);
   const h = hit(at);
-  if (h && h.robot && h.robot.team === team && (selected === null || h.robot.squad === selected)) {
+  if (h && h.robot && h.robot.team === team && (e.ctrlKey || e.metaKey)) {
+    pick(h.robot.id === picked ? null : h.robot.id);
+    return;
+  }
+  if (h && h.robot && h.robot.team === team && picked === null && (selected === null || h.robot.squad === selected)) {
     select(h.robot.squad === selected ? null : h.robot.squad);
     return;
   }
-  if (selected === null) {
+  if (selected === null && picked === null) {
     message('select one of your squads first: click it in the list or one of its robots', false);
     return;
   }
@@ -544,6 +801,51 @@ function click(e) {
 }
 
 canvas.addEventListener('click', click);
+
+// ---- drawing a path: press, drag, release -----------------------------------------------------
+const DRAW_START_PX = 8; // a press that moves less is a click
+const DRAW_STEP_PX = 6; // a point every so many pixels of the stroke
+const MAX_DRAWN = 64; // the game's limit on a drawn path's points
+
+canvas.addEventListener('pointerdown', (e) => {
+  if (e.button !== 0) return;
+  press = { x: e.clientX, y: e.clientY, last: { x: e.clientX, y: e.clientY } };
+  stroke = null;
+});
+
+canvas.addEventListener('pointermove', (e) => {
+  if (!press || !(e.buttons & 1)) return;
+  if (!stroke) {
+    if (Math.hypot(e.clientX - press.x, e.clientY - press.y) < DRAW_START_PX) return;
+    stroke = [clientToWorld(press.x, press.y)];
+    canvas.setPointerCapture(e.pointerId);
+  }
+  if (Math.hypot(e.clientX - press.last.x, e.clientY - press.last.y) >= DRAW_STEP_PX) {
+    stroke.push(clientToWorld(e.clientX, e.clientY));
+    press.last = { x: e.clientX, y: e.clientY };
+    dirty = true;
+  }
+});
+
+canvas.addEventListener('pointerup', (e) => {
+  const drawn = stroke;
+  press = null;
+  stroke = null;
+  if (!drawn) return;
+  suppressClick = true;
+  dirty = true;
+  drawn.push(clientToWorld(e.clientX, e.clientY));
+  if (selected === null) {
+    message(picked !== null ? 'a path is drawn for a squad: select a squad, not one robot' : 'select the squad to draw a path for first', false);
+    return;
+  }
+  // Thinned to the game's limit, the first and the last point kept.
+  const step = Math.ceil(drawn.length / MAX_DRAWN);
+  const points = drawn.filter((_, i) => i % step === 0);
+  if (points[points.length - 1] !== drawn[drawn.length - 1]) points.push(drawn[drawn.length - 1]);
+  while (points.length > MAX_DRAWN) points.splice(points.length - 2, 1);
+  order({ do: 'path', points: points.map((p) => [tenth(p.x), tenth(p.y)]) });
+});
 
 // ---- the frame loop -------------------------------------------------------------
 function frame() {

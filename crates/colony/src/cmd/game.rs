@@ -55,8 +55,9 @@ pub struct MatchArgs {
     #[command(flatten)]
     pub setup: Setup,
     /// The team a person plays from the monitor's game page against the
-    /// built-in scripted opponent; `none` to watch two scripted teams.
-    /// (With --fast every team is scripted.)
+    /// built-in scripted opponent; several, comma-separated (`red,blue`), for people
+    /// on every side; `none` to watch two scripted teams. (With --fast every team is
+    /// scripted.)
     #[arg(long, default_value = "red")]
     pub player: String,
     /// Fast-forward the whole match in this process, with no hub, and print the result.
@@ -146,12 +147,14 @@ fn load(mode: Mode, setup: &Setup) -> anyhow::Result<MatchPlan> {
 
 fn play(mode: Mode, args: MatchArgs) -> anyhow::Result<()> {
     let plan = load(mode, &args.setup)?;
-    let p = &args.player;
-    if p != "none" && !plan.teams.contains(p) {
-        anyhow::bail!(
-            "--player {p}: no such team (teams: {}, or none)",
-            plan.teams.join(", ")
-        );
+    for p in players(&args.player) {
+        if !plan.teams.iter().any(|t| t == p) {
+            anyhow::bail!(
+                "--player {}: no such team as {p:?} (teams: {}, comma-separated, or none)",
+                args.player,
+                plan.teams.join(", ")
+            );
+        }
     }
     if args.fast {
         return fast(&plan, &args);
@@ -195,10 +198,11 @@ fn live(
             })?,
         )
     };
+    let people = players(&args.player);
     let bots: Vec<String> = plan
         .teams
         .iter()
-        .filter(|t| **t != args.player)
+        .filter(|t| !people.contains(&t.as_str()))
         .cloned()
         .collect();
     let running = LiveMatch::start(plan, hub, args.speed, &bots, stop)?;
@@ -211,11 +215,9 @@ fn live(
             plan.field.grid.height(),
             m.page_url(
                 "/game",
-                &if args.player == "none" {
-                    String::new()
-                } else {
-                    format!("team={}", args.player)
-                }
+                &people
+                    .first()
+                    .map_or(String::new(), |t| format!("team={t}"))
             ),
         ),
         None => println!(
@@ -235,6 +237,14 @@ fn live(
         m.shutdown()?;
     }
     Ok(outcome?)
+}
+
+/// The teams people play, from `--player` (`none`: no one).
+fn players(arg: &str) -> Vec<&str> {
+    if arg == "none" {
+        return Vec::new();
+    }
+    arg.split(',').map(str::trim).collect()
 }
 
 fn fast(plan: &MatchPlan, args: &MatchArgs) -> anyhow::Result<()> {

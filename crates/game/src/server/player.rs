@@ -101,11 +101,7 @@ impl Server {
     ) {
         self.squads[i].command(verb, formation);
         let (team, name) = (self.squads[i].team(), self.squads[i].name());
-        if !self
-            .pending
-            .iter()
-            .any(|(t, n, _)| t == team && n == name)
-        {
+        if !self.pending.iter().any(|(t, n, _)| t == team && n == name) {
             self.pending.push((team.to_string(), name.to_string(), now));
         }
     }
@@ -124,7 +120,9 @@ impl Server {
 
     /// The squad robot `robot` is in.
     fn squad_of(&self, robot: u32) -> Option<usize> {
-        self.squads.iter().position(|s| s.members().contains(&robot))
+        self.squads
+            .iter()
+            .position(|s| s.members().contains(&robot))
     }
 
     fn find(&self, team: &str, name: &str) -> Option<usize> {
@@ -164,7 +162,13 @@ impl Server {
         for &id in &members {
             self.referee.set_squad(id, name);
         }
-        let mut squad = Squad::new(team, name, members, SPACING_CM, Nav::new(self.field.clone()));
+        let mut squad = Squad::new(
+            team,
+            name,
+            members,
+            SPACING_CM,
+            Nav::new(self.field.clone()),
+        );
         if let Some(f) = formation {
             squad.set_formation(f);
         }
@@ -273,8 +277,4 @@ impl Server {
             _ => Ok(squad),
         }
     }
-
 }
-
-#[cfg(test)]
-mod tests;

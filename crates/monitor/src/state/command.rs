@@ -1,7 +1,7 @@
 //! What the browser may ask the monitor to do, already checked, and why a request could not be
 //! done.
 
-use crate::game::squad::SquadOrder;
+use crate::game::orders::GameOrder;
 
 /// A request the browser made, already checked ([`crate::protocol::parse_message`]).
 #[derive(Debug, Clone, PartialEq)]
@@ -34,8 +34,8 @@ pub enum Command {
         /// The point's y, cm.
         y: f64,
     },
-    /// A player's order to a squad of the strategy game (the bridge publishes it).
-    Squad(SquadOrder),
+    /// A player's order for the strategy game, or a chat line (the bridge publishes it).
+    Game(GameOrder),
 }
 
 /// Why a request could not be carried out; the message is for the operator to read.

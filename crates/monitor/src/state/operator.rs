@@ -254,7 +254,7 @@ impl Override {
     ) -> Result<String, CommandError> {
         match command {
             Command::Publish(bytes) => Ok(format!("published {} bytes", bytes.len())),
-            Command::Squad(order) => Ok(format!("sent {order}")),
+            Command::Game(order) => Ok(format!("sent {order}")),
             Command::Take(ids) => {
                 if ids.is_empty() {
                     return Err(CommandError::NoneSelected);

@@ -274,8 +274,14 @@ mod tests {
             ("drive robot 3 forward 2 turn 0", "forward 2 is not within"),
             ("drive robot 3 forward nan turn 0", "forward"),
             ("split name alpha robots \"\" into b", "1 to 256 robots"),
-            ("split name alpha robots \"3 x\" into b", "\"x\" is not a robot id"),
-            ("merge name alpha into \"a b\"", "into \"a b\" is not a name"),
+            (
+                "split name alpha robots \"3 x\" into b",
+                "\"x\" is not a robot id",
+            ),
+            (
+                "merge name alpha into \"a b\"",
+                "into \"a b\" is not a name",
+            ),
             ("robot id -1 do stop", "not a robot id"),
             ("squad name a do path points \"\"", "1 to 64 points"),
             ("squad name a do path points \"1,2 3\"", "path point \"3\""),

@@ -72,7 +72,13 @@ impl fmt::Display for Verb {
             Verb::Attack(t) => write!(f, "attack {t}"),
             Verb::Capture(t) => write!(f, "capture flag {t}"),
             Verb::Path(points) => match points.last() {
-                Some(p) => write!(f, "path of {} points to {:.0} {:.0}", points.len(), p.x, p.y),
+                Some(p) => write!(
+                    f,
+                    "path of {} points to {:.0} {:.0}",
+                    points.len(),
+                    p.x,
+                    p.y
+                ),
                 None => f.write_str("path of no points"),
             },
             Verb::Stop => f.write_str("stop"),

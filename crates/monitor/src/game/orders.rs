@@ -1,15 +1,22 @@
-//! A player's squad command from the game page: read as untrusted JSON,
-//! checked, and written as the packet the game server reads on
-//! `game.player.<team>`.
+//! A player's orders from the game page: read as untrusted JSON, checked, and written as the
+//! packets the game reads on `game.player.<team>` (and `game.chat.<team>`).
 //!
 //! ```text
 //! {"t":"squad","team":"red","squad":"alpha","do":"attack","robot":7,"formation":"wedge"}
 //!   becomes
 //! @ <game.player.red> 0
 //! squad name alpha do attack robot 7 formation wedge
+//!
+//! {"t":"squad","team":"red","squad":"alpha","do":"path","points":[[100,80],[300,400]]}
+//! {"t":"robot","team":"red","id":3,"do":"goto","x":300,"y":120}    one robot, alone
+//! {"t":"split","team":"red","squad":"alpha","robots":[4,5],"into":"bravo"}
+//! {"t":"merge","team":"red","squad":"bravo","into":"alpha"}
+//! {"t":"robot_drive","team":"red","robot":3,"forward":0.8,"turn":-0.5}
+//! {"t":"robot_release","team":"red","robot":3}
+//! {"t":"chat","team":"red","from":"ada","text":"hold the bridge"}
 //! ```
 //!
-//! The packet, its verbs and formations are [`colony_proto::game::squad`]'s: this module only
+//! The packets, their verbs and formations are [`colony_proto::game`]'s: this module only
 //! checks what the page sent (a sentence for the player when it is wrong) and words the reply.
 //! The game server still has the last word and answers with a `refused` event when the rules
 //! say no.
@@ -17,20 +24,28 @@
 use std::fmt;
 
 use colony_proto::fields::MAX_COORD;
-use colony_proto::game::{valid_name, Formation, SquadCommand, Target, Verb, MAX_NAME};
+use colony_proto::game::chat::MAX_CHAT;
+use colony_proto::game::player::MAX_SPLIT;
+use colony_proto::game::{
+    valid_name, ChatLine, Formation, PlayerCommand, SquadCommand, Target, Verb, MAX_DRAWN_POINTS,
+    MAX_NAME,
+};
 use colony_proto::Vec2;
 use serde::Deserialize;
 
-/// A checked squad command, ready to publish; it displays as the reply the player reads.
+/// A checked order for the game, ready to publish; it displays as the reply the player reads.
 #[derive(Debug, Clone, PartialEq)]
-pub struct SquadOrder(pub SquadCommand);
+pub enum GameOrder {
+    /// For the game server.
+    Player(PlayerCommand),
+    /// For the team's other players.
+    Chat(ChatLine),
+}
 
-/// The browser's message, before it is checked. Numbers arrive as JSON
-/// numbers; ids as whole numbers.
+/// What the page wants done, in the fields a squad's and a robot's orders share. Numbers
+/// arrive as JSON numbers; ids as whole numbers.
 #[derive(Debug, Deserialize)]
-pub struct SquadMsg {
-    team: String,
-    squad: String,
+pub struct VerbMsg {
     #[serde(rename = "do")]
     verb: String,
     #[serde(default)]
@@ -44,10 +59,72 @@ pub struct SquadMsg {
     #[serde(default)]
     y: Option<f64>,
     #[serde(default)]
-    formation: Option<String>,
+    points: Option<Vec<(f64, f64)>>,
 }
 
-/// Why the page's squad order was refused: a sentence for the player.
+/// A squad command from the page.
+#[derive(Debug, Deserialize)]
+pub struct SquadMsg {
+    team: String,
+    squad: String,
+    #[serde(default)]
+    formation: Option<String>,
+    #[serde(flatten)]
+    verb: VerbMsg,
+}
+
+/// One robot's order from the page: it leaves its squad to carry it out.
+#[derive(Debug, Deserialize)]
+pub struct RobotMsg {
+    team: String,
+    id: u32,
+    #[serde(flatten)]
+    verb: VerbMsg,
+}
+
+/// Some robots of a squad form a new one.
+#[derive(Debug, Deserialize)]
+pub struct SplitMsg {
+    team: String,
+    squad: String,
+    robots: Vec<u32>,
+    into: String,
+}
+
+/// A squad joins another.
+#[derive(Debug, Deserialize)]
+pub struct MergeMsg {
+    team: String,
+    squad: String,
+    into: String,
+}
+
+/// The player's keys on one robot.
+#[derive(Debug, Deserialize)]
+pub struct SteerMsg {
+    team: String,
+    robot: u32,
+    forward: f64,
+    turn: f64,
+}
+
+/// The player gives a driven robot back to its squad.
+#[derive(Debug, Deserialize)]
+pub struct FreeMsg {
+    team: String,
+    robot: u32,
+}
+
+/// A chat line for the team.
+#[derive(Debug, Deserialize)]
+pub struct ChatMsg {
+    team: String,
+    #[serde(default)]
+    from: Option<String>,
+    text: String,
+}
+
+/// Why the page's order was refused: a sentence for the player.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("{0}")]
 pub struct OrderRefused(String);
@@ -73,7 +150,15 @@ fn coord(name: &str, v: f64) -> Result<f64, String> {
     }
 }
 
-impl SquadMsg {
+fn unit(name: &str, v: f64) -> Result<f64, String> {
+    if v.is_finite() && (-1.0..=1.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{name} must be within -1 and 1, not {v}"))
+    }
+}
+
+impl VerbMsg {
     /// The point `x y`, when both or neither are given.
     fn point(&self) -> Result<Option<Vec2>, String> {
         match (self.x, self.y) {
@@ -85,6 +170,7 @@ impl SquadMsg {
 
     /// The one target of an attack or a defence.
     fn target(&self, verb: &str, point_allowed: bool) -> Result<Target, String> {
+        self.only(verb, &["robot", "flag", "base", "x", "y"])?;
         let given = [
             self.robot.is_some(),
             self.flag.is_some(),
@@ -124,6 +210,7 @@ impl SquadMsg {
             ("base", self.base.is_some()),
             ("x", self.x.is_some()),
             ("y", self.y.is_some()),
+            ("points", self.points.is_some()),
         ];
         for (name, is) in present {
             if is && !allowed.contains(&name) {
@@ -133,15 +220,9 @@ impl SquadMsg {
         Ok(())
     }
 
-    /// Checks every field.
-    pub fn check(&self) -> Result<SquadOrder, OrderRefused> {
-        self.checked().map_err(OrderRefused)
-    }
-
-    fn checked(&self) -> Result<SquadOrder, String> {
-        let team = token("team", &self.team)?;
-        let squad = token("squad", &self.squad)?;
-        let verb = match self.verb.as_str() {
+    /// The verb, every field checked.
+    fn checked(&self) -> Result<Verb, String> {
+        Ok(match self.verb.as_str() {
             "gather" => {
                 self.only("gather", &["x", "y"])?;
                 Verb::Gather(self.point()?)
@@ -161,6 +242,22 @@ impl SquadMsg {
                     .ok_or("capture needs the flag's team: flag")?;
                 Verb::Capture(token("flag team", f)?)
             }
+            "path" => {
+                self.only("path", &["points"])?;
+                let points = self.points.as_deref().unwrap_or_default();
+                if points.is_empty() || points.len() > MAX_DRAWN_POINTS {
+                    return Err(format!(
+                        "a drawn path needs 1 to {MAX_DRAWN_POINTS} points [x, y], not {}",
+                        points.len()
+                    ));
+                }
+                Verb::Path(
+                    points
+                        .iter()
+                        .map(|&(x, y)| Ok(Vec2::new(coord("x", x)?, coord("y", y)?)))
+                        .collect::<Result<_, String>>()?,
+                )
+            }
             "stop" => {
                 self.only("stop", &[])?;
                 Verb::Stop
@@ -168,10 +265,23 @@ impl SquadMsg {
             other => {
                 let shown: String = other.chars().take(40).collect();
                 return Err(format!(
-                    "unknown squad command {shown:?} (expected gather, goto, attack, defend, capture or stop)"
+                    "unknown squad command {shown:?} (expected gather, goto, attack, defend, capture, path or stop)"
                 ));
             }
-        };
+        })
+    }
+}
+
+impl SquadMsg {
+    /// Checks every field.
+    pub fn check(&self) -> Result<GameOrder, OrderRefused> {
+        self.checked().map_err(OrderRefused)
+    }
+
+    fn checked(&self) -> Result<GameOrder, String> {
+        let team = token("team", &self.team)?;
+        let squad = token("squad", &self.squad)?;
+        let verb = self.verb.checked()?;
         let formation = match self.formation.as_deref() {
             None | Some("") => None,
             Some(f) => Some(f.parse::<Formation>().map_err(|_| {
@@ -181,24 +291,130 @@ impl SquadMsg {
                 )
             })?),
         };
-        Ok(SquadOrder(SquadCommand {
+        Ok(GameOrder::Player(PlayerCommand::Squad(SquadCommand {
             team,
             squad,
             verb,
             formation,
+        })))
+    }
+}
+
+impl RobotMsg {
+    /// Checks every field.
+    pub fn check(&self) -> Result<GameOrder, OrderRefused> {
+        let verb = self.verb.checked().map_err(OrderRefused)?;
+        if matches!(verb, Verb::Gather(_) | Verb::Path(_)) {
+            return Err(OrderRefused(
+                "one robot takes goto, attack, defend, capture or stop".into(),
+            ));
+        }
+        Ok(GameOrder::Player(PlayerCommand::Robot {
+            team: token("team", &self.team).map_err(OrderRefused)?,
+            robot: self.id,
+            verb,
         }))
     }
 }
 
-impl SquadOrder {
+impl SplitMsg {
+    /// Checks every field.
+    pub fn check(&self) -> Result<GameOrder, OrderRefused> {
+        (|| {
+            if self.robots.is_empty() || self.robots.len() > MAX_SPLIT {
+                return Err(format!(
+                    "a split takes 1 to {MAX_SPLIT} robots, not {}",
+                    self.robots.len()
+                ));
+            }
+            Ok(GameOrder::Player(PlayerCommand::Split {
+                team: token("team", &self.team)?,
+                squad: token("squad", &self.squad)?,
+                robots: self.robots.clone(),
+                into: token("new squad", &self.into)?,
+            }))
+        })()
+        .map_err(OrderRefused)
+    }
+}
+
+impl MergeMsg {
+    /// Checks every field.
+    pub fn check(&self) -> Result<GameOrder, OrderRefused> {
+        (|| {
+            Ok(GameOrder::Player(PlayerCommand::Merge {
+                team: token("team", &self.team)?,
+                squad: token("squad", &self.squad)?,
+                into: token("squad", &self.into)?,
+            }))
+        })()
+        .map_err(OrderRefused)
+    }
+}
+
+impl SteerMsg {
+    /// Checks every field.
+    pub fn check(&self) -> Result<GameOrder, OrderRefused> {
+        (|| {
+            Ok(GameOrder::Player(PlayerCommand::Drive {
+                team: token("team", &self.team)?,
+                robot: self.robot,
+                forward: unit("forward", self.forward)?,
+                turn: unit("turn", self.turn)?,
+            }))
+        })()
+        .map_err(OrderRefused)
+    }
+}
+
+impl FreeMsg {
+    /// Checks every field.
+    pub fn check(&self) -> Result<GameOrder, OrderRefused> {
+        Ok(GameOrder::Player(PlayerCommand::Release {
+            team: token("team", &self.team).map_err(OrderRefused)?,
+            robot: self.robot,
+        }))
+    }
+}
+
+impl ChatMsg {
+    /// Checks every field: a short line of printable text.
+    pub fn check(&self) -> Result<GameOrder, OrderRefused> {
+        (|| {
+            let text = self.text.trim();
+            if text.is_empty() {
+                return Err("say something: the chat line is empty".to_string());
+            }
+            if text.chars().count() > MAX_CHAT || text.chars().any(char::is_control) {
+                return Err(format!(
+                    "a chat line is at most {MAX_CHAT} printable characters"
+                ));
+            }
+            Ok(GameOrder::Chat(ChatLine {
+                team: token("team", &self.team)?,
+                from: token("name", self.from.as_deref().unwrap_or("player"))?,
+                text: text.to_string(),
+            }))
+        })()
+        .map_err(OrderRefused)
+    }
+}
+
+impl GameOrder {
     /// The channel this order is published on.
     pub fn channel(&self) -> String {
-        colony_proto::game::player_channel(&self.0.team)
+        match self {
+            GameOrder::Player(c) => colony_proto::game::player_channel(c.team()),
+            GameOrder::Chat(c) => colony_proto::game::chat_channel(&c.team),
+        }
     }
 
-    /// The packet for the game server.
+    /// The packet for the game.
     pub fn packet(&self) -> Result<Vec<u8>, colony_wire::ParseError> {
-        self.0.encode()
+        match self {
+            GameOrder::Player(c) => c.encode(),
+            GameOrder::Chat(c) => c.encode(),
+        }
     }
 }
 
@@ -216,24 +432,64 @@ impl fmt::Display for Shown<'_> {
     }
 }
 
-impl fmt::Display for SquadOrder {
+/// A verb as the reply words it.
+struct Said<'a>(&'a Verb);
+
+impl fmt::Display for Said<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.0 {
+            Verb::Gather(None) => f.write_str("gather"),
+            Verb::Gather(Some(p)) => write!(f, "gather at ({:.0}, {:.0})", p.x, p.y),
+            Verb::GoTo(p) => write!(f, "go to ({:.0}, {:.0})", p.x, p.y),
+            Verb::Attack(t) => write!(f, "attack {}", Shown(t)),
+            Verb::Defend(t) => write!(f, "defend {}", Shown(t)),
+            Verb::Capture(t) => write!(f, "capture {t}'s flag"),
+            Verb::Path(points) => write!(f, "follow a drawn path of {} points", points.len()),
+            Verb::Stop => f.write_str("stop"),
+        }
+    }
+}
+
+impl fmt::Display for GameOrder {
     /// The reply the player reads: `red alpha: attack robot 7 in wedge`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let c = &self.0;
-        write!(f, "{} {}: ", c.team, c.squad)?;
-        match &c.verb {
-            Verb::Gather(None) => f.write_str("gather")?,
-            Verb::Gather(Some(p)) => write!(f, "gather at ({:.0}, {:.0})", p.x, p.y)?,
-            Verb::GoTo(p) => write!(f, "go to ({:.0}, {:.0})", p.x, p.y)?,
-            Verb::Attack(t) => write!(f, "attack {}", Shown(t))?,
-            Verb::Defend(t) => write!(f, "defend {}", Shown(t))?,
-            Verb::Capture(t) => write!(f, "capture {t}'s flag")?,
-            Verb::Stop => f.write_str("stop")?,
+        let c = match self {
+            GameOrder::Chat(c) => return write!(f, "said to team {}: {}", c.team, c.text),
+            GameOrder::Player(c) => c,
+        };
+        match c {
+            PlayerCommand::Squad(c) => {
+                write!(f, "{} {}: {}", c.team, c.squad, Said(&c.verb))?;
+                if let Some(form) = c.formation {
+                    write!(f, " in {}", form.name())?;
+                }
+                Ok(())
+            }
+            PlayerCommand::Robot { team, robot, verb } => {
+                write!(f, "{team} robot {robot}: {}", Said(verb))
+            }
+            PlayerCommand::Split {
+                team,
+                squad,
+                robots,
+                into,
+            } => write!(f, "{team} {squad}: robots {robots:?} split off as {into}"),
+            PlayerCommand::Merge { team, squad, into } => {
+                write!(f, "{team} {squad}: merge into {into}")
+            }
+            PlayerCommand::Drive {
+                team,
+                robot,
+                forward,
+                turn,
+            } => write!(
+                f,
+                "{team} robot {robot}: driven ({forward:.1} ahead, {turn:.1} turn)"
+            ),
+            PlayerCommand::Release { team, robot } => {
+                write!(f, "{team} robot {robot}: back to its squad")
+            }
         }
-        if let Some(form) = c.formation {
-            write!(f, " in {}", form.name())?;
-        }
-        Ok(())
     }
 }
 
@@ -241,7 +497,7 @@ impl fmt::Display for SquadOrder {
 mod tests {
     use super::*;
 
-    fn check(json: &str) -> Result<SquadOrder, String> {
+    fn check(json: &str) -> Result<GameOrder, String> {
         serde_json::from_str::<SquadMsg>(json)
             .map_err(|e| e.to_string())?
             .check()
