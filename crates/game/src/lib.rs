@@ -38,6 +38,7 @@ pub mod live_match;
 pub mod logic;
 pub mod map;
 pub mod matches;
+pub mod measure;
 pub mod nav;
 pub mod path;
 pub mod protocol;

@@ -42,7 +42,18 @@ pub fn run_node(
     client: &mut UdpClient,
     stop: &AtomicBool,
 ) -> Result<(), LiveError> {
-    let mut link = Link::new(client, Instant::now());
+    run_node_since(node, client, Instant::now(), stop)
+}
+
+/// Runs a part until `stop`, its clock counting from `epoch`: parts given the same epoch
+/// read the same time, so the moments they record can be compared (the game's timings).
+pub fn run_node_since(
+    node: &mut dyn Node,
+    client: &mut UdpClient,
+    epoch: Instant,
+    stop: &AtomicBool,
+) -> Result<(), LiveError> {
+    let mut link = Link::new(client, epoch);
     colony_node::run(&mut &mut *node, &mut link, stop, |_, _| {
         ControlFlow::Continue(())
     })?;

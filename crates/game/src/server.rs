@@ -45,12 +45,23 @@ pub struct CommandTiming {
     pub squad: String,
     /// When the command came (the server's clock).
     pub received: Time,
+    /// The command, as the game words it (`goto 310 88`).
+    pub order: String,
     /// When the squad's orders went out.
     pub answered: Time,
     /// How long the squad's arbitrator computed them.
     pub compute: Duration,
     /// The orders sent: robot and sequence number.
     pub orders: Vec<(u32, u64)>,
+}
+
+/// A command taken and not yet turned into orders.
+#[derive(Debug, Clone)]
+struct Pending {
+    team: String,
+    squad: String,
+    order: String,
+    received: Time,
 }
 
 /// The game logic and swarm intelligence.
@@ -66,8 +77,8 @@ pub struct Server {
     velocities: BTreeMap<(String, String), Vec2>,
     think_every: u64,
     timings: VecDeque<CommandTiming>,
-    /// Commands taken and not yet turned into orders: the squad and when each came.
-    pending: Vec<(String, String, Time)>,
+    /// Commands taken and not yet turned into orders, oldest first (at most [`MAX_TIMINGS`]).
+    pending: VecDeque<Pending>,
     /// Robots their player drives directly.
     driven: BTreeSet<u32>,
     subs: BTreeSet<Subject>,
@@ -129,7 +140,7 @@ impl Server {
             velocities: BTreeMap::new(),
             think_every: THINK_EVERY,
             timings: VecDeque::new(),
-            pending: Vec::new(),
+            pending: VecDeque::new(),
             driven: BTreeSet::new(),
         }
     }
@@ -247,23 +258,29 @@ impl Server {
                     sent.push((robot, seq));
                 }
             }
+            // Every command the squad took since its last think was answered now (a player
+            // faster than the think period has all of them answered at once).
             let (team, name) = (self.squads[i].team(), self.squads[i].name());
-            if let Some(k) = self
-                .pending
-                .iter()
-                .position(|(t, n, _)| t == team && n == name)
-            {
-                let (team, squad, received) = self.pending.remove(k);
+            let mut k = 0;
+            while k < self.pending.len() {
+                if self.pending[k].team != team || self.pending[k].squad != name {
+                    k += 1;
+                    continue;
+                }
+                let Some(p) = self.pending.remove(k) else {
+                    break;
+                };
                 if self.timings.len() == MAX_TIMINGS {
                     self.timings.pop_front();
                 }
                 self.timings.push_back(CommandTiming {
-                    team,
-                    squad,
-                    received,
+                    team: p.team,
+                    squad: p.squad,
+                    order: p.order,
+                    received: p.received,
                     answered: now,
                     compute,
-                    orders: sent,
+                    orders: sent.clone(),
                 });
             }
         }

@@ -13,6 +13,8 @@ use colony_hub::log::LogWriter;
 use colony_hub::{HubSite, HubSpec, StartError};
 use colony_monitor::{Monitor, MonitorConfig};
 
+mod measure;
+
 /// A match's game time: a tenth of a second (one control step and more) to a
 /// day, so the number of steps it makes always fits.
 const TIME_LIMIT: super::Bounds = super::Bounds::new(0.1, 86_400.0, "seconds");
@@ -28,6 +30,8 @@ pub enum GameCommand {
     Dm(MatchArgs),
     /// Run one part of a match over a running hub (world, server, robots or bot).
     Part(PartArgs),
+    /// Measure the paper's Tables 3 and 4 on a live match: each hop of a player's command.
+    Measure(measure::MeasureArgs),
 }
 
 /// What every part of a match must agree on.
@@ -123,6 +127,7 @@ pub fn run(cmd: GameCommand) -> anyhow::Result<()> {
         GameCommand::Ctf(a) => play(Mode::CaptureTheFlag, a),
         GameCommand::Dm(a) => play(Mode::DeathMatch, a),
         GameCommand::Part(a) => part(a),
+        GameCommand::Measure(a) => measure::run(a),
     }
 }
 

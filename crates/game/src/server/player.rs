@@ -4,7 +4,7 @@
 
 use colony_node::Time;
 
-use super::{Server, SPACING_CM};
+use super::{Pending, Server, MAX_TIMINGS, SPACING_CM};
 use crate::nav::Nav;
 use crate::protocol::{Command, PlayerCommand, SquadCommand, Target, Verb, DRIVE_HOLD_S};
 use crate::squad::Squad;
@@ -99,11 +99,16 @@ impl Server {
         verb: Verb,
         formation: Option<crate::protocol::Formation>,
     ) {
-        self.squads[i].command(verb, formation);
-        let (team, name) = (self.squads[i].team(), self.squads[i].name());
-        if !self.pending.iter().any(|(t, n, _)| t == team && n == name) {
-            self.pending.push((team.to_string(), name.to_string(), now));
+        if self.pending.len() == MAX_TIMINGS {
+            self.pending.pop_front();
         }
+        self.pending.push_back(Pending {
+            team: self.squads[i].team().to_string(),
+            squad: self.squads[i].name().to_string(),
+            order: verb.to_string(),
+            received: now,
+        });
+        self.squads[i].command(verb, formation);
     }
 
     /// The robot is on `team` and standing.
@@ -228,7 +233,8 @@ impl Server {
         self.squads[to].add_members(&members);
         self.squads[to].refresh();
         self.squads.remove(from);
-        self.pending.retain(|(t, n, _)| !(t == team && n == squad));
+        self.pending
+            .retain(|p| !(p.team == team && p.squad == squad));
         Ok(())
     }
 
