@@ -54,7 +54,7 @@ fn view(field: &Battlefield, teams: &[TeamSetup]) -> (View, Vec<colony_game::log
             .map(|e| SeenRobot {
                 id: e.id,
                 team: e.team.clone(),
-                kind: e.kind,
+                kind: e.build.kind,
                 at: e.spawn.position(),
                 alive: true,
                 driven: false,
@@ -189,7 +189,7 @@ fn main() {
         name: "red".into(),
         squads: vec![SquadSetup {
             name: "alpha".into(),
-            robots: vec![RobotKind::Infantry; 100],
+            robots: vec![colony_game::rules::RobotBuild::plain(RobotKind::Infantry); 100],
         }],
     };
     let teams = [hundred, TeamSetup::parse("blue", "alpha:tank").unwrap()];

@@ -155,6 +155,8 @@ mod tests {
                 theta: 0.0,
             },
             health: 60.0,
+            max_health: 60.0,
+            power: 6.0,
             alive: true,
             behaviour: String::new(),
             reason: String::new(),

@@ -181,7 +181,7 @@ fn spawn_robots(
 ) -> Result<Vec<Part>, LiveMatchError> {
     let mut parts = Vec::new();
     for e in &plan.roster {
-        let mut node = RobotNode::new(e.id, e.kind);
+        let mut node = RobotNode::new(e.id, e.build.kind);
         parts.push(spawn(
             hub,
             format!("robot-{}", e.id),

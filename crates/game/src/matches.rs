@@ -133,7 +133,7 @@ impl Match {
             world: GameWorld::new(&field, &entries)?,
             robots: entries
                 .iter()
-                .map(|e| RobotNode::new(e.id, e.kind))
+                .map(|e| RobotNode::new(e.id, e.build.kind))
                 .collect(),
             server: Server::new(field, rules, entries),
             bots: bots.iter().map(|t| Bot::new(t)).collect(),

@@ -176,7 +176,7 @@ pub fn run_series(plan: &MatchPlan, hub: &str, spec: &SeriesSpec) -> Result<Seri
         .collect();
     let mut robot_parts: Vec<JoinHandle<Result<RobotNode, LiveError>>> = Vec::new();
     for e in plan.roster.iter().filter(|e| squad.contains(&e.id)) {
-        let mut node = RobotNode::new(e.id, e.kind);
+        let mut node = RobotNode::new(e.id, e.build.kind);
         let (mut client, stop) = (connect()?, stop.clone());
         robot_parts.push(std::thread::spawn(move || {
             live::run_node_since(&mut node, &mut client, epoch, &stop).map(|()| node)

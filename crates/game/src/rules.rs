@@ -151,13 +151,98 @@ impl Rules {
     }
 }
 
-/// A squad as a player sets it up: a name and the types of its robots.
+/// The most points of health or of power one robot may buy.
+pub const MAX_UPGRADE: u32 = 5;
+/// What one point of health (of power) adds to the type's health (damage per shot), as a
+/// fraction of it.
+pub const UPGRADE_STEP: f64 = 0.2;
+
+/// One robot as a player buys it: its type, and the budget points spent on its health and on
+/// its power (the paper's budget "buys each robot's health and power"), one point each.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct RobotBuild {
+    /// Its type.
+    pub kind: RobotKind,
+    /// Points bought for health, 0 to [`MAX_UPGRADE`].
+    pub health: u32,
+    /// Points bought for power (damage per shot), 0 to [`MAX_UPGRADE`].
+    pub power: u32,
+}
+
+impl RobotBuild {
+    /// A robot of the type as it comes.
+    pub fn plain(kind: RobotKind) -> RobotBuild {
+        RobotBuild {
+            kind,
+            health: 0,
+            power: 0,
+        }
+    }
+
+    /// Budget points it costs.
+    pub fn cost(&self) -> u32 {
+        self.kind.stats().cost + self.health + self.power
+    }
+
+    /// The health it starts with (to a tenth).
+    pub fn max_health(&self) -> f64 {
+        upgraded(self.kind.stats().health, self.health)
+    }
+
+    /// The damage one of its shots does (to a tenth).
+    pub fn damage(&self) -> f64 {
+        upgraded(self.kind.stats().damage, self.power)
+    }
+}
+
+/// `base` with `points` bought, to a tenth so a log reads `18`, not `17.999999999999996`.
+fn upgraded(base: f64, points: u32) -> f64 {
+    (base * (1.0 + UPGRADE_STEP * f64::from(points)) * 10.0).round() / 10.0
+}
+
+impl fmt::Display for RobotBuild {
+    /// As a setup writes it: `tank`, `tank+h2`, `scout+h1+p3`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.kind.name())?;
+        if self.health > 0 {
+            write!(f, "+h{}", self.health)?;
+        }
+        if self.power > 0 {
+            write!(f, "+p{}", self.power)?;
+        }
+        Ok(())
+    }
+}
+
+impl FromStr for RobotBuild {
+    type Err = RuleError;
+    fn from_str(s: &str) -> Result<RobotBuild, RuleError> {
+        let mut parts = s.split('+');
+        let kind: RobotKind = parts.next().unwrap_or_default().parse()?;
+        let mut build = RobotBuild::plain(kind);
+        for p in parts {
+            let (slot, points) = match p.split_at_checked(1) {
+                Some(("h", n)) => (&mut build.health, n),
+                Some(("p", n)) => (&mut build.power, n),
+                _ => return Err(RuleError::BadBuild(s.to_string())),
+            };
+            *slot = points
+                .parse::<u32>()
+                .ok()
+                .filter(|n| *n <= MAX_UPGRADE)
+                .ok_or_else(|| RuleError::BadBuild(s.to_string()))?;
+        }
+        Ok(build)
+    }
+}
+
+/// A squad as a player sets it up: a name and its robots.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SquadSetup {
     /// Unique within the team; used in commands.
     pub name: String,
     /// One entry per robot.
-    pub robots: Vec<RobotKind>,
+    pub robots: Vec<RobotBuild>,
 }
 
 /// A team as a player sets it up.
@@ -169,13 +254,32 @@ pub struct TeamSetup {
     pub squads: Vec<SquadSetup>,
 }
 
+impl fmt::Display for TeamSetup {
+    /// As [`TeamSetup::parse`] reads it: `alpha:tank+h1,infantry bravo:scout`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, s) in self.squads.iter().enumerate() {
+            if i > 0 {
+                f.write_str(" ")?;
+            }
+            write!(f, "{}:", s.name)?;
+            for (k, r) in s.robots.iter().enumerate() {
+                if k > 0 {
+                    f.write_str(",")?;
+                }
+                write!(f, "{r}")?;
+            }
+        }
+        Ok(())
+    }
+}
+
 impl TeamSetup {
     /// Budget points the team spends.
     pub fn cost(&self) -> u32 {
         self.squads
             .iter()
             .flat_map(|s| &s.robots)
-            .map(|k| k.stats().cost)
+            .map(RobotBuild::cost)
             .sum()
     }
 
@@ -223,7 +327,7 @@ impl TeamSetup {
             let robots = kinds
                 .split(',')
                 .map(str::parse)
-                .collect::<Result<Vec<RobotKind>, _>>()?;
+                .collect::<Result<Vec<RobotBuild>, _>>()?;
             squads.push(SquadSetup {
                 name: squad.to_string(),
                 robots,
@@ -280,6 +384,9 @@ pub enum RuleError {
     /// A setup string that isn't `squad:kind,kind ...`.
     #[error("{0:?}: expected squad:kind,kind,... (e.g. alpha:tank,infantry)")]
     BadSetup(String),
+    /// A robot's build does not read.
+    #[error("{0:?}: expected a robot type with +hN health and +pN power points, N 0 to 5 (e.g. tank+h2+p1)")]
+    BadBuild(String),
 }
 
 impl From<UnknownKind> for RuleError {
@@ -291,6 +398,35 @@ impl From<UnknownKind> for RuleError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_robots_health_and_power_are_bought_with_the_budget() {
+        let t = TeamSetup::parse("red", "alpha:tank+h2+p1,scout bravo:infantry+p5").unwrap();
+        assert_eq!(t.to_string(), "alpha:tank+h2+p1,scout bravo:infantry+p5");
+        assert_eq!(t.cost(), 5 + 3 + 2 + 3 + 5);
+        let tank = t.squads[0].robots[0];
+        assert_eq!(tank.max_health(), 168.0);
+        assert_eq!(tank.damage(), 18.0);
+        assert_eq!(t.squads[0].robots[1], RobotBuild::plain(RobotKind::Scout));
+        let rules = Rules::new(Mode::CaptureTheFlag);
+        let even = TeamSetup::parse("red", "a:tank+h5+p5,tank+h5+p5").unwrap();
+        assert_eq!(even.check(&rules), Ok(()));
+        let rich = TeamSetup::parse("red", "a:tank+h5+p5,tank+h5+p5,scout").unwrap();
+        assert_eq!(
+            rich.check(&rules).unwrap_err().to_string(),
+            "team red costs 32 points; the budget is 30"
+        );
+        for bad in [
+            "a:tank+h6",
+            "a:tank+x1",
+            "a:tank+h",
+            "a:tank+h-1",
+            "a:tank++",
+        ] {
+            let e = TeamSetup::parse("red", bad).unwrap_err();
+            assert!(matches!(e, RuleError::BadBuild(_)), "{bad}: {e}");
+        }
+    }
 
     #[test]
     fn a_team_over_budget_is_refused_with_its_cost() {

@@ -69,7 +69,7 @@ impl GameWorld {
     pub fn new(field: &Battlefield, roster: &[RobotEntry]) -> Result<GameWorld, SimError> {
         let mut sim = Field::new(tile_map(field)?, FieldConfig::default())?;
         for e in roster {
-            let s = e.kind.stats();
+            let s = e.build.kind.stats();
             sim.add_robot(
                 RobotSpec {
                     radius: s.radius_cm,
@@ -328,9 +328,11 @@ mod tests {
                         id: e.id,
                         team: e.team.clone(),
                         squad: e.squad.clone(),
-                        kind: e.kind,
+                        kind: e.build.kind,
                         pose,
                         health: 1.0,
+                        max_health: 1.0,
+                        power: 0.0,
                         alive: !dead.contains(&e.id),
                         behaviour: String::new(),
                         reason: String::new(),

@@ -202,6 +202,8 @@ fn red_state() -> Vec<u8> {
                 theta: 0.0,
             },
             health: 1.0,
+            max_health: 1.0,
+            power: 0.0,
             alive: true,
             behaviour: String::new(),
             reason: String::new(),

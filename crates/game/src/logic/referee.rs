@@ -93,7 +93,7 @@ impl Referee {
                 .map(|e| Robot {
                     entry: e.clone(),
                     pose: e.spawn,
-                    health: e.kind.stats().health,
+                    health: e.build.max_health(),
                     alive: true,
                     last_fire: f64::NEG_INFINITY,
                     behaviour: String::new(),
@@ -216,7 +216,8 @@ impl Referee {
                 format!("robot {shooter} fires at robot {target}: no such robot"),
             );
         };
-        let stats = s.entry.kind.stats();
+        let stats = s.entry.build.kind.stats();
+        let damage = s.entry.build.damage();
         let refusal = if !s.alive {
             Some("the shooter is destroyed".to_string())
         } else if !t.alive {
@@ -227,13 +228,13 @@ impl Referee {
             Some(format!(
                 "the target is {:.0} cm away; a {}'s range is {:.0} cm",
                 s.pose.position().distance(t.pose.position()),
-                s.entry.kind,
+                s.entry.build.kind,
                 stats.range_cm
             ))
         } else if time - s.last_fire < stats.reload_s - 1e-6 {
             Some(format!(
                 "a {} fires once every {} s",
-                s.entry.kind, stats.reload_s
+                s.entry.build.kind, stats.reload_s
             ))
         } else {
             None
@@ -246,14 +247,11 @@ impl Referee {
         }
         self.robots[shooter as usize].last_fire = time;
         let t = &mut self.robots[target as usize];
-        t.health = (t.health - stats.damage).max(0.0);
+        t.health = (t.health - damage).max(0.0);
         let health = t.health;
         self.event(
             "hit",
-            format!(
-                "robot {shooter} hits robot {target} for {} (health {health})",
-                stats.damage
-            ),
+            format!("robot {shooter} hits robot {target} for {damage} (health {health})"),
         );
         if health <= 0.0 {
             self.destroy(target, shooter);
@@ -477,9 +475,11 @@ impl Referee {
                     id: r.entry.id,
                     team: r.entry.team.clone(),
                     squad: r.entry.squad.clone(),
-                    kind: r.entry.kind,
+                    kind: r.entry.build.kind,
                     pose: r.pose,
                     health: r.health,
+                    max_health: r.entry.build.max_health(),
+                    power: r.entry.build.damage(),
                     alive: r.alive,
                     behaviour: r.behaviour.clone(),
                     reason: r.reason.clone(),

@@ -5,7 +5,7 @@ use std::collections::VecDeque;
 use colony_sim::{Pose, Vec2};
 
 use crate::map::{Battlefield, Cell, Terrain};
-use crate::rules::{RobotKind, RuleError, Rules, TeamSetup};
+use crate::rules::{RobotBuild, RuleError, Rules, TeamSetup};
 
 /// One robot of the game, as set up at the start.
 #[derive(Debug, Clone, PartialEq)]
@@ -16,8 +16,8 @@ pub struct RobotEntry {
     pub team: String,
     /// Its squad.
     pub squad: String,
-    /// Its type.
-    pub kind: RobotKind,
+    /// Its type, with the health and power its player bought.
+    pub build: RobotBuild,
     /// Where it starts.
     pub spawn: Pose,
 }
@@ -85,7 +85,7 @@ pub fn roster(
         }
         let mut next = cells.into_iter();
         for squad in &team.squads {
-            for &kind in &squad.robots {
+            for &build in &squad.robots {
                 let cell = next.next().expect("counted above");
                 let (x, y) = field.cell_center(cell);
                 let at = Vec2::new(x, y);
@@ -93,7 +93,7 @@ pub fn roster(
                     id: out.len() as u32,
                     team: team.name.clone(),
                     squad: squad.name.clone(),
-                    kind,
+                    build,
                     spawn: Pose {
                         x,
                         y,

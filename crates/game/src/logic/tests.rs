@@ -214,7 +214,7 @@ fn the_roster_is_the_same_every_time_and_refuses_what_does_not_fit() {
         name: "red".into(),
         squads: vec![crate::rules::SquadSetup {
             name: "a".into(),
-            robots: vec![RobotKind::Scout; 40],
+            robots: vec![crate::rules::RobotBuild::plain(RobotKind::Scout); 40],
         }],
     }];
     let mut rich = rules.clone();

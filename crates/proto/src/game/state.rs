@@ -6,7 +6,7 @@
 //! game mode ctf status running time 12 winner - reason ""
 //! team name red score 0 kills 1
 //! flag team blue x 800 y 900 home 0 carrier 3
-//! robot id 3 team red squad alpha kind tank x 310.5 y 88.2 theta 1.57 health 120 alive 1 behaviour goto reason "..."
+//! robot id 3 team red squad alpha kind tank x 310.5 y 88.2 theta 1.57 health 120 max_health 144 power 15 alive 1 behaviour goto reason "..."
 //! squad team red name alpha formation wedge order "attack robot 9" behaviour shoot path "310,88 400,120"
 //! ```
 //!
@@ -71,6 +71,10 @@ pub struct RobotState {
     pub pose: Pose,
     /// Health left.
     pub health: f64,
+    /// The health it started with (its type's, with what its player bought).
+    pub max_health: f64,
+    /// The damage one of its shots does.
+    pub power: f64,
     /// Not destroyed.
     pub alive: bool,
     /// Its active behaviour and why.
@@ -185,6 +189,15 @@ fn add_line(state: &mut GameState, l: &Line<'_>) -> Result<(), DecodeError> {
                 theta: finite(l, "theta")?,
             },
             health: finite(l, "health")?,
+            // Left out by older servers: read as the health it has and no known power.
+            max_health: match l.get("max_health") {
+                Some(_) => finite(l, "max_health")?,
+                None => finite(l, "health")?,
+            },
+            power: match l.get("power") {
+                Some(_) => finite(l, "power")?,
+                None => 0.0,
+            },
             alive: flag(l, "alive")?,
             behaviour: text(l, "behaviour")?,
             reason: text(l, "reason")?,
@@ -241,6 +254,8 @@ impl GameState {
                 .field("y", r(rb.pose.y))
                 .field("theta", r(rb.pose.theta))
                 .field("health", r(rb.health))
+                .field("max_health", r(rb.max_health))
+                .field("power", r(rb.power))
                 .field("alive", b(rb.alive))
                 .field("behaviour", rb.behaviour.as_str())
                 .field("reason", rb.reason.as_str());

@@ -114,6 +114,8 @@ fn robot() -> impl Strategy<Value = RobotState> {
                     theta: r(theta),
                 },
                 health: r(health),
+                max_health: r(health + 10.0),
+                power: 15.0,
                 alive,
                 behaviour: "goto".into(),
                 reason: why,
