@@ -25,6 +25,8 @@ mod player;
 pub const THINK_EVERY: u64 = 2;
 /// The timings of this many of the latest commands are kept.
 const MAX_TIMINGS: usize = 1024;
+/// A driven robot its player has not driven for this long goes back to its squad, s.
+const DRIVE_LAPSE_S: f64 = 4.0 * protocol::DRIVE_HOLD_S;
 /// The game state goes out every this many world frames.
 const STATE_EVERY: u64 = 2;
 /// Each robot's order is repeated every this many world frames, so a robot
@@ -79,8 +81,8 @@ pub struct Server {
     timings: VecDeque<CommandTiming>,
     /// Commands taken and not yet turned into orders, oldest first (at most [`MAX_TIMINGS`]).
     pending: VecDeque<Pending>,
-    /// Robots their player drives directly.
-    driven: BTreeSet<u32>,
+    /// Robots their player drives directly, and when each was last driven.
+    driven: BTreeMap<u32, Time>,
     subs: BTreeSet<Subject>,
     outbox: VecDeque<Vec<u8>>,
 }
@@ -141,7 +143,7 @@ impl Server {
             think_every: THINK_EVERY,
             timings: VecDeque::new(),
             pending: VecDeque::new(),
-            driven: BTreeSet::new(),
+            driven: BTreeMap::new(),
         }
     }
 
@@ -174,6 +176,24 @@ impl Server {
         }
     }
 
+    /// Robots whose player stopped driving them (a closed page, a lost packet, a team changed
+    /// on the page) go back to their squads: no robot is out of their hands for good.
+    fn lapse_drives(&mut self, now: Time) {
+        let lapse = Duration::from_secs_f64(DRIVE_LAPSE_S);
+        let lapsed: Vec<u32> = self
+            .driven
+            .iter()
+            .filter(|(_, &at)| now - at > lapse)
+            .map(|(&id, _)| id)
+            .collect();
+        for id in lapsed {
+            self.driven.remove(&id);
+            if let Some(i) = self.squads.iter().position(|s| s.members().contains(&id)) {
+                self.squads[i].refresh();
+            }
+        }
+    }
+
     fn view(&mut self) -> Arc<View> {
         let state = self.referee.state(Vec::new());
         let time = state.time;
@@ -186,7 +206,7 @@ impl Server {
                 kind: r.kind,
                 at: r.pose.position(),
                 alive: r.alive,
-                driven: self.driven.contains(&r.id),
+                driven: self.driven.contains_key(&r.id),
             })
             .collect();
         let mut squads = Vec::new();
@@ -225,6 +245,13 @@ impl Server {
                 radius,
             });
         }
+        // Squads merged away or emptied leave no motion behind.
+        let live: BTreeSet<(String, String)> = squads
+            .iter()
+            .map(|m| (m.team.clone(), m.name.clone()))
+            .collect();
+        self.last_centroids.retain(|k, _| live.contains(k));
+        self.velocities.retain(|k, _| live.contains(k));
         Arc::new(View {
             time,
             robots,
@@ -244,6 +271,7 @@ impl Server {
     }
 
     fn think(&mut self, now: Time, out: &mut Vec<Vec<u8>>) {
+        self.lapse_drives(now);
         let view = self.view();
         for i in 0..self.squads.len() {
             let t0 = std::time::Instant::now();
@@ -251,24 +279,23 @@ impl Server {
             let compute = t0.elapsed();
             let mut sent = Vec::new();
             for (robot, commands) in orders {
-                if self.driven.contains(&robot) {
+                if self.driven.contains_key(&robot) {
                     continue;
                 }
                 if let Some(seq) = self.send(robot, commands, out) {
                     sent.push((robot, seq));
                 }
             }
-            // Every command the squad took since its last think was answered now (a player
-            // faster than the think period has all of them answered at once).
+            // The squad's newest command since its last think was answered now; the ones before
+            // it were superseded (answered with no orders of their own).
             let (team, name) = (self.squads[i].team(), self.squads[i].name());
-            let mut k = 0;
-            while k < self.pending.len() {
-                if self.pending[k].team != team || self.pending[k].squad != name {
-                    k += 1;
-                    continue;
-                }
+            let mine: Vec<usize> = (0..self.pending.len())
+                .filter(|&k| self.pending[k].team == team && self.pending[k].squad == name)
+                .collect();
+            let newest = mine.last().copied();
+            for &k in mine.iter().rev() {
                 let Some(p) = self.pending.remove(k) else {
-                    break;
+                    continue;
                 };
                 if self.timings.len() == MAX_TIMINGS {
                     self.timings.pop_front();
@@ -280,7 +307,11 @@ impl Server {
                     received: p.received,
                     answered: now,
                     compute,
-                    orders: sent.clone(),
+                    orders: if Some(k) == newest {
+                        sent.clone()
+                    } else {
+                        Vec::new()
+                    },
                 });
             }
         }
@@ -403,10 +434,21 @@ impl Server {
         {
             match PlayerCommand::decode(team, packet) {
                 Ok(cmds) => {
+                    // However many lines a packet has, it gets at most one refusal and one
+                    // order per driven robot: a forged packet cannot multiply the traffic.
+                    let mut refused = Vec::new();
+                    let cmds = protocol::player::latest_drives(cmds);
                     for c in cmds {
                         if let Err(why) = self.obey(now, c, out) {
-                            self.refuse(why, out);
+                            refused.push(why);
                         }
+                    }
+                    if let Some(first) = refused.first() {
+                        let text = match refused.len() {
+                            1 => first.clone(),
+                            n => format!("{first} (and {} more lines refused)", n - 1),
+                        };
+                        self.refuse(text, out);
                     }
                 }
                 Err(e) => self.refuse(format!("a bad command from {team}: {e}"), out),

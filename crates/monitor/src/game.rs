@@ -18,7 +18,7 @@
 //!   robots:[{id,team,squad,kind,x,y,theta,health,alive,behaviour,reason}],
 //!   squads:[{team,name,formation,order,behaviour,path:[[x,y],..]}]}|null,
 //!   "events":[{seq,kind,time,text}],"refusal":{seq,kind,time,text}|null,
-//!   "map_version":N,"bad_lines":N}
+//!   "map_version":N,"bad_lines":N,"chat_dropped":N}
 //! {"t":"map","version":N,"map":{width,height,cell,rows:["@..T",..],
 //!   sites:[{team,base:[x,y],flag:[x,y]}]}|null}
 //! {"t":"chat","team":T,"lines":[{seq,from,text}]}     only to the pages playing team T
@@ -226,6 +226,7 @@ struct GameJson<'a> {
     refusal: Option<&'a EventView>,
     map_version: u64,
     bad_lines: u64,
+    chat_dropped: u64,
 }
 
 #[derive(Serialize)]
@@ -497,6 +498,7 @@ impl GameView {
             refusal: self.refusal.as_ref(),
             map_version: self.map.version(),
             bad_lines: self.bad_lines(),
+            chat_dropped: self.chat_dropped,
         };
         serde_json::to_string(&j).unwrap_or_else(|_| "{}".into())
     }

@@ -66,6 +66,7 @@ export function serverLink(path, { onOpen = () => {}, onMessage, onClose = () =>
     setPath(p) {
       if (p === path) return;
       path = p;
+      retryMs = 0; // at once: this is no lost server
       if (socket) socket.close();
     },
   };
@@ -89,7 +90,7 @@ export function serverLink(path, { onOpen = () => {}, onMessage, onClose = () =>
       link.connected = false;
       onClose(was);
       setTimeout(connect, retryMs);
-      retryMs = Math.min(retryMs * 2, RETRY_MAX_MS);
+      retryMs = Math.max(RETRY_MIN_MS, Math.min(retryMs * 2, RETRY_MAX_MS));
     };
     socket.onerror = () => {};
   }

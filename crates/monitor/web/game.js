@@ -230,6 +230,7 @@ function chooseTeam(s) {
 }
 
 $('team').onchange = () => {
+  if (driving !== null) stopDriving();
   team = $('team').value;
   api.team = team;
   chatLines = [];
@@ -481,12 +482,16 @@ $('merge').onclick = () => {
 };
 
 // ---- direct control of one robot -------------------------------------------------------
+// By key position (e.code), so Shift or a keyboard layout cannot leave a key held.
 const DRIVE_KEYS = {
-  ArrowUp: [1, 0], w: [1, 0], W: [1, 0],
-  ArrowDown: [-1, 0], s: [-1, 0], S: [-1, 0],
-  ArrowLeft: [0, 1], a: [0, 1], A: [0, 1],
-  ArrowRight: [0, -1], d: [0, -1], D: [0, -1],
+  ArrowUp: [1, 0], KeyW: [1, 0],
+  ArrowDown: [-1, 0], KeyS: [-1, 0],
+  ArrowLeft: [0, 1], KeyA: [0, 1],
+  ArrowRight: [0, -1], KeyD: [0, -1],
 };
+// Keys typed into a text or number field are the field's, not the robot's.
+const typing = (e) => (e.target instanceof HTMLInputElement && e.target.type !== 'checkbox')
+  || e.target instanceof HTMLTextAreaElement;
 
 function steer() {
   let forward = 0;
@@ -527,26 +532,28 @@ setInterval(() => {
 }, 200);
 
 window.addEventListener('keydown', (e) => {
-  if (e.target instanceof HTMLInputElement) return;
+  if (typing(e)) return;
   if (e.key === 'Escape') {
     if (driving !== null) stopDriving();
     else { select(null); pick(null); }
     return;
   }
-  if (driving !== null && DRIVE_KEYS[e.key]) {
+  if (driving !== null && DRIVE_KEYS[e.code]) {
     e.preventDefault();
-    if (!keys.has(e.key)) {
-      keys.add(e.key);
+    if (!keys.has(e.code)) {
+      keys.add(e.code);
       sendCommand({ t: 'robot_drive', team, robot: driving, ...steer() });
     }
   }
 });
 window.addEventListener('keyup', (e) => {
-  if (!DRIVE_KEYS[e.key]) return;
-  keys.delete(e.key);
+  if (!DRIVE_KEYS[e.code] || !keys.has(e.code)) return;
+  keys.delete(e.code);
   if (driving !== null) sendCommand({ t: 'robot_drive', team, robot: driving, ...steer() });
 });
 window.addEventListener('blur', () => keys.clear());
+// A closing page gives its robot back (the game takes it back anyway 2 s after the last key).
+window.addEventListener('pagehide', () => { if (driving !== null) stopDriving(); });
 
 // ---- the view ------------------------------------------------------------------
 function extent() {
@@ -826,6 +833,8 @@ canvas.addEventListener('pointermove', (e) => {
     dirty = true;
   }
 });
+
+canvas.addEventListener('pointercancel', () => { press = null; stroke = null; dirty = true; });
 
 canvas.addEventListener('pointerup', (e) => {
   const drawn = stroke;

@@ -32,6 +32,9 @@ impl Server {
                 let who = format!("{team} robot {robot}");
                 self.own_living(&team, robot)
                     .map_err(|why| format!("{who}: {why}"))?;
+                if self.driven.contains_key(&robot) {
+                    return Err(format!("{who}: you are driving it; release it first"));
+                }
                 let now_in = self
                     .squad_of(robot)
                     .ok_or_else(|| format!("{who}: it is in no squad"))?;
@@ -67,7 +70,7 @@ impl Server {
             } => {
                 self.own_living(&team, robot)
                     .map_err(|why| format!("{team} robot {robot}: {why}"))?;
-                self.driven.insert(robot);
+                self.driven.insert(robot, now);
                 let drive = Command::Drive {
                     forward,
                     turn,
@@ -80,7 +83,7 @@ impl Server {
             PlayerCommand::Release { team, robot } => {
                 self.own_living(&team, robot)
                     .map_err(|why| format!("{team} robot {robot}: {why}"))?;
-                if !self.driven.remove(&robot) {
+                if self.driven.remove(&robot).is_none() {
                     return Err(format!("{team} robot {robot}: it is not being driven"));
                 }
                 if let Some(i) = self.squad_of(robot) {

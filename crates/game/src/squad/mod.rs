@@ -112,6 +112,9 @@ pub struct SquadCtx {
     pub verb: Option<Verb>,
     /// A new command arrived since the last tick.
     pub fresh: bool,
+    /// The squad's members changed (or one came back from its player): the command goes on
+    /// from where it stands, not from its start.
+    pub(super) refreshed: bool,
     /// A higher behaviour had control: the order must be replanned from here.
     replan: bool,
     /// Path finding.
@@ -312,6 +315,7 @@ impl Squad {
                 spacing,
                 verb: None,
                 fresh: false,
+                refreshed: false,
                 replan: false,
                 nav,
                 out: Vec::new(),
@@ -370,6 +374,7 @@ impl Squad {
     pub fn refresh(&mut self) {
         if self.ctx.verb.is_some() {
             self.ctx.fresh = true;
+            self.ctx.refreshed = true;
         }
     }
 
@@ -381,6 +386,7 @@ impl Squad {
         self.order_text = verb.to_string();
         self.ctx.verb = Some(verb);
         self.ctx.fresh = true;
+        self.ctx.refreshed = false;
     }
 
     /// One tick of the squad arbitrator on this view; returns the orders to

@@ -26,6 +26,8 @@ pub(super) struct OrderBehaviour {
     /// Where the last plan was made to.
     goal: Option<Vec2>,
     replanner: Option<Replanner>,
+    /// A drawn path: the first of its points still ahead (the squad never goes back along it).
+    reached: usize,
 }
 
 /// A squad this many cells (Chebyshev) from the replanner's root re-roots it.
@@ -47,9 +49,10 @@ impl OrderBehaviour {
             phase: Phase::Done,
             goal: None,
             replanner: None,
+            reached: 0,
         }
     }
-    fn start(&mut self, ctx: &mut SquadCtx, gather: bool) {
+    fn start(&mut self, ctx: &mut SquadCtx, gather: bool, anew: bool) {
         let Some(verb) = ctx.verb.clone() else {
             return;
         };
@@ -87,24 +90,34 @@ impl OrderBehaviour {
                 self.phase = Phase::Going;
             }
             Verb::Path(ref points) => {
-                // Resumed (after a fight or a sidestep) from the drawn point nearest the squad,
-                // not from the start of the drawing.
-                let resume = if gather {
-                    0
-                } else {
-                    (0..points.len())
-                        .min_by(|&a, &b| {
-                            points[a]
-                                .distance(centroid)
-                                .total_cmp(&points[b].distance(centroid))
-                        })
-                        .unwrap_or(0)
-                };
-                if let Some(route) = ctx.nav.route(centroid, &points[resume..], mover) {
-                    self.goal = route.last().copied();
-                    ctx.dispatch(route, ctx.formation, gather, None);
+                // A new drawing starts at its start; one resumed (after a fight, a sidestep, a
+                // split or a merge) goes on from the point ahead nearest the squad, never back.
+                if anew {
+                    self.reached = 0;
                 }
-                self.phase = Phase::Going;
+                let ahead = self.reached.min(points.len().saturating_sub(1));
+                let resume = (ahead..points.len())
+                    .min_by(|&a, &b| {
+                        points[a]
+                            .distance(centroid)
+                            .total_cmp(&points[b].distance(centroid))
+                    })
+                    .filter(|_| !anew)
+                    .unwrap_or(ahead);
+                self.reached = resume;
+                match ctx.nav.route(centroid, &points[resume..], mover) {
+                    Some(route) => {
+                        self.goal = route.last().copied();
+                        ctx.dispatch(route, ctx.formation, gather, None);
+                        self.phase = Phase::Going;
+                    }
+                    None => {
+                        // No way there at all: nothing to carry out.
+                        ctx.path.clear();
+                        self.goal = None;
+                        self.phase = Phase::Done;
+                    }
+                }
             }
             Verb::Defend(ref t) | Verb::Attack(ref t) => {
                 let Some(to) = ctx.target(t) else {
@@ -169,7 +182,7 @@ impl OrderBehaviour {
             return;
         };
         let Some(r) = self.replanner.as_mut() else {
-            return self.start(ctx, false);
+            return self.start(ctx, false, false);
         };
         // The paper's partial A*: the search stays rooted where the attack
         // began, so a moving target only re-keys the goal and the earlier
@@ -219,10 +232,12 @@ impl Behaviour<SquadCtx> for OrderBehaviour {
     fn act(&mut self, ctx: &mut SquadCtx) {
         if ctx.fresh || ctx.replan {
             let gather = ctx.fresh;
+            let anew = ctx.fresh && !ctx.refreshed;
             ctx.fresh = false;
             ctx.replan = false;
+            ctx.refreshed = false;
             self.phase = Phase::Done;
-            return self.start(ctx, gather);
+            return self.start(ctx, gather, anew);
         }
         let cell = ctx.nav.field().cell_cm;
         match ctx.verb.clone() {
@@ -259,7 +274,7 @@ impl Behaviour<SquadCtx> for OrderBehaviour {
                     Phase::Done => true,
                 };
                 if restart {
-                    self.start(ctx, false);
+                    self.start(ctx, false, false);
                 }
             }
             Some(Verb::GoTo(_) | Verb::Gather(_) | Verb::Path(_)) => {

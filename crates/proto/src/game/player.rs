@@ -149,6 +149,26 @@ impl PlayerCommand {
     }
 }
 
+/// The commands with only the last `drive` of each robot kept: a packet of many drives for
+/// one robot is one drive, not as many orders.
+pub fn latest_drives(commands: Vec<PlayerCommand>) -> Vec<PlayerCommand> {
+    let mut last = std::collections::BTreeMap::new();
+    for (k, c) in commands.iter().enumerate() {
+        if let PlayerCommand::Drive { robot, .. } = c {
+            last.insert(*robot, k);
+        }
+    }
+    commands
+        .into_iter()
+        .enumerate()
+        .filter(|(k, c)| match c {
+            PlayerCommand::Drive { robot, .. } => last.get(robot) == Some(k),
+            _ => true,
+        })
+        .map(|(_, c)| c)
+        .collect()
+}
+
 fn read(team: &str, l: &Line<'_>) -> Result<PlayerCommand, DecodeError> {
     let team = team.to_string();
     Ok(match l.label() {
@@ -156,7 +176,15 @@ fn read(team: &str, l: &Line<'_>) -> Result<PlayerCommand, DecodeError> {
         "robot" => PlayerCommand::Robot {
             team,
             robot: robot_id(l, "id")?,
-            verb: read_verb(l)?,
+            verb: match read_verb(l)? {
+                Verb::Gather(_) | Verb::Path(_) => {
+                    return Err(bad(
+                        l,
+                        "one robot takes goto, attack, defend, capture or stop",
+                    ))
+                }
+                v => v,
+            },
         },
         "split" => {
             let text = l.str("robots")?;
