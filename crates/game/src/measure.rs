@@ -96,8 +96,8 @@ pub struct Series {
 }
 
 impl Series {
-    /// Commands that were sent and not followed to every robot (lost, or superseded before
-    /// their orders left).
+    /// Commands that were sent and not followed to every robot (lost, or superseded by a newer
+    /// one before the server's next think, so their orders never left).
     pub fn lost(&self) -> usize {
         self.sent - self.samples.len()
     }
@@ -237,13 +237,17 @@ pub fn run_series(plan: &MatchPlan, hub: &str, spec: &SeriesSpec) -> Result<Seri
         samples: Vec::new(),
         sent: sent.len(),
     };
-    let mut taken = vec![false; server.timings().count()];
-    for (text, at) in &sent {
-        let found = server.timings().enumerate().find(|(i, t)| {
-            !taken[*i] && t.squad == "alpha" && &t.order == text && t.received >= *at
+    for (k, (text, at)) in sent.iter().enumerate() {
+        // Its record came after it was sent and before the next command was: a command lost on
+        // the way is not mistaken for the one after it.
+        let before = sent.get(k + 1).map(|n| n.1);
+        let found = server.timings().find(|t| {
+            t.squad == "alpha"
+                && &t.order == text
+                && t.received >= *at
+                && before.is_none_or(|b| t.received < b)
         });
-        let Some((i, t)) = found else { continue };
-        taken[i] = true;
+        let Some(t) = found else { continue };
         let mut to_robots: f64 = 0.0;
         let mut robot: f64 = 0.0;
         let mut complete = !t.orders.is_empty();

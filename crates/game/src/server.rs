@@ -305,7 +305,8 @@ impl Server {
                     squad: p.squad,
                     order: p.order,
                     received: p.received,
-                    answered: now,
+                    // The orders leave once the arbitration is done.
+                    answered: now + compute,
                     compute,
                     orders: if Some(k) == newest {
                         sent.clone()
