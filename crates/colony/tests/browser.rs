@@ -73,6 +73,7 @@ fn the_monitor_page_passes_its_browser_tests_in_headless_chromium() {
             "the game page's orders: paths, single robots, split, merge, driving, chat",
             "game-orders.test.mjs",
         ),
+        ("the game's pre-match screen", "game-prematch.test.mjs"),
     ] {
         assert!(
             stdout

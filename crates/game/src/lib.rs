@@ -35,6 +35,7 @@ pub mod bot;
 pub mod formation;
 pub mod live;
 pub mod live_match;
+pub mod lobby;
 pub mod logic;
 pub mod map;
 pub mod matches;

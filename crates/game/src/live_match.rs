@@ -17,6 +17,7 @@ use colony_sim::SimError;
 
 use crate::bot::Bot;
 use crate::live::{self, LiveError};
+use crate::lobby::Lobby;
 use crate::logic::{roster, RobotEntry, SetupError};
 use crate::map::{Battlefield, MapError};
 use crate::matches::{Match, MatchError};
@@ -190,6 +191,39 @@ fn spawn_robots(
         )?);
     }
     Ok(parts)
+}
+
+/// Runs the pre-match over the hub at `hub` until every team is ready (the plan the match is
+/// then played with, its robots placed anew) or `stop` (None). The plan's teams are where the
+/// players start from; `bots` are ready from the start.
+pub fn run_lobby(
+    plan: &MatchPlan,
+    setups: Vec<TeamSetup>,
+    hub: &str,
+    bots: &[String],
+    stop: &AtomicBool,
+) -> Result<Option<MatchPlan>, LiveMatchError> {
+    let mut lobby = Lobby::new(plan.field.clone(), plan.rules.clone(), setups, bots);
+    let mut client = connect(hub)?;
+    let mut link = colony_node::Link::new(&mut client, Instant::now());
+    colony_node::run(&mut lobby, &mut link, stop, |l, _| {
+        if l.is_done() {
+            std::ops::ControlFlow::Break(())
+        } else {
+            std::ops::ControlFlow::Continue(())
+        }
+    })
+    .map_err(LiveError::from)?;
+    if !lobby.is_done() {
+        return Ok(None);
+    }
+    let teams = lobby.setups();
+    let roster = roster(&plan.field, &plan.rules, &teams)?;
+    Ok(Some(MatchPlan {
+        roster,
+        teams: teams.iter().map(|t| t.name.clone()).collect(),
+        ..plan.clone()
+    }))
 }
 
 /// Which part of a match to run on its own.

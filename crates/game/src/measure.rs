@@ -119,6 +119,9 @@ pub struct SeriesSpec {
     pub commands: usize,
     /// Capture blue's flag (Table 3); otherwise a GoTo in line formation (Table 4).
     pub capture: bool,
+    /// Spread the commands evenly over the server's think period (a player's clicks are not in
+    /// step with the world's frames); otherwise exactly `interval` apart, as the paper's Table 4.
+    pub spread: bool,
 }
 
 /// Why a measurement could not be made.
@@ -196,8 +199,15 @@ pub fn run_series(plan: &MatchPlan, hub: &str, spec: &SeriesSpec) -> Result<Seri
     };
     let mut sent = Vec::new();
     let mut next = Instant::now();
+    let period = Duration::from_millis(100 * spec.think_every);
     for k in 0..spec.commands {
-        std::thread::sleep(next.saturating_duration_since(Instant::now()));
+        // With `spread`, command k lands (k * 7 mod 20) twentieths into the think period.
+        let offset = if spec.spread {
+            period.mul_f64(((k * 7) % 20) as f64 / 20.0)
+        } else {
+            Duration::ZERO
+        };
+        std::thread::sleep((next + offset).saturating_duration_since(Instant::now()));
         next += spec.interval;
         let verb = if spec.capture {
             Verb::Capture("blue".into())

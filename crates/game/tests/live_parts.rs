@@ -234,6 +234,7 @@ fn each_hop_of_a_players_command_is_timed_through_the_real_hub() {
             interval: Duration::from_millis(400),
             commands: 4,
             capture: false,
+            spread: true,
         },
     )
     .unwrap();

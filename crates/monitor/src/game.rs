@@ -15,10 +15,12 @@
 //! ```text
 //! {"t":"game","now":MS,"age":S|null,"stale":B,"state":{mode,status,time,winner,reason,
 //!   teams:[{name,score,kills}], flags:[{team,x,y,home,carrier}],
-//!   robots:[{id,team,squad,kind,x,y,theta,health,alive,behaviour,reason}],
+//!   robots:[{id,team,squad,kind,x,y,theta,health,max_health,power,alive,behaviour,reason}],
 //!   squads:[{team,name,formation,order,behaviour,path:[[x,y],..]}]}|null,
 //!   "events":[{seq,kind,time,text}],"refusal":{seq,kind,time,text}|null,
-//!   "map_version":N,"bad_lines":N,"chat_dropped":N}
+//!   "map_version":N,"bad_lines":N,"chat_dropped":N,
+//!   "lobby":{status,budget,max_squads,upgrade,max_upgrade,kinds:[{kind,cost,health,power,speed,
+//!     range,amphibious}],teams:[{name,ready,bot,cost,setup}]}|null}
 //! {"t":"map","version":N,"map":{width,height,cell,rows:["@..T",..],
 //!   sites:[{team,base:[x,y],flag:[x,y]}]}|null}
 //! {"t":"chat","team":T,"lines":[{seq,from,text}]}     only to the pages playing team T
@@ -31,15 +33,15 @@ use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use colony_proto::game::{valid_name, ChatLine, Event, GameState};
+use colony_proto::game::{valid_name, ChatLine, Event, GameState, LobbyState, LobbyStatus};
 use colony_wire::Packet;
 use serde::Serialize;
 
 use self::map::MapView;
 
-pub use colony_proto::game::{EVENT, MAP, STATE};
+pub use colony_proto::game::{EVENT, LOBBY, MAP, STATE};
 /// The game channels the monitor always subscribes to.
-pub const GAME_CHANNELS: [&str; 3] = [STATE, MAP, EVENT];
+pub const GAME_CHANNELS: [&str; 4] = [STATE, MAP, EVENT, LOBBY];
 
 /// Events kept for the page's log.
 pub const MAX_EVENTS: usize = 50;
@@ -102,6 +104,10 @@ pub struct RobotView {
     pub theta: f64,
     /// Health left.
     pub health: f64,
+    /// The health it started with.
+    pub max_health: f64,
+    /// The damage one of its shots does.
+    pub power: f64,
     /// Not destroyed.
     pub alive: bool,
     /// The robot's active behaviour, and why it has control.
@@ -163,6 +169,99 @@ pub struct EventView {
     pub text: String,
 }
 
+/// A robot type as the pre-match offers it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct KindView {
+    /// `scout`, `tank`, `infantry` or `amphibian`.
+    pub kind: String,
+    /// Budget points.
+    pub cost: u32,
+    /// Health as it comes.
+    pub health: f64,
+    /// Damage per shot as it comes.
+    pub power: f64,
+    /// Top speed, cm/s.
+    pub speed: f64,
+    /// Shooting range, cm.
+    pub range: f64,
+    /// Crosses water.
+    pub amphibious: bool,
+}
+
+/// A team in the pre-match.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LobbyTeamView {
+    /// Its name.
+    pub name: String,
+    /// Its player is ready.
+    pub ready: bool,
+    /// The built-in player plays it.
+    pub bot: bool,
+    /// What its setup costs.
+    pub cost: u32,
+    /// Its setup, as `--red` takes it.
+    pub setup: String,
+}
+
+/// The pre-match, as the page shows it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LobbyView {
+    /// `drafting` or `started`.
+    pub status: String,
+    /// Budget points per team.
+    pub budget: u32,
+    /// The most squads a team may have.
+    pub max_squads: u32,
+    /// What a point of health or power adds, as a fraction.
+    pub upgrade: f64,
+    /// The most points of health or of power per robot.
+    pub max_upgrade: u32,
+    /// The robot types.
+    pub kinds: Vec<KindView>,
+    /// The teams.
+    pub teams: Vec<LobbyTeamView>,
+}
+
+fn lobby_view(s: LobbyState) -> LobbyView {
+    LobbyView {
+        status: match s.status {
+            LobbyStatus::Drafting => "drafting",
+            LobbyStatus::Started => "started",
+        }
+        .to_string(),
+        budget: s.budget,
+        max_squads: s.max_squads,
+        upgrade: s.upgrade,
+        max_upgrade: s.max_upgrade,
+        kinds: s
+            .kinds
+            .into_iter()
+            .take(16)
+            .map(|k| KindView {
+                kind: k.kind.name().to_string(),
+                cost: k.cost,
+                health: k.health,
+                power: k.power,
+                speed: k.speed,
+                range: k.range,
+                amphibious: k.amphibious,
+            })
+            .collect(),
+        teams: s
+            .teams
+            .into_iter()
+            .take(MAX_TEAMS)
+            .map(|t| LobbyTeamView {
+                name: t.name,
+                ready: t.ready,
+                bot: t.bot,
+                cost: t.cost,
+                setup: t.setup,
+            })
+            .collect(),
+    }
+}
+
 /// A chat line for the pages of its team.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ChatView {
@@ -213,6 +312,7 @@ pub struct GameView {
     chat: BTreeMap<String, VecDeque<ChatView>>,
     chat_version: u64,
     chat_dropped: u64,
+    lobby: Option<LobbyView>,
 }
 
 #[derive(Serialize)]
@@ -227,6 +327,7 @@ struct GameJson<'a> {
     map_version: u64,
     bad_lines: u64,
     chat_dropped: u64,
+    lobby: Option<&'a LobbyView>,
 }
 
 #[derive(Serialize)]
@@ -260,6 +361,8 @@ fn state_view(s: GameState) -> GameStateView {
             y: r.pose.y,
             theta: r.pose.theta,
             health: r.health,
+            max_health: r.max_health,
+            power: r.power,
             alive: r.alive,
             behaviour: cut(r.behaviour),
             reason: cut(r.reason),
@@ -328,6 +431,7 @@ impl GameView {
             chat: BTreeMap::new(),
             chat_version: 0,
             chat_dropped: 0,
+            lobby: None,
         }
     }
 
@@ -423,6 +527,14 @@ impl GameView {
             self.map.on_packet(packet);
         } else if packet.has_subject(EVENT) {
             self.on_event(packet);
+        } else if packet.has_subject(LOBBY) {
+            match LobbyState::decode(packet) {
+                Ok(l) => {
+                    self.lobby = Some(lobby_view(l));
+                    self.version += 1;
+                }
+                Err(_) => self.bad_lines += 1,
+            }
         } else if let Some(team) = packet.subjects().find_map(|s| s.strip_prefix(CHAT_PREFIX)) {
             let team = team.to_string();
             self.on_chat(&team, packet);
@@ -499,6 +611,7 @@ impl GameView {
             map_version: self.map.version(),
             bad_lines: self.bad_lines(),
             chat_dropped: self.chat_dropped,
+            lobby: self.lobby.as_ref(),
         };
         serde_json::to_string(&j).unwrap_or_else(|_| "{}".into())
     }

@@ -12,6 +12,7 @@
 //!                                                      a game squad command
 //! {"t":"robot",...} {"t":"split",...} {"t":"merge",...} {"t":"robot_drive",...}
 //! {"t":"robot_release",...} {"t":"chat",...}           the game's other orders, and chat
+//! {"t":"setup","team":"red","squads":"alpha:tank+h1"} {"t":"ready","team":"red","ready":true}
 //! ```
 //!
 //! The game's messages' fields are in [`crate::game::orders`]; `"type"` is
@@ -24,7 +25,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::game::orders::{ChatMsg, FreeMsg, MergeMsg, RobotMsg, SplitMsg, SquadMsg, SteerMsg};
+use crate::game::orders::{
+    ChatMsg, FreeMsg, MergeMsg, ReadyMsg, RobotMsg, SetupMsg, SplitMsg, SquadMsg, SteerMsg,
+};
 use crate::state::{check_forged, Command, MAX_COORD, MAX_HELD};
 
 /// The longest message the server reads from a browser (a forged packet at
@@ -64,6 +67,8 @@ enum ClientMsg {
     RobotDrive(SteerMsg),
     RobotRelease(FreeMsg),
     Chat(ChatMsg),
+    Setup(SetupMsg),
+    Ready(ReadyMsg),
 }
 
 /// Why a browser message was refused; `line` and `column` point into a forged packet.
@@ -228,6 +233,8 @@ pub fn parse_message(text: &str) -> Result<Command, Refusal> {
         ClientMsg::RobotDrive(m) => Command::Game(m.check().map_err(refused)?),
         ClientMsg::RobotRelease(m) => Command::Game(m.check().map_err(refused)?),
         ClientMsg::Chat(m) => Command::Game(m.check().map_err(refused)?),
+        ClientMsg::Setup(m) => Command::Game(m.check().map_err(refused)?),
+        ClientMsg::Ready(m) => Command::Game(m.check().map_err(refused)?),
     })
 }
 

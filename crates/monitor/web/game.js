@@ -116,13 +116,14 @@ function paintTerrain(m) {
 
 function onGame(g) {
   game = g;
+  prematch(g.lobby);
   const s = g.state;
   api.state = s;
   api.stale = g.stale;
   api.events = g.events;
   api.refusal = g.refusal;
   if (s) {
-    for (const r of s.robots) maxHealth.set(r.id, Math.max(maxHealth.get(r.id) || 0, r.health));
+    for (const r of s.robots) maxHealth.set(r.id, Math.max(maxHealth.get(r.id) || 0, r.max_health || 0, r.health));
     chooseTeam(s);
   }
   header(g);
@@ -155,6 +156,137 @@ $('chat-form').addEventListener('submit', (e) => {
   if (team === null) { message('no team to chat with yet: wait for the game', false); return; }
   if (send({ t: 'chat', team, from: player, text })) $('chat-text').value = '';
 });
+
+// ---- the pre-match: budget, types, health and power, squads ----------------------------
+// The draft is what this page edits; it starts from the team's setup as the lobby has it and
+// goes back to the game (as `--red` writes it: alpha:tank+h2+p1,scout) when the player is ready.
+let draft = null;
+let draftFrom = null;
+let edited = false; // the player changed the draft since the lobby last took it
+let sentSetup = null; // the setup last sent: the draft is the lobby's again once it shows it
+
+function parseSetup(text) {
+  return text.split(/\s+/).filter(Boolean).map((part) => {
+    const [name, robots = ''] = part.split(':');
+    return {
+      name,
+      robots: robots.split(',').filter(Boolean).map((b) => {
+        const [kind, ...ups] = b.split('+');
+        const r = { kind, health: 0, power: 0 };
+        for (const u of ups) {
+          if (u[0] === 'h') r.health = Number(u.slice(1)) || 0;
+          if (u[0] === 'p') r.power = Number(u.slice(1)) || 0;
+        }
+        return r;
+      }),
+    };
+  });
+}
+
+function setupText(d) {
+  return d.map((q) => `${q.name}:${q.robots.map((r) => r.kind + (r.health ? `+h${r.health}` : '') + (r.power ? `+p${r.power}` : '')).join(',')}`).join(' ');
+}
+
+function draftCost(l) {
+  const price = new Map(l.kinds.map((k) => [k.kind, k.cost]));
+  return draft.reduce((a, q) => a + q.robots.reduce((b, r) => b + (price.get(r.kind) || 0) + r.health + r.power, 0), 0);
+}
+
+function prematch(l) {
+  api.lobby = l || null;
+  const show = !!(l && l.status === 'drafting' && !(game && game.state));
+  $('prematch').hidden = !show;
+  if (!show) return;
+  const mine = team === null ? null : l.teams.find((t) => t.name === team);
+  if (mine && edited && mine.setup === sentSetup) edited = false;
+  if (mine && !mine.bot && (draft === null || (!edited && mine.setup !== draftFrom))) {
+    draft = parseSetup(mine.setup);
+    draftFrom = mine.setup;
+    renderDraft(l);
+  }
+  $('pm-step').textContent = Math.round(l.upgrade * 100);
+  $('pm-budget').textContent = l.budget;
+  if (draft) {
+    const cost = draftCost(l);
+    $('pm-cost').textContent = cost;
+    $('pm-cost').classList.toggle('over', cost > l.budget);
+  }
+  $('pm-ready').disabled = !mine || mine.bot;
+  $('pm-ready').textContent = mine && mine.ready ? 'Ready ✓ (change to edit)' : 'Ready';
+  const teams = l.teams.map((t) => `<li>${esc(t.name)}: ${t.ready ? 'ready' : 'setting up'}${t.bot ? ' (built-in player)' : ''} · ${t.cost} points</li>`).join('');
+  if ($('pm-teams').dataset.key !== teams) {
+    $('pm-teams').dataset.key = teams;
+    $('pm-teams').innerHTML = teams;
+  }
+}
+
+function renderDraft(l) {
+  const kinds = l.kinds.map((k) => k.kind);
+  const describe = (k) => `${k.kind}: ${k.cost} points, health ${k.health}, power ${k.power}, speed ${k.speed} cm/s, range ${k.range} cm${k.amphibious ? ', crosses water' : ''}`;
+  $('pm-squads').innerHTML = draft.map((q, i) => `<div class="pm-squad" data-i="${i}">`
+    + `<label>squad <input class="pm-name" value="${esc(q.name)}" maxlength="32" aria-label="squad name"></label> `
+    + `<button type="button" class="pm-del-squad">remove squad</button>`
+    + q.robots.map((r, k) => `<div class="pm-robot" data-k="${k}">`
+      + `<select class="pm-kind" aria-label="robot type">${l.kinds.map((o) => `<option value="${esc(o.kind)}" title="${esc(describe(o))}"${o.kind === r.kind ? ' selected' : ''}>${esc(o.kind)} · ${o.cost}</option>`).join('')}</select>`
+      + `<label title="health points bought">health +<input type="number" class="pm-health" min="0" max="${l.max_upgrade}" value="${r.health}"></label>`
+      + `<label title="power points bought">power +<input type="number" class="pm-power" min="0" max="${l.max_upgrade}" value="${r.power}"></label>`
+      + `<button type="button" class="pm-del" aria-label="remove this robot">×</button></div>`).join('')
+    + `<button type="button" class="pm-add-robot">+ robot</button></div>`).join('');
+  if (!kinds.length) $('pm-squads').textContent = 'waiting for the robot types…';
+}
+
+function draftChanged() {
+  edited = true;
+  if (game && game.lobby) prematch(game.lobby);
+}
+
+$('pm-squads').addEventListener('input', (e) => {
+  const box = e.target.closest('.pm-squad');
+  if (!box || !draft) return;
+  const q = draft[Number(box.dataset.i)];
+  const row = e.target.closest('.pm-robot');
+  if (e.target.classList.contains('pm-name')) q.name = e.target.value.trim();
+  else if (row) {
+    const r = q.robots[Number(row.dataset.k)];
+    if (e.target.classList.contains('pm-kind')) r.kind = e.target.value;
+    if (e.target.classList.contains('pm-health')) r.health = Math.max(0, Math.round(Number(e.target.value) || 0));
+    if (e.target.classList.contains('pm-power')) r.power = Math.max(0, Math.round(Number(e.target.value) || 0));
+  }
+  draftChanged();
+});
+
+$('pm-squads').addEventListener('click', (e) => {
+  const box = e.target.closest('.pm-squad');
+  if (!box || !draft || !game || !game.lobby) return;
+  const i = Number(box.dataset.i);
+  if (e.target.classList.contains('pm-add-robot')) draft[i].robots.push({ kind: game.lobby.kinds[0].kind, health: 0, power: 0 });
+  else if (e.target.classList.contains('pm-del')) draft[i].robots.splice(Number(e.target.closest('.pm-robot').dataset.k), 1);
+  else if (e.target.classList.contains('pm-del-squad')) draft.splice(i, 1);
+  else return;
+  renderDraft(game.lobby);
+  draftChanged();
+});
+
+$('pm-add-squad').onclick = () => {
+  if (!draft || !game || !game.lobby) return;
+  const names = new Set(draft.map((q) => q.name));
+  let k = draft.length + 1;
+  while (names.has(`squad${k}`)) k += 1;
+  draft.push({ name: `squad${k}`, robots: [{ kind: game.lobby.kinds[0].kind, health: 0, power: 0 }] });
+  renderDraft(game.lobby);
+  draftChanged();
+};
+
+// Ready sends the setup with it: a setup the rules refuse is never ready (the refusal says why).
+$('pm-ready').onclick = () => {
+  if (!draft || team === null) return;
+  const squads = setupText(draft);
+  // Kept as drawn until the lobby shows it taken: a refused setup is not lost.
+  edited = true;
+  sentSetup = squads;
+  draftFrom = squads;
+  sendCommand({ t: 'setup', team, squads, ready: true });
+};
 
 // ---- sounds: synthesised in the page, no files ----------------------------------
 const TONES = {
@@ -235,6 +367,8 @@ $('team').onchange = () => {
   api.team = team;
   chatLines = [];
   lastChatSeq = -1;
+  draft = null;
+  edited = false;
   $('chat').replaceChildren();
   link.setPath(socketPath());
   select(null);
@@ -274,7 +408,9 @@ function banners() {
   api.connected = connected;
   const notes = [];
   if (!connected) notes.push({ cls: 'stale-banner server', text: 'monitor server lost: reconnecting…' });
-  else if (game && game.stale) {
+  else if (game && game.lobby && game.lobby.status === 'drafting' && !game.state) {
+    notes.push({ cls: 'stale-banner', text: 'pre-match: set up your team and press Ready; the match starts when every team is ready' });
+  } else if (game && game.stale) {
     notes.push({
       cls: 'stale-banner',
       text: game.state

@@ -67,6 +67,11 @@ pub struct MatchArgs {
     /// Fast-forward the whole match in this process, with no hub, and print the result.
     #[arg(long)]
     pub fast: bool,
+    /// Let the players set up their teams on the game page first (budget, types, health and
+    /// power, squads); --red and --blue are where they start. The match starts when every
+    /// team is ready.
+    #[arg(long, conflicts_with = "fast")]
+    pub lobby: bool,
     /// Write every packet of the match to this traffic log (`colony replay` shows it).
     #[arg(long)]
     pub record: Option<PathBuf>,
@@ -210,6 +215,29 @@ fn live(
         .filter(|t| !people.contains(&t.as_str()))
         .cloned()
         .collect();
+    let drafted;
+    let plan = if args.lobby {
+        if let Some(m) = &monitor {
+            println!(
+                "colony game: pre-match; set up your team at {} (hub {hub}); the match starts when every team is ready; Ctrl-C stops",
+                m.page_url(
+                    "/game",
+                    &people
+                        .first()
+                        .map_or(String::new(), |t| format!("team={t}"))
+                ),
+            );
+        }
+        match live_match::run_lobby(plan, teams(&args.setup)?, hub, &bots, stop)? {
+            Some(p) => {
+                drafted = p;
+                &drafted
+            }
+            None => return Ok(()),
+        }
+    } else {
+        plan
+    };
     let running = LiveMatch::start(plan, hub, args.speed, &bots, stop)?;
     match &monitor {
         Some(m) => println!(

@@ -80,6 +80,11 @@ impl Server {
                 // Nothing to repeat: a drive lapses on its own.
                 self.last_orders[robot as usize] = None;
             }
+            PlayerCommand::Setup { team, .. } | PlayerCommand::Ready { team, .. } => {
+                return Err(format!(
+                    "{team}: the match has started; teams are set up before it"
+                ));
+            }
             PlayerCommand::Release { team, robot } => {
                 self.own_living(&team, robot)
                     .map_err(|why| format!("{team} robot {robot}: {why}"))?;

@@ -115,6 +115,22 @@ pub struct FreeMsg {
     robot: u32,
 }
 
+/// Before the match: the team's squads and robots, as `--red` takes them.
+#[derive(Debug, Deserialize)]
+pub struct SetupMsg {
+    team: String,
+    squads: String,
+    #[serde(default)]
+    ready: bool,
+}
+
+/// Before the match: the player is ready (or not).
+#[derive(Debug, Deserialize)]
+pub struct ReadyMsg {
+    team: String,
+    ready: bool,
+}
+
 /// A chat line for the team.
 #[derive(Debug, Deserialize)]
 pub struct ChatMsg {
@@ -377,6 +393,34 @@ impl FreeMsg {
     }
 }
 
+impl SetupMsg {
+    /// Checks the fields the page can get wrong; the rules and the budget are the game's.
+    pub fn check(&self) -> Result<GameOrder, OrderRefused> {
+        (|| {
+            let max = colony_proto::game::lobby::MAX_SETUP;
+            if self.squads.len() > max || self.squads.chars().any(char::is_control) {
+                return Err(format!("a setup is at most {max} printable characters"));
+            }
+            Ok(GameOrder::Player(PlayerCommand::Setup {
+                team: token("team", &self.team)?,
+                squads: self.squads.trim().to_string(),
+                ready: self.ready,
+            }))
+        })()
+        .map_err(OrderRefused)
+    }
+}
+
+impl ReadyMsg {
+    /// Checks every field.
+    pub fn check(&self) -> Result<GameOrder, OrderRefused> {
+        Ok(GameOrder::Player(PlayerCommand::Ready {
+            team: token("team", &self.team).map_err(OrderRefused)?,
+            ready: self.ready,
+        }))
+    }
+}
+
 impl ChatMsg {
     /// Checks every field: a short line of printable text.
     pub fn check(&self) -> Result<GameOrder, OrderRefused> {
@@ -489,6 +533,17 @@ impl fmt::Display for GameOrder {
             PlayerCommand::Release { team, robot } => {
                 write!(f, "{team} robot {robot}: back to its squad")
             }
+            PlayerCommand::Setup {
+                team,
+                squads,
+                ready,
+            } => write!(
+                f,
+                "{team} set up as {squads}{}",
+                if *ready { ", ready" } else { "" }
+            ),
+            PlayerCommand::Ready { team, ready: true } => write!(f, "{team} is ready"),
+            PlayerCommand::Ready { team, ready: false } => write!(f, "{team} is not ready"),
         }
     }
 }

@@ -13,6 +13,7 @@
 //! | `game.state` | game logic → players, monitor: everything a player sees | [`state`] |
 //! | `game.event` | game logic → players, monitor: hits, kills, flags, refusals, the end | [`event`] |
 //! | `game.map` | game logic → players, monitor: the battlefield, in parts if large | [`map`] |
+//! | `game.lobby` | the pre-match → players, monitor: budget, robot types, setups, readiness | [`lobby`] |
 //!
 //! The words the messages carry (names, robot types, formations) are in [`names`]. Every decoder
 //! refuses what it can't read with an error naming the line and field; nothing from the network
@@ -23,6 +24,7 @@ pub mod action;
 pub mod chat;
 pub mod debug;
 pub mod event;
+pub mod lobby;
 pub mod map;
 pub mod names;
 pub mod order;
@@ -37,6 +39,7 @@ pub use action::Action;
 pub use chat::ChatLine;
 pub use debug::RobotDebug;
 pub use event::Event;
+pub use lobby::{KindOffer, LobbyState, LobbyStatus, LobbyTeam};
 pub use map::{GameMap, MapAssembler, Site};
 pub use names::{valid_name, Formation, RobotKind, UnknownFormation, UnknownKind, MAX_NAME};
 pub use order::{Command, Order, MAX_COMMANDS};
@@ -58,6 +61,8 @@ pub const STATE: &str = "game.state";
 pub const EVENT: &str = "game.event";
 /// The battlefield, for players' screens.
 pub const MAP: &str = "game.map";
+/// The pre-match: budget, robot types, each team's setup and readiness.
+pub const LOBBY: &str = "game.lobby";
 
 /// The channel robot `id`'s sensors are published on.
 pub fn sense_channel(id: u32) -> String {

@@ -10,6 +10,8 @@
 //! merge name bravo into alpha
 //! drive robot 3 forward 0.8 turn -0.5
 //! release robot 3
+//! setup squads "alpha:tank+h2+p1,scout bravo:infantry" ready 1     before the match (game.lobby)
+//! ready value 1
 //! ```
 //!
 //! `drive` takes the robot out of its squad's hands until `release` gives it back; each `drive`
@@ -81,6 +83,22 @@ pub enum PlayerCommand {
         /// The robot.
         robot: u32,
     },
+    /// Before the match: the team's squads and robots, as `--red` takes them.
+    Setup {
+        /// The player's team.
+        team: String,
+        /// `alpha:tank+h2+p1,scout bravo:infantry` (at most [`super::lobby::MAX_SETUP`] bytes).
+        squads: String,
+        /// Ready to play with it, if the rules take it (a refused setup is never ready).
+        ready: bool,
+    },
+    /// Before the match: the player is (or is no longer) ready to play with the setup.
+    Ready {
+        /// The player's team.
+        team: String,
+        /// Ready or not.
+        ready: bool,
+    },
 }
 
 impl PlayerCommand {
@@ -92,7 +110,9 @@ impl PlayerCommand {
             | PlayerCommand::Split { team, .. }
             | PlayerCommand::Merge { team, .. }
             | PlayerCommand::Drive { team, .. }
-            | PlayerCommand::Release { team, .. } => team,
+            | PlayerCommand::Release { team, .. }
+            | PlayerCommand::Setup { team, .. }
+            | PlayerCommand::Ready { team, .. } => team,
         }
     }
 
@@ -137,6 +157,14 @@ impl PlayerCommand {
             }
             PlayerCommand::Release { robot, .. } => {
                 p.line("release").field("robot", *robot);
+            }
+            PlayerCommand::Setup { squads, ready, .. } => {
+                p.line("setup")
+                    .field("squads", squads.as_str())
+                    .field("ready", i64::from(*ready));
+            }
+            PlayerCommand::Ready { ready, .. } => {
+                p.line("ready").field("value", i64::from(*ready));
             }
         }
         p.finish()
@@ -226,11 +254,32 @@ fn read(team: &str, l: &Line<'_>) -> Result<PlayerCommand, DecodeError> {
             team,
             robot: robot_id(l, "robot")?,
         },
+        "setup" => {
+            let squads = l.str("squads")?.into_owned();
+            if squads.len() > super::lobby::MAX_SETUP {
+                return Err(bad(
+                    l,
+                    format!("a setup is at most {} bytes", super::lobby::MAX_SETUP),
+                ));
+            }
+            PlayerCommand::Setup {
+                team,
+                squads,
+                ready: match l.get("ready") {
+                    Some(_) => crate::fields::flag(l, "ready")?,
+                    None => false,
+                },
+            }
+        }
+        "ready" => PlayerCommand::Ready {
+            team,
+            ready: crate::fields::flag(l, "value")?,
+        },
         other => {
             return Err(bad(
                 l,
                 format!(
-                    "unknown player command {other:?} (expected squad, robot, split, merge, drive or release)"
+                    "unknown player command {other:?} (expected squad, robot, split, merge, drive, release, setup or ready)"
                 ),
             ))
         }
@@ -283,6 +332,15 @@ mod tests {
             PlayerCommand::Release {
                 team: team(),
                 robot: 3,
+            },
+            PlayerCommand::Setup {
+                team: team(),
+                squads: "alpha:tank+h2+p1,scout bravo:infantry".into(),
+                ready: true,
+            },
+            PlayerCommand::Ready {
+                team: team(),
+                ready: true,
             },
         ]
     }

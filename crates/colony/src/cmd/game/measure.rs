@@ -98,6 +98,7 @@ pub fn run(args: MeasureArgs) -> anyhow::Result<()> {
                     interval: Duration::from_secs(1),
                     commands: args.commands as usize,
                     capture: true,
+                    spread: true,
                 },
             )?;
             println!("\n### Table 3: a player's command to a squad (ms; ours, then the paper's x̄ / σ / min / max)\n");
@@ -163,6 +164,7 @@ pub fn run(args: MeasureArgs) -> anyhow::Result<()> {
                             interval: Duration::from_millis(gap),
                             commands: args.samples as usize,
                             capture: false,
+                            spread: false,
                         },
                     )?);
                 }
