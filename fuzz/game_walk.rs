@@ -5,8 +5,8 @@
 //! `cargo test`.
 
 use colony_proto::game::{
-    Action, ChatLine, Event, GameState, MapAssembler, Order, PlayerCommand, RobotDebug, Sense,
-    SquadCommand, WorldFrame,
+    Action, ChatLine, Event, GameState, LobbyState, MapAssembler, Order, PlayerCommand, RobotDebug,
+    Sense, SquadCommand, WorldFrame,
 };
 use colony_wire::Packet;
 
@@ -46,6 +46,10 @@ pub fn walk_messages(data: &[u8]) {
                 vec![l]
             );
         }
+    }
+    if let Ok(l) = LobbyState::decode(&p) {
+        let b = l.encode().unwrap();
+        assert_eq!(LobbyState::decode(&Packet::parse(&b).unwrap()).unwrap(), l);
     }
     let _ = WorldFrame::decode(&p);
     let _ = Action::decode(&p);
