@@ -249,8 +249,10 @@ impl SquadCtx {
                 let (a, b) = (leg[0], leg[1]);
                 if !self.nav.line_of_sight(a, b, robot_mover) {
                     if let Some(way) = self.nav.plan(a, b, robot_mover) {
-                        let inner = way.len().saturating_sub(1);
-                        cmds.extend(way[1..inner].iter().map(|&to| Command::GoTo {
+                        // Its turn points between the two ends; none when both ends snap to
+                        // one cell (a plan of a single point).
+                        let inner = way.get(1..way.len().saturating_sub(1)).unwrap_or_default();
+                        cmds.extend(inner.iter().map(|&to| Command::GoTo {
                             to,
                             speed: Some(speed),
                         }));
