@@ -3,11 +3,9 @@
 // ordered alone, a squad split in two and sent two ways, a robot driven with the keys, team
 // chat between two red pages (and not to a blue one), and a refusal with its sound.
 import assert from 'node:assert/strict';
-import path from 'node:path';
 import { after, before, describe, test } from 'node:test';
 import {
-  ColonyProcess, ROOT, SPACING_CM, centroid, freeTcpPort, freeUdpPort, launchBrowser, screenshot, sleep, spread,
-  squadOf as squadIn, untilGame,
+  SPACING_CM, centroid, launchBrowser, screenshot, sleep, spread, squadOf as squadIn, startGame, untilGame,
 } from './lib.mjs';
 
 describe('the game page\'s orders: paths, single robots, split, merge, driving, chat', { concurrency: false }, () => {
@@ -17,13 +15,10 @@ describe('the game page\'s orders: paths, single robots, split, merge, driving, 
   let url;
 
   before(async () => {
-    match = new ColonyProcess('game-orders', [
-      'game', 'ctf', '--map', path.join(ROOT, 'maps', 'ctf.map'), '--player', 'red,blue', '--speed', '2',
+    ({ match, url } = await startGame('game-orders', [
+      '--player', 'red,blue', '--speed', '2',
       '--red', 'alpha:infantry,infantry,infantry,infantry bravo:scout,scout', '--blue', 'alpha:tank',
-      '--hub-bind', `127.0.0.1:${await freeUdpPort()}`,
-      '--monitor-bind', `127.0.0.1:${await freeTcpPort()}`,
-    ]);
-    [, url] = await match.waitFor(/open (http:\/\/127\.0\.0\.1:\d+\/game\?team=red&token=[0-9a-f]{32})\s/, 60000);
+    ]));
     browser = await launchBrowser({ width: 1400, height: 900 });
     page = browser.page;
     await page.goto(url);

@@ -3,10 +3,9 @@
 // an overspent budget is refused with the reason shown, and once red is ready the match starts
 // with the robots as chosen.
 import assert from 'node:assert/strict';
-import path from 'node:path';
 import { after, before, describe, test } from 'node:test';
 import {
-  ColonyProcess, ROOT, freeTcpPort, freeUdpPort, launchBrowser, screenshot, untilGame,
+  launchBrowser, screenshot, startGame, untilGame,
 } from './lib.mjs';
 
 describe('the game\'s pre-match screen', { concurrency: false }, () => {
@@ -15,13 +14,10 @@ describe('the game\'s pre-match screen', { concurrency: false }, () => {
   let page;
 
   before(async () => {
-    match = new ColonyProcess('game-prematch', [
-      'game', 'ctf', '--map', path.join(ROOT, 'maps', 'ctf.map'), '--player', 'red', '--lobby', '--speed', '2',
-      '--red', 'alpha:infantry', '--blue', 'alpha:scout',
-      '--hub-bind', `127.0.0.1:${await freeUdpPort()}`,
-      '--monitor-bind', `127.0.0.1:${await freeTcpPort()}`,
-    ]);
-    const [, url] = await match.waitFor(/set up your team at (http:\/\/127\.0\.0\.1:\d+\/game\?team=red&token=[0-9a-f]{32})\s/, 60000);
+    let url;
+    ({ match, url } = await startGame('game-prematch', [
+      '--player', 'red', '--lobby', '--speed', '2', '--red', 'alpha:infantry', '--blue', 'alpha:scout',
+    ], 'set up your team at'));
     browser = await launchBrowser({ width: 1400, height: 900 });
     page = browser.page;
     await page.goto(url);

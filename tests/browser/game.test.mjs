@@ -4,11 +4,9 @@
 // in Debian's headless Chromium. Screenshots go to test-artifacts/browser/.
 // Every wait is for an event, with room for a loaded machine.
 import assert from 'node:assert/strict';
-import path from 'node:path';
 import { after, before, describe, test } from 'node:test';
 import {
-  ColonyProcess, ROOT, SPACING_CM, centroid, freeTcpPort, freeUdpPort, launchBrowser, screenshot, sleep, spread,
-  squadOf as squadIn, untilGame,
+  SPACING_CM, centroid, launchBrowser, screenshot, sleep, spread, squadOf as squadIn, startGame, untilGame,
 } from './lib.mjs';
 
 describe('the game page, playing red against the scripted blue', { concurrency: false }, () => {
@@ -18,13 +16,8 @@ describe('the game page, playing red against the scripted blue', { concurrency: 
   let url;
 
   before(async () => {
-    match = new ColonyProcess('game-ctf', [
-      'game', 'ctf', '--map', path.join(ROOT, 'maps', 'ctf.map'), '--player', 'red', '--speed', '4',
-      '--hub-bind', `127.0.0.1:${await freeUdpPort()}`,
-      '--monitor-bind', `127.0.0.1:${await freeTcpPort()}`,
-    ]);
     // As printed: the page's address with the team and the monitor's token.
-    [, url] = await match.waitFor(/open (http:\/\/127\.0\.0\.1:\d+\/game\?team=red&token=[0-9a-f]{32})\s/, 60000);
+    ({ match, url } = await startGame('game-ctf', ['--player', 'red', '--speed', '4']));
     browser = await launchBrowser({ width: 1400, height: 900 });
     page = browser.page;
     await page.goto(url);

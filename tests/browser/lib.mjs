@@ -211,6 +211,20 @@ export async function until(page, fn, arg, timeoutMs, what) {
 /** The formation's spacing: a squad in formation keeps every robot within three spacings of its nearest mate. */
 export const SPACING_CM = 22;
 
+/**
+ * Starts `colony game ARGS` on free ports with the repository's Capture the Flag map, and waits for
+ * the page address it prints after `lead` (`open` for a match, `set up your team at` for a pre-match).
+ */
+export async function startGame(name, args, lead = 'open') {
+  const match = new ColonyProcess(name, [
+    'game', 'ctf', '--map', path.join(ROOT, 'maps', 'ctf.map'), ...args,
+    '--hub-bind', `127.0.0.1:${await freeUdpPort()}`,
+    '--monitor-bind', `127.0.0.1:${await freeTcpPort()}`,
+  ]);
+  const [, url] = await match.waitFor(new RegExp(`${lead} (http://127\\.0\\.0\\.1:\\d+/game\\?team=\\w+&token=[0-9a-f]{32})\\s`), 60000);
+  return { match, url };
+}
+
 /** Polls the game page until `fn` returns something truthy; on a timeout, says what the page had. */
 export async function untilGame(page, fn, arg, timeoutMs, what) {
   try {

@@ -347,18 +347,25 @@ function chooseTeam(s) {
   const names = s.teams.map((t) => t.name);
   if (team !== null && !names.includes(team)) names.push(team);
   const sel = $('team');
-  if (sel.dataset.key !== names.join(',')) {
-    sel.dataset.key = names.join(',');
-    sel.replaceChildren(...names.map((n) => {
-      const o = document.createElement('option');
-      o.value = n;
-      o.textContent = n;
-      return o;
-    }));
-  }
+  fillSelect(sel, names);
   if (team !== null && sel.value !== team) sel.value = team;
   $('team-note').textContent = team !== null && !s.teams.some((t) => t.name === team)
     ? `(no team ${team} in this game)` : (teamFromUrl ? '' : '(first team with robots)');
+}
+
+/** Gives a select these names as options when they changed, keeping the choice while it is one. */
+function fillSelect(sel, names) {
+  const key = names.join(',');
+  if (sel.dataset.key === key) return;
+  const keep = sel.value;
+  sel.dataset.key = key;
+  sel.replaceChildren(...names.map((n) => {
+    const o = document.createElement('option');
+    o.value = n;
+    o.textContent = n;
+    return o;
+  }));
+  if (names.includes(keep)) sel.value = keep;
 }
 
 $('team').onchange = () => {
@@ -463,19 +470,7 @@ function renderSquads() {
     squadsKey = full;
     box.innerHTML = full;
   }
-  const others = squads.map((q) => q.name).filter((n) => n !== selected);
-  const into = $('merge-into');
-  if (into.dataset.key !== others.join(',')) {
-    const keep = into.value;
-    into.dataset.key = others.join(',');
-    into.replaceChildren(...others.map((n) => {
-      const o = document.createElement('option');
-      o.value = n;
-      o.textContent = n;
-      return o;
-    }));
-    if (others.includes(keep)) into.value = keep;
-  }
+  fillSelect($('merge-into'), squads.map((q) => q.name).filter((n) => n !== selected));
   if (selected !== null && !squads.some((q) => q.name === selected)) select(null);
   if (picked !== null && !s.robots.some((r) => r.id === picked && r.team === team && r.alive)) pick(null);
 }
