@@ -19,6 +19,9 @@ use crate::rules::{KindRules, RobotKind, Rules, TeamSetup, MAX_UPGRADE, UPGRADE_
 
 /// The lobby is published this often, for pages that open late.
 const PUBLISH_EVERY: Duration = Duration::from_millis(500);
+/// A change is published within this, and no sooner after the last: a flood of packets (forged
+/// or not) makes ten lobby packets a second, not one each.
+const CHANGE_GAP: Duration = Duration::from_millis(100);
 
 struct Seat {
     setup: TeamSetup,
@@ -220,7 +223,7 @@ impl Node for Lobby {
             }
             Err(e) => self.refuse(format!("a bad command from {team}: {e}")),
         }
-        self.publish(now);
+        self.next_publish = self.next_publish.min(now + CHANGE_GAP);
     }
 
     fn poll_timeout(&self) -> Option<Time> {
@@ -315,5 +318,33 @@ mod tests {
         assert_eq!(s.teams[0].setup, "front:tank+h2+p1,scout+h1 back:amphibian");
         assert_eq!(s.teams[0].cost, 5 + 3 + 2 + 1 + 4);
         assert_eq!(s.kinds.len(), 4);
+    }
+
+    #[test]
+    fn a_flood_of_packets_is_answered_with_a_lobby_every_tenth_of_a_second_not_one_each() {
+        let mut l = lobby();
+        l.handle_timeout(Time::ZERO);
+        let mut lobbies = 0;
+        for k in 0..1000u64 {
+            let now = Time::from_micros(k * 1000);
+            let c = PlayerCommand::Setup {
+                team: "red".into(),
+                squads: format!("alpha:tank+h{}", k % 5),
+                ready: false,
+            };
+            let bytes = c.encode().unwrap();
+            l.handle_packet(now, &Packet::parse(&bytes).unwrap());
+            if l.poll_timeout().is_some_and(|t| t <= now) {
+                l.handle_timeout(now);
+            }
+            while let Some(p) = l.poll_transmit() {
+                lobbies += usize::from(Packet::parse(&p).unwrap().has_subject(protocol::LOBBY));
+            }
+        }
+        // One at the start, then one per 100 ms of the second the flood lasted.
+        assert!(
+            (10..=12).contains(&lobbies),
+            "{lobbies} lobby packets for 1000 packets in"
+        );
     }
 }
