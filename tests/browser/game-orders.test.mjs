@@ -180,6 +180,14 @@ describe('the game page\'s orders: paths, single robots, split, merge, driving, 
     await sleep(2000);
     assert.deepEqual(await enemy.evaluate(() => window.colonyGame.chat), [], 'blue heard nothing of red\'s chat');
     assert.ok((await mate.evaluate(() => window.colonyGame.sounds)).includes('chat'), 'the mate heard the chat');
+    // Switched off, the chat is out of sight and silent.
+    await mate.uncheck('#chat-on');
+    assert.ok(await mate.locator('#chat-section').isHidden(), 'the chat is hidden when switched off');
+    const chimes = await mate.evaluate(() => window.colonyGame.sounds.filter((k) => k === 'chat').length);
+    await page.fill('#chat-text', 'and the ford');
+    await page.press('#chat-text', 'Enter');
+    await untilGame(mate, () => window.colonyGame.chat.some((l) => l.text === 'and the ford'), undefined, 15000, 'the second line');
+    assert.equal(await mate.evaluate(() => window.colonyGame.sounds.filter((k) => k === 'chat').length), chimes, 'no chime with the chat off');
 
     const blue = await page.evaluate(() => window.colonyGame.state.robots.find((r) => r.team === 'blue').id);
     await page.evaluate((id) => window.colonyGame.send({ t: 'robot', team: 'red', id, do: 'stop' }), blue);

@@ -137,7 +137,7 @@ function onGame(g) {
 function onChat(c) {
   if (c.team !== team) return;
   const fresh = c.lines.filter((l) => l.seq > lastChatSeq);
-  if (!c.backlog && fresh.length) beep('chat');
+  if (!c.backlog && fresh.length && $('chat-on').checked) beep('chat');
   if (c.lines.length) lastChatSeq = Math.max(lastChatSeq, ...c.lines.map((l) => l.seq));
   chatLines = c.lines;
   api.chat = c.lines.map((l) => ({ from: l.from, text: l.text }));
@@ -300,8 +300,14 @@ const TONES = {
   over: [440, 0.6, 'triangle'],
   chat: [990, 0.06, 'sine'],
 };
-$('sound').checked = localStorage.getItem('colony-game-sound') !== 'off';
-$('sound').onchange = () => localStorage.setItem('colony-game-sound', $('sound').checked ? 'on' : 'off');
+// Both switches are remembered by the browser.
+for (const [id, key] of [['sound', 'colony-game-sound'], ['chat-on', 'colony-game-chat']]) {
+  $(id).checked = localStorage.getItem(key) !== 'off';
+  $(id).addEventListener('change', () => localStorage.setItem(key, $(id).checked ? 'on' : 'off'));
+}
+const showChat = () => { $('chat-section').hidden = !$('chat-on').checked; };
+$('chat-on').addEventListener('change', showChat);
+showChat();
 
 function beep(kind) {
   const tone = TONES[kind];
