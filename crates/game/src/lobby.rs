@@ -213,11 +213,7 @@ impl Node for Lobby {
                         refused.push(why);
                     }
                 }
-                if let Some(first) = refused.first() {
-                    let text = match refused.len() {
-                        1 => first.clone(),
-                        n => format!("{first} (and {} more lines refused)", n - 1),
-                    };
+                if let Some(text) = protocol::player::one_refusal(&refused) {
                     self.refuse(text);
                 }
             }

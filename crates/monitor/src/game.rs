@@ -33,7 +33,7 @@ use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use colony_proto::game::{valid_name, ChatLine, Event, GameState, LobbyState, LobbyStatus};
+use colony_proto::game::{valid_name, ChatLine, Event, GameState, LobbyState};
 use colony_wire::Packet;
 use serde::Serialize;
 
@@ -169,97 +169,11 @@ pub struct EventView {
     pub text: String,
 }
 
-/// A robot type as the pre-match offers it.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct KindView {
-    /// `scout`, `tank`, `infantry` or `amphibian`.
-    pub kind: String,
-    /// Budget points.
-    pub cost: u32,
-    /// Health as it comes.
-    pub health: f64,
-    /// Damage per shot as it comes.
-    pub power: f64,
-    /// Top speed, cm/s.
-    pub speed: f64,
-    /// Shooting range, cm.
-    pub range: f64,
-    /// Crosses water.
-    pub amphibious: bool,
-}
-
-/// A team in the pre-match.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct LobbyTeamView {
-    /// Its name.
-    pub name: String,
-    /// Its player is ready.
-    pub ready: bool,
-    /// The built-in player plays it.
-    pub bot: bool,
-    /// What its setup costs.
-    pub cost: u32,
-    /// Its setup, as `--red` takes it.
-    pub setup: String,
-}
-
-/// The pre-match, as the page shows it.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct LobbyView {
-    /// `drafting` or `started`.
-    pub status: String,
-    /// Budget points per team.
-    pub budget: u32,
-    /// The most squads a team may have.
-    pub max_squads: u32,
-    /// What a point of health or power adds, as a fraction.
-    pub upgrade: f64,
-    /// The most points of health or of power per robot.
-    pub max_upgrade: u32,
-    /// The robot types.
-    pub kinds: Vec<KindView>,
-    /// The teams.
-    pub teams: Vec<LobbyTeamView>,
-}
-
-fn lobby_view(s: LobbyState) -> LobbyView {
-    LobbyView {
-        status: match s.status {
-            LobbyStatus::Drafting => "drafting",
-            LobbyStatus::Started => "started",
-        }
-        .to_string(),
-        budget: s.budget,
-        max_squads: s.max_squads,
-        upgrade: s.upgrade,
-        max_upgrade: s.max_upgrade,
-        kinds: s
-            .kinds
-            .into_iter()
-            .take(16)
-            .map(|k| KindView {
-                kind: k.kind.name().to_string(),
-                cost: k.cost,
-                health: k.health,
-                power: k.power,
-                speed: k.speed,
-                range: k.range,
-                amphibious: k.amphibious,
-            })
-            .collect(),
-        teams: s
-            .teams
-            .into_iter()
-            .take(MAX_TEAMS)
-            .map(|t| LobbyTeamView {
-                name: t.name,
-                ready: t.ready,
-                bot: t.bot,
-                cost: t.cost,
-                setup: t.setup,
-            })
-            .collect(),
-    }
+/// The pre-match as the page gets it: the lobby as the game publishes it, its lists capped.
+fn lobby_view(mut s: LobbyState) -> LobbyState {
+    s.kinds.truncate(16);
+    s.teams.truncate(MAX_TEAMS);
+    s
 }
 
 /// A chat line for the pages of its team.
@@ -312,7 +226,7 @@ pub struct GameView {
     chat: BTreeMap<String, VecDeque<ChatView>>,
     chat_version: u64,
     chat_dropped: u64,
-    lobby: Option<LobbyView>,
+    lobby: Option<LobbyState>,
 }
 
 #[derive(Serialize)]
@@ -327,7 +241,7 @@ struct GameJson<'a> {
     map_version: u64,
     bad_lines: u64,
     chat_dropped: u64,
-    lobby: Option<&'a LobbyView>,
+    lobby: Option<&'a LobbyState>,
 }
 
 #[derive(Serialize)]

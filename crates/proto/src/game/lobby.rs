@@ -11,6 +11,7 @@
 //! ```
 
 use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
+use serde::Serialize;
 
 use super::read::{b, name, tally, text};
 use super::{RobotKind, LOBBY};
@@ -21,7 +22,8 @@ use crate::DecodeError;
 pub const MAX_SETUP: usize = 1000;
 
 /// Where the pre-match stands.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum LobbyStatus {
     /// The players are setting up their teams.
     Drafting,
@@ -30,7 +32,7 @@ pub enum LobbyStatus {
 }
 
 /// A robot type as the lobby offers it.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct KindOffer {
     /// The type.
     pub kind: RobotKind,
@@ -49,7 +51,7 @@ pub struct KindOffer {
 }
 
 /// A team in the pre-match.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LobbyTeam {
     /// Its name.
     pub name: String,
@@ -64,7 +66,7 @@ pub struct LobbyTeam {
 }
 
 /// The pre-match.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LobbyState {
     /// Drafting or started.
     pub status: LobbyStatus,

@@ -177,6 +177,16 @@ impl PlayerCommand {
     }
 }
 
+/// The one refusal a packet gets, however many of its lines were refused: the first reason, and
+/// how many more (a forged packet of many bad lines cannot multiply the answers).
+pub fn one_refusal(reasons: &[String]) -> Option<String> {
+    let first = reasons.first()?;
+    Some(match reasons.len() {
+        1 => first.clone(),
+        n => format!("{first} (and {} more lines refused)", n - 1),
+    })
+}
+
 /// The commands with only the last `drive` of each robot kept: a packet of many drives for
 /// one robot is one drive, not as many orders.
 pub fn latest_drives(commands: Vec<PlayerCommand>) -> Vec<PlayerCommand> {
