@@ -133,6 +133,49 @@ fn reproduce_writes_a_report_with_figures_and_tests() {
     }
 }
 
+#[test]
+fn supplementary_runs_chosen_experiments_into_one_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |only: &str| {
+        colony()
+            .args([
+                "sort",
+                "supplementary",
+                "--trials",
+                "2",
+                "--steps",
+                "200",
+                "--only",
+                only,
+                "--out",
+            ])
+            .arg(dir.path())
+            .output()
+            .unwrap()
+    };
+    let o = run("physical,reinsert");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run("k2");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report = std::fs::read_to_string(dir.path().join("report.md")).unwrap();
+    let sections: Vec<&str> = report.lines().filter(|l| l.starts_with("## ")).collect();
+    assert_eq!(
+        sections,
+        [
+            "## PROBSEEK's k2 (Sect. 4.1)",
+            "## The physical robots' trials (Sect. 4.3)",
+            "## Random re-insertion (Sect. 4.4)"
+        ]
+    );
+    assert!(report.contains("--only physical,reinsert"), "{report}");
+    assert_eq!(report.matches("**Agrees with the paper: ").count(), 3);
+    let bytes = std::fs::read(dir.path().join("reinsert_pc.png")).unwrap();
+    assert_eq!(&bytes[1..4], b"PNG");
+
+    let (ok, e) = stderr_of(&["sort", "supplementary", "--only", "pucs", "--out", "x"]);
+    assert!(!ok && e.contains("unknown experiment `pucs`"), "{e}");
+}
+
 /// A child process (a robot's controller, or the world) killed when dropped.
 struct Robot(Child);
 

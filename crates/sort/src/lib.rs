@@ -32,6 +32,7 @@ pub mod live;
 pub mod plot;
 pub mod report;
 pub mod stats;
+pub mod supplementary;
 
 pub mod cluster;
 pub mod deneubourg;

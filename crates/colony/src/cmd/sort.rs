@@ -11,6 +11,7 @@ use colony_sort::live::launch::{self, Swarm, SwarmSpec};
 use colony_sort::methods::Method;
 use colony_sort::params::SortParams;
 use colony_sort::report;
+use colony_sort::supplementary::{self, Experiment};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::HubAddr;
@@ -21,6 +22,9 @@ pub enum SortCommand {
     Run(RunArgs),
     /// Run the paper's experiments and write plots, tables and statistics.
     Reproduce(ReproduceArgs),
+    /// Run the paper's other experiments (k2, physical robots, pucks, arena size,
+    /// robots, cluster shifts, re-insertion) and write a report section for each.
+    Supplementary(SupplementaryArgs),
     /// Run the simulator live over the hub, each robot's controller a hub client.
     Live(LiveArgs),
     /// Run one robot's controller over the hub (started by `colony sort live`).
@@ -115,6 +119,28 @@ pub struct ReproduceArgs {
 }
 
 #[derive(clap::Args, Debug)]
+pub struct SupplementaryArgs {
+    #[command(flatten)]
+    pub setup: Setup,
+    /// Control steps per trial (the paper: 100,000; the physical robots' trials run
+    /// at most 5,000).
+    #[arg(long, default_value_t = 100_000)]
+    pub steps: u64,
+    /// Trials per method and condition (the paper: 20; the physical robots' at most 3).
+    #[arg(long, default_value_t = 20)]
+    pub trials: u64,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Only these experiments (comma-separated: k2, physical, pucks, arena, robots,
+    /// shift, reinsert); sections already in the directory are kept.
+    #[arg(long, value_delimiter = ',')]
+    pub only: Vec<Experiment>,
+    /// Where the report, figures and CSV files go.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
 pub struct LiveArgs {
     #[command(flatten)]
     pub hub: HubAddr,
@@ -162,6 +188,7 @@ pub fn run(cmd: SortCommand) -> anyhow::Result<()> {
     match cmd {
         SortCommand::Run(a) => run_cmd(a),
         SortCommand::Reproduce(a) => reproduce(a),
+        SortCommand::Supplementary(a) => supplementary(a),
         SortCommand::Live(a) => live(a),
         SortCommand::Robot(a) => robot(a),
     }
@@ -276,6 +303,48 @@ fn reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
         a.out.display()
     );
     report::write(&a.out, &results, &scene, &command)?;
+    println!("report: {}", a.out.join("report.md").display());
+    Ok(())
+}
+
+fn supplementary(a: SupplementaryArgs) -> anyhow::Result<()> {
+    let (scene, params) = a.setup.load()?;
+    if a.trials == 0 || a.steps == 0 {
+        anyhow::bail!("--trials and --steps must be at least 1");
+    }
+    let experiments = if a.only.is_empty() {
+        Experiment::ALL.to_vec()
+    } else {
+        a.only.clone()
+    };
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    let scale = supplementary::Scale {
+        trials: a.trials,
+        steps: a.steps,
+        seed: a.seed,
+    };
+    let plan = supplementary::plan(&experiments, &scene, &params, scale);
+    eprintln!(
+        "colony: {} trials on {} threads",
+        plan.specs.len(),
+        rayon::current_num_threads()
+    );
+    let results = execute(&plan.specs)?;
+    let only = if a.only.is_empty() {
+        String::new()
+    } else {
+        let names: Vec<&str> = a.only.iter().map(|e| e.name()).collect();
+        format!(" --only {}", names.join(","))
+    };
+    let command = format!(
+        "colony sort supplementary --steps {} --trials {} --seed {}{only} --out {}",
+        a.steps,
+        a.trials,
+        a.seed,
+        a.out.display()
+    );
+    supplementary::report::write(&a.out, &plan, &results, &command)?;
     println!("report: {}", a.out.join("report.md").display());
     Ok(())
 }
