@@ -88,7 +88,18 @@ impl World {
             }
         });
         let near = fp.reach() + self.geometry.bounding_radius;
-        for (k, other) in self.robots.iter().enumerate() {
+        // Only robots whose centres are in the box around `near` can be seen; they are
+        // visited in id order, as a scan of every robot would.
+        let mut nearby: Vec<u32> = Vec::new();
+        let centre = me.pose.position();
+        self.robot_grid.query(
+            Vec2::new(centre.x - near, centre.y - near),
+            Vec2::new(centre.x + near, centre.y + near),
+            |k| nearby.push(k),
+        );
+        nearby.sort_unstable();
+        for k in nearby.into_iter().map(|k| k as usize) {
+            let other = &self.robots[k];
             if k == id.0 {
                 continue;
             }

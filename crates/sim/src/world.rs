@@ -10,7 +10,7 @@ use crate::body::RobotGeometry;
 use crate::config::{Footprint, SceneConfig};
 use crate::error::SimError;
 use crate::grid::Grid;
-use crate::layout::{crowded, sample, sample_pucks, LAYOUT_GAP};
+use crate::layout::{sample_pucks, sample_robots};
 use crate::physics::Physics;
 use crate::snapshot::{PuckSnapshot, RobotSnapshot, WorldSnapshot};
 use crate::types::{Pose, Puck, PuckId, PuckKind, RobotId, RobotState, Vec2, WheelCommand};
@@ -40,6 +40,7 @@ pub struct World {
     pub(crate) robots: Vec<RobotSlot>,
     pub(crate) pucks: Vec<PuckSlot>,
     pub(crate) puck_grid: Grid,
+    pub(crate) robot_grid: Grid,
     pub(crate) wall_points: Vec<Vec2>,
     pub(crate) wall_grid: Grid,
     step: u64,
@@ -111,22 +112,7 @@ impl World {
         let arena = Arena::new(&config.arena);
         let geometry = RobotGeometry::new(config);
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut robots = Vec::new();
-        for i in 0..config.robots.count {
-            let r = geometry.bounding_radius;
-            let p = sample(&arena, r, &mut rng, |p| {
-                robots
-                    .iter()
-                    .all(|q: &Pose| q.position().distance(p) >= 2.0 * r + LAYOUT_GAP)
-            })
-            .ok_or_else(|| crowded("robot", i, config.robots.count))?;
-            let theta = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
-            robots.push(Pose {
-                x: p.x,
-                y: p.y,
-                theta,
-            });
-        }
+        let robots = sample_robots(config, &arena, &geometry, &mut rng)?;
         let centres: Vec<Vec2> = robots.iter().map(Pose::position).collect();
         let positions = sample_pucks(config, &arena, &geometry, &centres, &mut rng)?;
         let pucks: Vec<(PuckKind, Vec2)> = positions
@@ -226,6 +212,7 @@ impl World {
             robots,
             pucks,
             puck_grid: Grid::new(half, cell),
+            robot_grid: Grid::new(half, cell),
             wall_points,
             wall_grid,
             step: 0,
@@ -431,6 +418,8 @@ impl World {
             p.in_pocket_of = None;
         }
         self.puck_grid.rebuild(self.pucks.iter().map(|p| p.pos));
+        self.robot_grid
+            .rebuild(self.robots.iter().map(|r| r.pose.position()));
         let g = &self.geometry;
         let reach = g.pocket_radius + self.config.puck_radius();
         // A robot keeps its puck while the puck is still in far enough...

@@ -136,3 +136,42 @@ fn an_unknown_robot_observes_nothing() {
         colony_sim::Observation::default()
     );
 }
+
+#[test]
+fn in_a_large_swarm_each_robot_sees_exactly_the_robots_in_its_footprint_in_id_order() {
+    // 300 robots at the standard density, after they have driven into one another a while.
+    let mut world = World::new(&SceneConfig::scaled(300), 5).unwrap();
+    let go = colony_sim::WheelCommand {
+        forward: 1.0,
+        turn: 0.3,
+    };
+    for _ in 0..40 {
+        world.step(&[go; 300]);
+    }
+    let robots = world.robots();
+    let fp = world.footprint();
+    let mut seen_any = 0;
+    for me in &robots {
+        let (s, c) = me.pose.theta.sin_cos();
+        let expected: Vec<Vec2> = robots
+            .iter()
+            .filter(|o| o.id != me.id)
+            .map(|o| {
+                let (dx, dy) = (o.pose.x - me.pose.x, o.pose.y - me.pose.y);
+                Vec2::new(c * dx + s * dy, -s * dx + c * dy)
+            })
+            .filter(|local| fp.contains(*local))
+            .collect();
+        let obs = world.observe(me.id);
+        assert_eq!(obs.robots.len(), expected.len(), "robot {}", me.id.0);
+        for (got, want) in obs.robots.iter().zip(&expected) {
+            assert!(
+                close(*got, *want),
+                "robot {}: {got:?} against {want:?}",
+                me.id.0
+            );
+        }
+        seen_any += usize::from(!expected.is_empty());
+    }
+    assert!(seen_any > 10, "only {seen_any} robots saw another");
+}

@@ -129,20 +129,27 @@ pub fn find_clusters(pucks: &[(PuckKind, Vec2)], threshold: f64) -> Vec<Cluster>
         i
     }
     let t2 = threshold * threshold;
-    for i in 0..n {
-        for j in (i + 1)..n {
-            if pucks[i].0 != pucks[j].0 {
+    // Sweep along x: only pucks less than `threshold` apart in x can be joined, so the
+    // global map of a large swarm costs O(n log n) plus its close pairs, not O(n^2).
+    // Components, degrees and roots do not depend on the order pairs are met in.
+    let mut by_x: Vec<usize> = (0..n).collect();
+    by_x.sort_by(|&a, &b| pucks[a].1.x.total_cmp(&pucks[b].1.x).then(a.cmp(&b)));
+    for (k, &i) in by_x.iter().enumerate() {
+        for &j in &by_x[k + 1..] {
+            let d = pucks[i].1 - pucks[j].1;
+            if -d.x >= threshold {
+                break;
+            }
+            let close = d.x * d.x + d.y * d.y < t2;
+            if pucks[i].0 != pucks[j].0 || !close {
                 continue;
             }
-            let d = pucks[i].1 - pucks[j].1;
-            if d.x * d.x + d.y * d.y < t2 {
-                degree[i] += 1;
-                degree[j] += 1;
-                let (ri, rj) = (root(&mut parent, i), root(&mut parent, j));
-                if ri != rj {
-                    // The smaller index becomes the root, so roots are first members.
-                    parent[ri.max(rj)] = ri.min(rj);
-                }
+            degree[i] += 1;
+            degree[j] += 1;
+            let (ri, rj) = (root(&mut parent, i), root(&mut parent, j));
+            if ri != rj {
+                // The smaller index becomes the root, so roots are first members.
+                parent[ri.max(rj)] = ri.min(rj);
             }
         }
     }
@@ -169,4 +176,81 @@ pub fn find_clusters(pucks: &[(PuckKind, Vec2)], threshold: f64) -> Vec<Cluster>
         c.centroid = sum * (1.0 / c.members.len() as f64);
     }
     clusters
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Every pair compared: the definition the sweep must match.
+    fn brute_force(pucks: &[(PuckKind, Vec2)], threshold: f64) -> Vec<(Vec<usize>, Vec<usize>)> {
+        let n = pucks.len();
+        let t2 = threshold * threshold;
+        let joined = |i: usize, j: usize| {
+            let d = pucks[i].1 - pucks[j].1;
+            i != j && pucks[i].0 == pucks[j].0 && d.x * d.x + d.y * d.y < t2
+        };
+        let mut label: Vec<usize> = (0..n).collect();
+        let mut changed = true;
+        while changed {
+            changed = false;
+            for i in 0..n {
+                for j in 0..n {
+                    if joined(i, j) && label[j] < label[i] {
+                        label[i] = label[j];
+                        changed = true;
+                    }
+                }
+            }
+        }
+        let mut out: Vec<(Vec<usize>, Vec<usize>)> = Vec::new();
+        for first in 0..n {
+            let members: Vec<usize> = (0..n).filter(|&i| label[i] == first).collect();
+            if !members.is_empty() {
+                let degrees = members
+                    .iter()
+                    .map(|&i| (0..n).filter(|&j| joined(i, j)).count())
+                    .collect();
+                out.push((members, degrees));
+            }
+        }
+        out
+    }
+
+    proptest! {
+        #[test]
+        fn the_sweep_finds_the_clusters_of_every_pair_compared(
+            pts in prop::collection::vec((0u8..3, -60.0..60.0f64, -60.0..60.0f64), 0..80),
+            threshold in 0.5..20.0f64,
+        ) {
+            let pucks: Vec<(PuckKind, Vec2)> =
+                pts.iter().map(|&(k, x, y)| (PuckKind(k), Vec2::new(x, y))).collect();
+            let got: Vec<(Vec<usize>, Vec<usize>)> = find_clusters(&pucks, threshold)
+                .iter()
+                .map(|c| (
+                    c.members.iter().map(|m| m.index).collect(),
+                    c.members.iter().map(|m| m.degree).collect(),
+                ))
+                .collect();
+            prop_assert_eq!(got, brute_force(&pucks, threshold));
+        }
+    }
+
+    #[test]
+    fn pucks_at_the_same_x_and_unusable_positions_are_handled() {
+        let a = PuckKind(0);
+        let pucks = [
+            (a, Vec2::new(0.0, 0.0)),
+            (a, Vec2::new(0.0, 5.0)),
+            (a, Vec2::new(f64::NAN, 0.0)),
+            (a, Vec2::new(0.0, 30.0)),
+            (a, Vec2::new(f64::INFINITY, 0.0)),
+        ];
+        let sizes: Vec<usize> = find_clusters(&pucks, 9.45)
+            .iter()
+            .map(Cluster::size)
+            .collect();
+        assert_eq!(sizes, vec![2, 1, 1, 1]);
+    }
 }

@@ -15,6 +15,10 @@ use crate::methods::{build, Method};
 use crate::metrics;
 use crate::params::SortParams;
 
+/// Robots one thread senses and decides for at a time: fewer make the threads' hand-offs
+/// cost more than the work.
+const ROBOTS_PER_TASK: usize = 32;
+
 /// One trial to run.
 #[derive(Debug, Clone)]
 pub struct TrialSpec {
@@ -230,11 +234,16 @@ pub fn run_trial(
         if step == spec.steps {
             break;
         }
-        commands.clear();
-        for (i, (c, rng)) in controllers.iter_mut().zip(&mut rngs).enumerate() {
-            let obs = world.observe(RobotId(i));
-            commands.push(c.step(&obs, rng));
-        }
+        // Robots sense and decide independently (each with its own random stream), so
+        // spreading them over threads cannot change a command.
+        let seen = &world;
+        controllers
+            .par_iter_mut()
+            .zip(rngs.par_iter_mut())
+            .enumerate()
+            .with_min_len(ROBOTS_PER_TASK)
+            .map(|(i, (c, rng))| c.step(&seen.observe(RobotId(i)), rng))
+            .collect_into_vec(&mut commands);
         world.step(&commands);
         if step % 1000 == 999 {
             progress(step + 1 - reported);

@@ -1,6 +1,6 @@
 //! Whole trials: the simulator, the controllers and the metrics together.
 
-use colony_sim::SceneConfig;
+use colony_sim::{SceneConfig, World};
 use colony_sort::experiment::{run_trial, run_trials, write_csv, Disturbance, TrialSpec};
 use colony_sort::methods::Method;
 use colony_sort::params::SortParams;
@@ -49,6 +49,34 @@ fn results_do_not_depend_on_the_thread_count() {
         .install(|| run_trials(&specs, &|_| {}))
         .unwrap();
     assert_eq!(one, two);
+}
+
+#[test]
+fn a_large_swarm_steps_the_same_on_one_thread_and_on_two() {
+    // Enough robots that sensing and control are spread over both threads of one world.
+    let mut s = spec(Method::CacheCons, 9, 60);
+    s.scene = SceneConfig::scaled(150);
+    s.sample_every = 20;
+    s.snapshot_at = vec![60];
+    let on = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| run_trial(&s, &|_| {}))
+            .unwrap()
+    };
+    let (one, two) = (on(1), on(2));
+    assert_eq!(one, two);
+    // The robots did move: the comparison is of a trial, not of a frozen world.
+    let start = World::new(&s.scene, 9).unwrap().robots();
+    let moved = one.snapshots[0]
+        .robots
+        .iter()
+        .zip(&start)
+        .filter(|((x, y, _), r)| (x - r.pose.x).hypot(y - r.pose.y) > 5.0)
+        .count();
+    assert!(moved > 100, "only {moved} robots moved");
 }
 
 #[test]
