@@ -19,10 +19,15 @@ pub(crate) struct Grid {
 impl Grid {
     /// An empty grid covering `[-half.x, half.x] x [-half.y, half.y]` with square cells.
     pub fn new(half: Vec2, cell: f64) -> Grid {
-        let nx = ((2.0 * half.x / cell).ceil() as usize).max(1);
-        let ny = ((2.0 * half.y / cell).ceil() as usize).max(1);
+        Grid::over(Vec2::new(-half.x, -half.y), half, cell)
+    }
+
+    /// An empty grid covering the box `[lo, hi]` with square cells.
+    pub fn over(lo: Vec2, hi: Vec2, cell: f64) -> Grid {
+        let nx = (((hi.x - lo.x) / cell).ceil() as usize).max(1);
+        let ny = (((hi.y - lo.y) / cell).ceil() as usize).max(1);
         Grid {
-            origin: Vec2::new(-half.x, -half.y),
+            origin: lo,
             inv_cell: 1.0 / cell,
             nx,
             ny,

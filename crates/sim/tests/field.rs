@@ -478,3 +478,35 @@ fn a_large_random_map_builds_and_runs() {
         assert!(f.sense(id).is_some());
     }
 }
+
+#[test]
+fn robots_placed_or_moved_between_steps_are_found_by_placement_and_sensing() {
+    // A 10 m square; 150 robots on a 40 cm lattice, more than the field leaves out of its
+    // index between steps, so some are found in the index and some past it.
+    let mut f = field(columns(100, 100, |_| Terrain::Open));
+    for i in 0..150 {
+        let (x, y) = (20.0 + 40.0 * (i % 20) as f64, 20.0 + 40.0 * (i / 20) as f64);
+        f.add_robot(LAND, pose(x, y, 0.0)).unwrap();
+    }
+    for probe in [3, 77, 149] {
+        let p = f.robot_pose(FieldRobotId(probe)).unwrap();
+        let e = f.add_robot(LAND, pose(p.x + 6.0, p.y, 0.0)).unwrap_err();
+        assert_eq!(refusal(e), Refusal::Robot(FieldRobotId(probe)));
+    }
+    // Robot 5 moves before any step: its new place is taken, its old one free.
+    let old = f.robot_pose(FieldRobotId(5)).unwrap();
+    f.respawn(FieldRobotId(5), pose(900.0, 900.0, 0.0)).unwrap();
+    let e = f.add_robot(LAND, pose(905.0, 900.0, 0.0)).unwrap_err();
+    assert_eq!(refusal(e), Refusal::Robot(FieldRobotId(5)));
+    let newcomer = f.add_robot(LAND, pose(old.x, old.y, 0.0)).unwrap();
+    // One just behind robot 5's new place bumps it, before and after a step.
+    let behind = f.add_robot(LAND, pose(889.9, 900.0, 0.0)).unwrap();
+    assert!(f.sense(behind).unwrap().bump_front);
+    f.step(&[]);
+    assert!(f.sense(behind).unwrap().bump_front);
+    assert!(!f.sense(newcomer).unwrap().bump_front);
+    // Switched off, robot 5 is no obstacle.
+    f.set_active(FieldRobotId(5), false).unwrap();
+    assert!(!f.sense(behind).unwrap().bump_front);
+    f.add_robot(LAND, pose(905.0, 900.0, 0.0)).unwrap();
+}

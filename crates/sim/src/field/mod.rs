@@ -62,7 +62,8 @@ pub use place::Refusal;
 pub use sense::{FieldSense, SonarEcho};
 
 use crate::error::SimError;
-use crate::types::{Pose, WheelCommand};
+use crate::grid::Grid;
+use crate::types::{Pose, Vec2, WheelCommand};
 use physics::FieldPhysics;
 
 /// Index of a robot in a [`Field`] (0-based, in the order added, never reused).
@@ -136,13 +137,29 @@ pub struct Field {
     robots: Vec<RobotSlot>,
     boxes: Vec<BoxSlot>,
     step: u64,
+    /// Robots by where they were at the last [`Field::index_robots`]...
+    robot_grid: Grid,
+    /// ...and those added or moved since, whose place in the grid is missing or stale.
+    unindexed: Vec<usize>,
+    /// The largest robot radius, so a search for robots touching a disc knows how far to look.
+    max_radius: f64,
 }
+
+/// Side of the cells of the robot grid, cm (larger on maps wider than
+/// `ROBOT_CELL * ROBOT_MAX_CELLS`, so it never has more than that many cells a side).
+const ROBOT_CELL: f64 = 25.0;
+const ROBOT_MAX_CELLS: f64 = 256.0;
+/// Robots added or moved between steps before the grid is rebuilt rather than searched
+/// past: keeps placing N robots O(N^2 / this) instead of O(N^2).
+const MAX_UNINDEXED: usize = 64;
 
 impl Field {
     /// An empty field on `map`. Fails on an invalid configuration.
     pub fn new(map: TileMap, config: FieldConfig) -> Result<Field, SimError> {
         config.validate()?;
         let physics = FieldPhysics::new(&map, &config);
+        let size = map.size_cm();
+        let cell = ROBOT_CELL.max(size.x.max(size.y) / ROBOT_MAX_CELLS);
         Ok(Field {
             map,
             config,
@@ -150,6 +167,9 @@ impl Field {
             robots: Vec::new(),
             boxes: Vec::new(),
             step: 0,
+            robot_grid: Grid::over(Vec2::ZERO, size, cell),
+            unindexed: Vec::new(),
+            max_radius: 0.0,
         })
     }
 
@@ -169,6 +189,8 @@ impl Field {
             pose,
             active: true,
         });
+        self.max_radius = self.max_radius.max(spec.radius);
+        self.moved(id.0);
         Ok(id)
     }
 
@@ -223,7 +245,39 @@ impl Field {
         let slot = &mut self.robots[id.0];
         slot.active = true;
         slot.pose = self.physics.pose_of(body).unwrap_or(pose);
+        self.moved(id.0);
         Ok(())
+    }
+
+    /// Notes that robot `i` is not where the grid has it.
+    fn moved(&mut self, i: usize) {
+        self.unindexed.push(i);
+        if self.unindexed.len() > MAX_UNINDEXED {
+            self.index_robots();
+        }
+    }
+
+    fn index_robots(&mut self) {
+        self.robot_grid
+            .rebuild(self.robots.iter().map(|r| r.pose.position()));
+        self.unindexed.clear();
+    }
+
+    /// Active robots other than `except` whose discs may come within `reach` of `c`
+    /// (centres within `reach` plus the largest radius, in x and in y), in id order, for
+    /// callers to test exactly.
+    pub(super) fn robots_near(&self, c: Vec2, reach: f64, except: usize) -> Vec<usize> {
+        let d = reach + self.max_radius;
+        let mut near: Vec<usize> = self.unindexed.clone();
+        self.robot_grid.query(
+            Vec2::new(c.x - d, c.y - d),
+            Vec2::new(c.x + d, c.y + d),
+            |k| near.push(k as usize),
+        );
+        near.sort_unstable();
+        near.dedup();
+        near.retain(|&k| k != except && self.robots.get(k).is_some_and(|r| r.active));
+        near
     }
 
     /// Advances the field by one control step (`config.substeps` physics steps).
@@ -255,6 +309,7 @@ impl Field {
         for b in &mut self.boxes {
             b.pose = self.physics.pose_of(b.body).unwrap_or(b.pose);
         }
+        self.index_robots();
     }
 
     /// A robot's pose (its last one if inactive), or `None` for an unknown id.

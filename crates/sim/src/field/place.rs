@@ -102,11 +102,9 @@ impl Field {
         }) {
             return Some(refusal);
         }
-        for (k, other) in self.robots.iter().enumerate() {
-            if k != id.0
-                && other.active
-                && other.pose.position().distance(c) < r + other.spec.radius
-            {
+        for k in self.robots_near(c, r, id.0) {
+            let other = &self.robots[k];
+            if other.pose.position().distance(c) < r + other.spec.radius {
                 return Some(Refusal::Robot(FieldRobotId(k)));
             }
         }
@@ -127,8 +125,11 @@ impl Field {
         if let Some(refusal) = self.terrain_refusal(lo, hi, false, |cell| cell.overlaps(&obb)) {
             return Some(refusal);
         }
-        for (k, r) in self.robots.iter().enumerate() {
-            if r.active && obb.overlaps_disc(r.pose.position(), r.spec.radius) {
+        let centre = (lo + hi) * 0.5;
+        let reach = (hi.x - lo.x).max(hi.y - lo.y) * 0.5;
+        for k in self.robots_near(centre, reach, usize::MAX) {
+            let r = &self.robots[k];
+            if obb.overlaps_disc(r.pose.position(), r.spec.radius) {
                 return Some(Refusal::Robot(FieldRobotId(k)));
             }
         }

@@ -107,11 +107,13 @@ impl Field {
                 }
             }
         }
-        for (k, other) in self.robots.iter().enumerate() {
-            if k != id.0 && other.active {
-                let d = other.pose.position() - c;
-                touch(d.length() - r - other.spec.radius, d);
-            }
+        let range = cfg.sonar_range;
+        let max_t = r + range;
+        let near = self.robots_near(c, reach.max(max_t), id.0);
+        for &k in &near {
+            let other = &self.robots[k];
+            let d = other.pose.position() - c;
+            touch(d.length() - r - other.spec.radius, d);
         }
         for b in &self.boxes {
             let q = box_obb(&b.spec, b.pose).closest_point(c);
@@ -119,16 +121,11 @@ impl Field {
         }
 
         // Sonar.
-        let range = cfg.sonar_range;
-        let max_t = r + range;
-        let robots: Vec<(Vec2, f64)> = self
-            .robots
+        let robots: Vec<(Vec2, f64)> = near
             .iter()
-            .enumerate()
-            .filter(|&(k, o)| {
-                k != id.0 && o.active && o.pose.position().distance(c) <= max_t + o.spec.radius
-            })
-            .map(|(_, o)| (o.pose.position(), o.spec.radius))
+            .map(|&k| &self.robots[k])
+            .filter(|o| o.pose.position().distance(c) <= max_t + o.spec.radius)
+            .map(|o| (o.pose.position(), o.spec.radius))
             .collect();
         let boxes: Vec<Obb> = self
             .boxes

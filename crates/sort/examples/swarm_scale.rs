@@ -1,0 +1,80 @@
+//! How a sorting swarm scales: setting up a world of N robots with their pucks (the
+//! standard densities, `SceneConfig::scaled`), then a trial of CACHECONS controllers on
+//! full physics, as `colony sort run` runs it (metrics every 100 steps). Prints one
+//! Markdown table row: robots, pucks, setup time, control steps per second, the multiple
+//! of real time (a control step is 0.214 s of simulated time), and the process's peak
+//! memory. Run one N per process so the peak is that N's.
+//!
+//! ```text
+//! cargo run --release -p colony-sort --example swarm_scale -- --robots 1024 --steps 200
+//! ```
+
+use std::time::Instant;
+
+use colony_sim::{SceneConfig, World};
+use colony_sort::experiment::{run_trial, TrialSpec};
+use colony_sort::{Method, SortParams};
+
+fn main() {
+    let (mut robots, mut steps, mut seed) = (4usize, 1_000u64, 1u64);
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        let value = args.next().and_then(|v| v.parse::<u64>().ok());
+        match (a.as_str(), value) {
+            ("--robots", Some(v)) if v > 0 => robots = v as usize,
+            ("--steps", Some(v)) if v > 0 => steps = v,
+            ("--seed", Some(v)) => seed = v,
+            _ => {
+                eprintln!("usage: swarm_scale [--robots N] [--steps N] [--seed N]");
+                std::process::exit(2);
+            }
+        }
+    }
+    let scene = SceneConfig::scaled(robots);
+    let started = Instant::now();
+    let world = World::new(&scene, seed).unwrap_or_else(|e| {
+        eprintln!("swarm_scale: {e}");
+        std::process::exit(1);
+    });
+    let setup = started.elapsed().as_secs_f64();
+    drop(world);
+    let spec = TrialSpec {
+        method: Method::CacheCons,
+        scene: scene.clone(),
+        params: SortParams::default(),
+        steps,
+        seed,
+        sample_every: 100,
+        snapshot_at: Vec::new(),
+        disturbances: Vec::new(),
+    };
+    let started = Instant::now();
+    let result = run_trial(&spec, &|_| {}).unwrap_or_else(|e| {
+        eprintln!("swarm_scale: {e}");
+        std::process::exit(1);
+    });
+    // The trial builds its own world: take that setup out of the stepping time.
+    let stepping = started.elapsed().as_secs_f64() - setup;
+    let per_second = steps as f64 / stepping;
+    let real_time = per_second * scene.control_step_seconds();
+    println!(
+        "| {robots} | {} | {:.1} m x {:.1} m | {setup:.3} s | {per_second:.1} | {real_time:.2} | {} | final PC {:.1} % after {steps} steps |",
+        scene.pucks.count,
+        scene.arena.width / 100.0,
+        scene.arena.height / 100.0,
+        peak_memory(),
+        result.final_pc()
+    );
+}
+
+/// The process's peak resident memory (Linux's VmHWM), or "?" where it cannot be read.
+fn peak_memory() -> String {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("VmHWM:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
+        })
+        .map_or("?".to_owned(), |kb| format!("{:.0} MB", kb / 1024.0))
+}
