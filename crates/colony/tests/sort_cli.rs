@@ -172,6 +172,41 @@ fn supplementary_runs_chosen_experiments_into_one_report() {
     let bytes = std::fs::read(dir.path().join("reinsert_pc.png")).unwrap();
     assert_eq!(&bytes[1..4], b"PNG");
 
+    // The report again from the CSV files, without running a trial.
+    let o = colony()
+        .args([
+            "sort",
+            "supplementary",
+            "--trials",
+            "2",
+            "--steps",
+            "200",
+            "--only",
+            "reinsert",
+            "--report-only",
+            "--out",
+        ])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("trials on"));
+    let again = std::fs::read_to_string(dir.path().join("report.md")).unwrap();
+    assert_eq!(again.matches("**Agrees with the paper: ").count(), 3);
+    // Settings that do not match the files are refused with a clear error.
+    let (ok, e) = stderr_of(&[
+        "sort",
+        "supplementary",
+        "--steps",
+        "300",
+        "--only",
+        "reinsert",
+        "--report-only",
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(!ok && e.contains("run the trials again"), "{e}");
+
     let (ok, e) = stderr_of(&["sort", "supplementary", "--only", "pucs", "--out", "x"]);
     assert!(!ok && e.contains("unknown experiment `pucs`"), "{e}");
 }

@@ -43,6 +43,7 @@ pub(crate) fn sample<R: Rng + ?Sized>(
 /// the points, not the arena.
 struct Placed {
     clear: f64,
+    cell: f64,
     cells: HashMap<(i64, i64), Vec<Vec2>>,
 }
 
@@ -50,14 +51,17 @@ impl Placed {
     fn new(clear: f64) -> Placed {
         Placed {
             clear,
+            // A hair wider than the clearance, so rounding in `cell` cannot put two points
+            // closer than it two cells apart.
+            cell: clear * (1.0 + 1e-9),
             cells: HashMap::new(),
         }
     }
 
     fn cell(&self, p: Vec2) -> (i64, i64) {
         (
-            (p.x / self.clear).floor() as i64,
-            (p.y / self.clear).floor() as i64,
+            (p.x / self.cell).floor() as i64,
+            (p.y / self.cell).floor() as i64,
         )
     }
 

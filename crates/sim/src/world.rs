@@ -399,7 +399,7 @@ impl World {
         }
     }
 
-    /// Re-reads poses from the physics, rebuilds the puck grid and updates which
+    /// Re-reads poses from the physics, rebuilds the puck and robot grids and updates which
     /// puck each gripper holds (with the carrying hysteresis).
     fn refresh(&mut self) {
         for r in &mut self.robots {

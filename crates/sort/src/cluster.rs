@@ -115,7 +115,7 @@ where
 }
 
 /// Clusters of `pucks` (kind and position): two pucks of the same kind are
-/// joined when strictly closer than `threshold`. Clusters come in order of
+/// joined when strictly closer than `threshold` (none when it is 0 or less). Clusters come in order of
 /// their first member's index; every puck is in exactly one cluster.
 pub fn find_clusters(pucks: &[(PuckKind, Vec2)], threshold: f64) -> Vec<Cluster> {
     let n = pucks.len();
@@ -129,9 +129,9 @@ pub fn find_clusters(pucks: &[(PuckKind, Vec2)], threshold: f64) -> Vec<Cluster>
         i
     }
     let t2 = threshold * threshold;
-    // Sweep along x: only pucks less than `threshold` apart in x can be joined, so the
-    // global map of a large swarm costs O(n log n) plus its close pairs, not O(n^2).
-    // Components, degrees and roots do not depend on the order pairs are met in.
+    // Sweep along x: only pucks less than `threshold` apart in x can be joined, so a pair is
+    // looked at only when it is that close in x, not every pair of the global map of a large
+    // swarm. Components, degrees and roots do not depend on the order pairs are met in.
     let mut by_x: Vec<usize> = (0..n).collect();
     by_x.sort_by(|&a, &b| pucks[a].1.x.total_cmp(&pucks[b].1.x).then(a.cmp(&b)));
     for (k, &i) in by_x.iter().enumerate() {

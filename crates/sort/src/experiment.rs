@@ -15,8 +15,8 @@ use crate::methods::{build, Method};
 use crate::metrics;
 use crate::params::SortParams;
 
-/// Robots one thread senses and decides for at a time: fewer make the threads' hand-offs
-/// cost more than the work.
+/// The fewest robots one thread senses and decides for in a go (rayon's minimum chunk):
+/// smaller chunks make the threads' hand-offs cost more than the work.
 const ROBOTS_PER_TASK: usize = 32;
 
 /// One trial to run.
@@ -143,6 +143,14 @@ pub enum ExperimentError {
     /// The experiment's settings make no sense.
     #[error("{0}")]
     Invalid(String),
+    /// A result file could not be read.
+    #[error("cannot read {path}")]
+    Read {
+        /// The file.
+        path: String,
+        /// Why.
+        source: std::io::Error,
+    },
     /// A result file could not be written.
     #[error("cannot write {path}")]
     Write {
@@ -284,30 +292,28 @@ impl StepCounter {
     }
 }
 
+/// The error for a file that could not be written, to hand to `map_err`.
+pub(crate) fn write_error(path: &Path) -> impl FnOnce(std::io::Error) -> ExperimentError + '_ {
+    move |source| ExperimentError::Write {
+        path: path.display().to_string(),
+        source,
+    }
+}
+
 fn create(path: &Path) -> Result<std::io::BufWriter<std::fs::File>, ExperimentError> {
     std::fs::File::create(path)
         .map(std::io::BufWriter::new)
-        .map_err(|source| ExperimentError::Write {
-            path: path.display().to_string(),
-            source,
-        })
+        .map_err(write_error(path))
 }
 
 /// Writes one CSV per trial (`step,pc,cache_variance`) and a summary
 /// (`method,types,trial,seed,steps,stc,twc,final_pc`) into `dir`.
 pub fn write_csv(dir: &Path, results: &[TrialResult]) -> Result<(), ExperimentError> {
-    let werr = |path: &Path| {
-        let path = path.display().to_string();
-        move |source| ExperimentError::Write {
-            path: path.clone(),
-            source,
-        }
-    };
-    std::fs::create_dir_all(dir).map_err(werr(dir))?;
+    std::fs::create_dir_all(dir).map_err(write_error(dir))?;
     let summary_path = dir.join("summary.csv");
     let mut summary = create(&summary_path)?;
     writeln!(summary, "method,types,trial,seed,steps,stc,twc,final_pc")
-        .map_err(werr(&summary_path))?;
+        .map_err(write_error(&summary_path))?;
     let mut trial_of: std::collections::HashMap<(Method, usize), usize> = Default::default();
     for r in results {
         let trial = trial_of.entry((r.method, r.types)).or_insert(0);
@@ -316,15 +322,15 @@ pub fn write_csv(dir: &Path, results: &[TrialResult]) -> Result<(), ExperimentEr
             r.method, r.types, trial
         ));
         let mut f = create(&path)?;
-        writeln!(f, "step,pc,cache_variance").map_err(werr(&path))?;
+        writeln!(f, "step,pc,cache_variance").map_err(write_error(&path))?;
         for s in &r.samples {
             let cv = s
                 .cache_variance
                 .map(|v| format!("{v:.4}"))
                 .unwrap_or_default();
-            writeln!(f, "{},{:.4},{}", s.step, s.pc, cv).map_err(werr(&path))?;
+            writeln!(f, "{},{:.4},{}", s.step, s.pc, cv).map_err(write_error(&path))?;
         }
-        f.flush().map_err(werr(&path))?;
+        f.flush().map_err(write_error(&path))?;
         let stc = r.stc.map(|s| s.to_string()).unwrap_or_default();
         writeln!(
             summary,
@@ -338,8 +344,84 @@ pub fn write_csv(dir: &Path, results: &[TrialResult]) -> Result<(), ExperimentEr
             r.twc,
             r.final_pc()
         )
-        .map_err(werr(&summary_path))?;
+        .map_err(write_error(&summary_path))?;
         *trial += 1;
     }
-    summary.flush().map_err(werr(&summary_path))
+    summary.flush().map_err(write_error(&summary_path))
+}
+
+/// Reads back what [`write_csv`] wrote into `dir`: every trial in the summary's order,
+/// with its samples (snapshots are not kept in CSV files, so there are none).
+pub fn read_csv(dir: &Path) -> Result<Vec<TrialResult>, ExperimentError> {
+    let bad = |path: &Path, line: usize, what: &str| {
+        ExperimentError::Invalid(format!("{}:{line}: {what}", path.display()))
+    };
+    let read = |path: &Path| {
+        std::fs::read_to_string(path).map_err(|source| ExperimentError::Read {
+            path: path.display().to_string(),
+            source,
+        })
+    };
+    let summary_path = dir.join("summary.csv");
+    let summary = read(&summary_path)?;
+    let mut out = Vec::new();
+    for (n, line) in summary.lines().enumerate().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let [method, types, trial, seed, steps, stc, twc, _final_pc] = f[..] else {
+            return Err(bad(&summary_path, n + 1, "expected 8 fields"));
+        };
+        let number = |s: &str| {
+            s.parse::<u64>()
+                .map_err(|_| bad(&summary_path, n + 1, "not a whole number"))
+        };
+        let method: Method = method.parse().map_err(|e: crate::methods::UnknownMethod| {
+            bad(&summary_path, n + 1, &e.to_string())
+        })?;
+        let types = number(types)? as usize;
+        let trial = number(trial)?;
+        let stc = if stc.is_empty() {
+            None
+        } else {
+            Some(number(stc)?)
+        };
+        let twc: f64 = twc
+            .parse()
+            .map_err(|_| bad(&summary_path, n + 1, "TWC is not a number"))?;
+        let path = dir.join(format!("{method}-types{types}-trial{trial:02}.csv"));
+        let text = read(&path)?;
+        let mut samples = Vec::new();
+        for (k, row) in text.lines().enumerate().skip(1) {
+            let mut cells = row.split(',');
+            let (Some(step), Some(pc), Some(cv)) = (cells.next(), cells.next(), cells.next())
+            else {
+                return Err(bad(&path, k + 1, "expected step,pc,cache_variance"));
+            };
+            let number = |s: &str| {
+                s.parse::<f64>()
+                    .map_err(|_| bad(&path, k + 1, "not a number"))
+            };
+            samples.push(Sample {
+                step: step
+                    .parse()
+                    .map_err(|_| bad(&path, k + 1, "step is not a whole number"))?,
+                pc: number(pc)?,
+                cache_variance: if cv.is_empty() {
+                    None
+                } else {
+                    Some(number(cv)?)
+                },
+            });
+        }
+        out.push(TrialResult {
+            method,
+            types,
+            seed: number(seed)?,
+            steps: number(steps)?,
+            samples,
+            stc,
+            twc,
+            snapshots: Vec::new(),
+        });
+    }
+    Ok(out)
 }

@@ -1,7 +1,7 @@
 //! Whole trials: the simulator, the controllers and the metrics together.
 
 use colony_sim::{SceneConfig, World};
-use colony_sort::experiment::{run_trial, run_trials, write_csv, Disturbance, TrialSpec};
+use colony_sort::experiment::{read_csv, run_trial, run_trials, write_csv, Disturbance, TrialSpec};
 use colony_sort::methods::Method;
 use colony_sort::params::SortParams;
 
@@ -125,4 +125,47 @@ fn shifting_the_largest_cluster_moves_it_whole() {
         before.snapshots.last().unwrap().pucks,
         after.snapshots.last().unwrap().pucks
     );
+}
+
+#[test]
+fn trials_read_back_from_their_csv_files_and_bad_files_are_refused() {
+    let mut s = spec(Method::CacheCons, 4, 300);
+    s.snapshot_at.clear();
+    let r = run_trial(&s, &|_| {}).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    write_csv(dir.path(), std::slice::from_ref(&r)).unwrap();
+    let back = read_csv(dir.path()).unwrap();
+    assert_eq!(back.len(), 1);
+    assert_eq!(
+        (
+            back[0].method,
+            back[0].seed,
+            back[0].steps,
+            back[0].stc,
+            back[0].types
+        ),
+        (r.method, r.seed, r.steps, r.stc, r.types)
+    );
+    for (a, b) in back[0].samples.iter().zip(&r.samples) {
+        assert_eq!(a.step, b.step);
+        assert!((a.pc - b.pc).abs() < 1e-4);
+    }
+    for summary in [
+        "header\ncachecons,2,0,4,300,,0.5",
+        "header\nquicksort,2,0,4,300,,0.5,1",
+        "header\ncachecons,2,0,4,300,,x,1",
+        "header\ncachecons,-2,0,4,300,,0.5,1",
+        "header\ncachecons,2,7,4,300,,0.5,1",
+    ] {
+        std::fs::write(dir.path().join("summary.csv"), summary).unwrap();
+        assert!(read_csv(dir.path()).is_err(), "{summary}");
+    }
+    std::fs::write(
+        dir.path().join("summary.csv"),
+        "h\ncachecons,2,0,4,300,,0.5,1",
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("cachecons-types2-trial00.csv"), "h\n1,2\n").unwrap();
+    let e = read_csv(dir.path()).unwrap_err().to_string();
+    assert!(e.contains("trial00.csv:2"), "{e}");
 }

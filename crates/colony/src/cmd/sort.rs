@@ -135,6 +135,10 @@ pub struct SupplementaryArgs {
     /// shift, reinsert); sections already in the directory are kept.
     #[arg(long, value_delimiter = ',')]
     pub only: Vec<Experiment>,
+    /// Write the report again from the CSV files a run with the same settings left in
+    /// --out, without running any trial.
+    #[arg(long)]
+    pub report_only: bool,
     /// Where the report, figures and CSV files go.
     #[arg(long)]
     pub out: PathBuf,
@@ -296,7 +300,8 @@ fn reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
     );
     let results = execute(&specs)?;
     let command = format!(
-        "colony sort reproduce --steps {} --trials {} --seed {} --out {}",
+        "colony sort reproduce{} --steps {} --trials {} --seed {} --out {}",
+        setup_text(&a.setup),
         a.steps,
         a.trials,
         a.seed,
@@ -325,12 +330,16 @@ fn supplementary(a: SupplementaryArgs) -> anyhow::Result<()> {
         seed: a.seed,
     };
     let plan = supplementary::plan(&experiments, &scene, &params, scale);
-    eprintln!(
-        "colony: {} trials on {} threads",
-        plan.specs.len(),
-        rayon::current_num_threads()
-    );
-    let results = execute(&plan.specs)?;
+    let results = if a.report_only {
+        supplementary::report::read_results(&a.out, &plan)?
+    } else {
+        eprintln!(
+            "colony: {} trials on {} threads",
+            plan.specs.len(),
+            rayon::current_num_threads()
+        );
+        execute(&plan.specs)?
+    };
     let only = if a.only.is_empty() {
         String::new()
     } else {
@@ -338,7 +347,8 @@ fn supplementary(a: SupplementaryArgs) -> anyhow::Result<()> {
         format!(" --only {}", names.join(","))
     };
     let command = format!(
-        "colony sort supplementary --steps {} --trials {} --seed {}{only} --out {}",
+        "colony sort supplementary{} --steps {} --trials {} --seed {}{only} --out {}",
+        setup_text(&a.setup),
         a.steps,
         a.trials,
         a.seed,
@@ -347,6 +357,12 @@ fn supplementary(a: SupplementaryArgs) -> anyhow::Result<()> {
     supplementary::report::write(&a.out, &plan, &results, &command)?;
     println!("report: {}", a.out.join("report.md").display());
     Ok(())
+}
+
+/// The scene flags as they were given, each with a space before it, for a report's
+/// "made by" line.
+fn setup_text(setup: &Setup) -> String {
+    setup_args(setup).iter().map(|a| format!(" {a}")).collect()
 }
 
 fn setup_args(setup: &Setup) -> Vec<String> {

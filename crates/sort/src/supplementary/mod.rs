@@ -111,6 +111,9 @@ pub struct Scale {
     pub seed: u64,
 }
 
+/// Steps between samples of the metrics (the authors saved positions every 100 steps).
+pub const SAMPLE_EVERY: u64 = 100;
+
 /// The physical robots' trials (Sect. 4.3).
 pub const PHYSICAL_TRIALS: u64 = 3;
 /// Steps of a physical trial (Sect. 4.3).
@@ -167,9 +170,13 @@ impl Condition {
 }
 
 /// The steps at which the disturbance experiments act: a quarter, half and three
-/// quarters of the way through, so each has a quarter of the trial to recover in.
+/// quarters of the way through, so each has a quarter of the trial to recover in;
+/// rounded down to a sampled step, so the first sample after each is taken right after it.
 pub fn disturbance_steps(steps: u64) -> Vec<u64> {
-    let mut at: Vec<u64> = (1..=3).map(|k| steps * k / 4).filter(|&s| s > 0).collect();
+    let mut at: Vec<u64> = (1..=3)
+        .map(|k| steps * k / 4 / SAMPLE_EVERY * SAMPLE_EVERY)
+        .filter(|&s| s > 0)
+        .collect();
     at.dedup();
     at
 }
@@ -257,7 +264,7 @@ pub fn spec(condition: &Condition, method: Method, t: u64, seed: u64) -> TrialSp
         params: condition.params.clone(),
         steps: condition.steps,
         seed: seed + t,
-        sample_every: 100.min(condition.steps.max(1)),
+        sample_every: SAMPLE_EVERY.min(condition.steps.max(1)),
         snapshot_at: Vec::new(),
         disturbances: condition.disturbances.clone(),
     }
@@ -390,7 +397,9 @@ mod tests {
     #[test]
     fn disturbances_leave_a_quarter_of_the_trial_after_each() {
         assert_eq!(disturbance_steps(100_000), vec![25_000, 50_000, 75_000]);
-        assert_eq!(disturbance_steps(2), vec![1]);
+        assert_eq!(disturbance_steps(1_000), vec![200, 500, 700]);
+        assert_eq!(disturbance_steps(150), vec![100]);
+        assert!(disturbance_steps(99).is_empty());
         assert!(disturbance_steps(0).is_empty());
     }
 
