@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use crate::methods::{build, Method};
 use crate::metrics;
 use crate::params::SortParams;
+use crate::Controller;
 
 /// The fewest robots one thread senses and decides for in a go (rayon's minimum chunk):
 /// smaller chunks make the threads' hand-offs cost more than the work.
@@ -245,13 +246,28 @@ pub fn run_trial(
         // Robots sense and decide independently (each with its own random stream), so
         // spreading them over threads cannot change a command.
         let seen = &world;
-        controllers
-            .par_iter_mut()
-            .zip(rngs.par_iter_mut())
-            .enumerate()
-            .with_min_len(ROBOTS_PER_TASK)
-            .map(|(i, (c, rng))| c.step(&seen.observe(RobotId(i)), rng))
-            .collect_into_vec(&mut commands);
+        let decide = |(i, (c, rng)): (usize, (&mut Box<dyn Controller>, &mut ChaCha8Rng))| {
+            c.step(&seen.observe(RobotId(i)), rng)
+        };
+        if n > ROBOTS_PER_TASK {
+            controllers
+                .par_iter_mut()
+                .zip(rngs.par_iter_mut())
+                .enumerate()
+                .with_min_len(ROBOTS_PER_TASK)
+                .map(decide)
+                .collect_into_vec(&mut commands);
+        } else {
+            // A handful of robots: handing them to rayon costs more than deciding for them.
+            commands.clear();
+            commands.extend(
+                controllers
+                    .iter_mut()
+                    .zip(&mut rngs)
+                    .enumerate()
+                    .map(decide),
+            );
+        }
         world.step(&commands);
         if step % 1000 == 999 {
             progress(step + 1 - reported);

@@ -553,13 +553,15 @@ fn levels(
             }
         }
         _ => {
-            let mut inside = true;
+            let mut at_an_end = Vec::new();
             let _ = write!(md, "Here:");
             for (m, method) in e.methods().into_iter().enumerate() {
                 let by_twc: Vec<f64> = mean_twc.iter().map(|x| x[m]).collect();
                 let by_stc: Vec<f64> = mean_stc.iter().map(|x| -x[m]).collect();
                 let (bt, bs) = (index_of_max(&by_twc), index_of_max(&by_stc));
-                inside &= bt > 0 && bt < last;
+                if bt == 0 || bt == last {
+                    at_an_end.push(label(method));
+                }
                 let _ = write!(
                     md,
                     " {} performs best with {} (highest mean TWC, {:.4}) and reaches 50 % soonest with {};",
@@ -570,10 +572,13 @@ fn levels(
                 );
             }
             let _ = writeln!(md, "\n");
-            if inside {
-                "yes (performance peaks inside the range tested)"
-            } else {
-                "no (the best count is at an end of the range tested, so no peak was found inside it)"
+            match at_an_end.len() {
+                0 => "yes (each method's TWC peaks inside the range tested)",
+                1 => {
+                    let _ = writeln!(md, "{}'s best count is at an end of the range tested.\n", at_an_end[0]);
+                    "partly (one method's TWC peaks inside the range tested, the other's at an end of it)"
+                }
+                _ => "no (each method's best count is at an end of the range tested, so no peak was found inside it)",
             }
         }
     })
