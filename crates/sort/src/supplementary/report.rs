@@ -596,6 +596,12 @@ fn window(r: &TrialResult, from: u64, to: u64) -> impl Iterator<Item = &crate::e
         .filter(move |s| s.step >= from && s.step < to)
 }
 
+/// A trial's mean PC over its samples from `from` (inclusive) to `to` (exclusive), if any.
+fn window_pc(r: &TrialResult, from: u64, to: u64) -> Option<f64> {
+    let pcs: Vec<f64> = window(r, from, to).map(|x| x.pc).collect();
+    (!pcs.is_empty()).then(|| stats::mean(&pcs))
+}
+
 /// The end of the window after the disturbance at `at`: the next one, or the trial's end.
 fn window_end(at: u64, all: &[u64], steps: u64) -> u64 {
     all.iter().copied().find(|&s| s > at).unwrap_or(steps + 1)
@@ -624,11 +630,7 @@ fn shift(
                     .iter()
                     .filter_map(|&s| {
                         let end = window_end(s, &at, c.steps);
-                        let mean_pc = |r: &TrialResult| {
-                            let pcs: Vec<f64> = window(r, s, end).map(|x| x.pc).collect();
-                            (!pcs.is_empty()).then(|| stats::mean(&pcs))
-                        };
-                        let (hit, base) = (mean_pc(r)?, mean_pc(u)?);
+                        let (hit, base) = (window_pc(r, s, end)?, window_pc(u, s, end)?);
                         before.extend(pc_before(r, s));
                         after.push(hit);
                         calm.push(base);
@@ -728,11 +730,9 @@ fn reinsert(
                         let first = w.next()?;
                         before.extend(pc_before(r, s));
                         after.push(first.pc);
-                        let mean_pc = |r: &TrialResult| {
-                            let pcs: Vec<f64> = window(r, s, end).map(|x| x.pc).collect();
-                            (!pcs.is_empty()).then(|| stats::mean(&pcs))
-                        };
-                        if let (Some(hit), Some(calm)) = (mean_pc(r), mean_pc(u)) {
+                        if let (Some(hit), Some(calm)) =
+                            (window_pc(r, s, end), window_pc(u, s, end))
+                        {
                             losses.push(calm - hit);
                         }
                         let back = std::iter::once(first)
