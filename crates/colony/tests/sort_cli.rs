@@ -207,6 +207,15 @@ fn supplementary_runs_chosen_experiments_into_one_report() {
     ]);
     assert!(!ok && e.contains("run the trials again"), "{e}");
 
+    let (ok, e) = stderr_of(&[
+        "sort",
+        "supplementary",
+        "--trials",
+        "99999999999",
+        "--out",
+        "x",
+    ]);
+    assert!(!ok && e.contains("more than 10000"), "{e}");
     let (ok, e) = stderr_of(&["sort", "supplementary", "--only", "pucs", "--out", "x"]);
     assert!(!ok && e.contains("unknown experiment `pucs`"), "{e}");
 }

@@ -212,7 +212,9 @@ pub fn run_trial(
     let threshold = spec.params.perception.cluster_threshold_cm;
     let has_caches = !matches!(spec.method, Method::Bhd | Method::ProbSeek);
 
-    let mut samples = Vec::with_capacity((spec.steps / spec.sample_every) as usize + 1);
+    // Reserved up front for ordinary trials only: `steps` may be any number a user typed.
+    let mut samples =
+        Vec::with_capacity((spec.steps / spec.sample_every).min(1 << 16) as usize + 1);
     let mut snapshots = Vec::new();
     let mut commands = Vec::with_capacity(n);
     let mut reported = 0;

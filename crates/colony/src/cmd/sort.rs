@@ -198,6 +198,19 @@ pub fn run(cmd: SortCommand) -> anyhow::Result<()> {
     }
 }
 
+/// More trials than this are surely a slip of the keyboard: each is planned up front.
+const MAX_TRIALS: u64 = 10_000;
+
+fn check_scale(trials: u64, steps: u64) -> anyhow::Result<()> {
+    if trials == 0 || steps == 0 {
+        anyhow::bail!("--trials and --steps must be at least 1");
+    }
+    if trials > MAX_TRIALS {
+        anyhow::bail!("--trials {trials} is more than {MAX_TRIALS}");
+    }
+    Ok(())
+}
+
 fn method(name: &str) -> anyhow::Result<Method> {
     Ok(name.parse::<Method>()?)
 }
@@ -239,9 +252,7 @@ fn run_cmd(a: RunArgs) -> anyhow::Result<()> {
         scene.pucks.count = p;
     }
     scene.validate().context("invalid scene")?;
-    if a.trials == 0 || a.steps == 0 {
-        anyhow::bail!("--trials and --steps must be at least 1");
-    }
+    check_scale(a.trials, a.steps)?;
     if method == Method::Bhd && scene.pucks.kinds > 1 {
         anyhow::bail!(
             "BHD only clusters; it cannot sort {} puck types (use --types 1)",
@@ -286,9 +297,7 @@ fn run_cmd(a: RunArgs) -> anyhow::Result<()> {
 
 fn reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
     let (scene, params) = a.setup.load()?;
-    if a.trials == 0 || a.steps == 0 {
-        anyhow::bail!("--trials and --steps must be at least 1");
-    }
+    check_scale(a.trials, a.steps)?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create {}", a.out.display()))?;
     let specs = report::specs(&scene, &params, a.steps, a.trials, a.seed);
@@ -314,9 +323,7 @@ fn reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
 
 fn supplementary(a: SupplementaryArgs) -> anyhow::Result<()> {
     let (scene, params) = a.setup.load()?;
-    if a.trials == 0 || a.steps == 0 {
-        anyhow::bail!("--trials and --steps must be at least 1");
-    }
+    check_scale(a.trials, a.steps)?;
     let experiments = if a.only.is_empty() {
         Experiment::ALL.to_vec()
     } else {
