@@ -8,7 +8,8 @@
 //! and does work only when you call [`poll`](UdpClient::poll),
 //! [`recv`](UdpClient::recv) or [`publish`](UdpClient::publish). It starts no
 //! thread and never blocks. With the `tokio` feature, [`AsyncClient`] wraps it
-//! in `AsyncFd`. [`status`] asks a hub what it knows.
+//! in `AsyncFd`. [`status`] asks a hub what it knows; [`rpc`] is request
+//! and reply between clients, over publish/subscribe.
 //!
 //! ```no_run
 //! use std::time::Instant;
@@ -30,6 +31,7 @@
 #![cfg_attr(feature = "tokio", deny(unsafe_code))]
 #![warn(missing_docs)]
 
+pub mod rpc;
 mod session;
 pub mod status;
 mod udp;

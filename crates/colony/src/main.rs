@@ -26,6 +26,10 @@ enum Command {
     Pub(cmd::pubsub::PubArgs),
     /// Subscribe and print packets as they arrive.
     Sub(cmd::pubsub::SubArgs),
+    /// Call a service and print its answer (request and reply over the hub).
+    Call(cmd::rpc::CallArgs),
+    /// Provide a service: answer each call by running a command (or echo it).
+    Serve(cmd::rpc::ServeArgs),
     /// Serve the system monitor: the arena, the hub and operator override in a browser.
     Monitor(cmd::monitor::Args),
     /// Share this hub's channels with hubs of other sites, over Zenoh.
@@ -70,6 +74,8 @@ fn main() -> ExitCode {
         Command::Hub(a) => cmd::hub::run(a),
         Command::Pub(a) => cmd::pubsub::publish(a),
         Command::Sub(a) => cmd::pubsub::subscribe(a),
+        Command::Call(a) => cmd::rpc::call(a),
+        Command::Serve(a) => cmd::rpc::serve(a),
         Command::Monitor(a) => cmd::monitor::run(a),
         Command::Bridge(a) => cmd::bridge::run(a),
         Command::Status(a) => cmd::status::run(a),

@@ -248,6 +248,15 @@ impl<'a> Line<'a> {
         self.number
     }
 
+    /// The line as written, from its label to its last field, without its line end:
+    /// what a program passes on when it forwards a line it does not read.
+    pub fn as_str(&self) -> &'a str {
+        let rest = &self.src[self.fields_at..];
+        let end = self.fields_at + rest.find('\n').unwrap_or(rest.len());
+        let start = self.fields_at - self.label.len();
+        self.src[start..end].trim_end_matches([' ', '\t', '\r'])
+    }
+
     /// The line's fields after its label, in order.
     pub fn fields(&self) -> Fields<'a> {
         Fields {

@@ -1312,3 +1312,14 @@ fn debug_of_a_packet_shows_its_text() {
     let l = p.line("l").unwrap();
     assert_eq!(format!("{l:?}"), r#"Line { label: "l", number: 2 }"#);
 }
+
+#[test]
+fn a_line_reads_back_as_written_without_its_blanks_or_line_end() {
+    let p = Packet::parse(b"@ <a> 0\n  cmd id 3  vl 0.5 note \"x y\"  \r\nlone\n\n last g (a 1)")
+        .unwrap();
+    let texts: Vec<&str> = p.lines().map(|l| l.as_str()).collect();
+    assert_eq!(
+        texts,
+        ["cmd id 3  vl 0.5 note \"x y\"", "lone", "last g (a 1)"]
+    );
+}

@@ -7,6 +7,7 @@ pub mod hub;
 pub mod monitor;
 pub mod path;
 pub mod pubsub;
+pub mod rpc;
 pub mod sort;
 pub mod status;
 pub mod tasks;
