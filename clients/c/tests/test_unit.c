@@ -1,0 +1,262 @@
+/* What the C client does without a hub: SHA-256 and HMAC against published
+ * vectors, the parser's verdicts and positions, walking a packet, and the
+ * builder's round trips. Built with AddressSanitizer and UBSan. */
+#include "colony.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int failures;
+
+#define CHECK(cond)                                                           \
+    do {                                                                      \
+        if (!(cond)) {                                                        \
+            fprintf(stderr, "%s:%d: failed: %s\n", __FILE__, __LINE__, #cond); \
+            failures++;                                                       \
+        }                                                                     \
+    } while (0)
+
+static void hex(const unsigned char *b, size_t n, char *out)
+{
+    for (size_t i = 0; i < n; i++) sprintf(out + 2 * i, "%02x", b[i]);
+}
+
+static void hmac_is(const void *key, size_t kn, const void *msg, size_t mn, const char *want)
+{
+    unsigned char mac[32];
+    char got[65];
+    colony_hmac_sha256(key, kn, msg, mn, mac);
+    hex(mac, 32, got);
+    if (strcmp(got, want) != 0) {
+        fprintf(stderr, "hmac: got %s, want %s\n", got, want);
+        failures++;
+    }
+}
+
+static void sha256_and_hmac_match_published_vectors(void)
+{
+    unsigned char d[32], k[131], m[50];
+    char got[65];
+    colony_sha256("", 0, d);
+    hex(d, 32, got);
+    CHECK(strcmp(got, "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855") == 0);
+    colony_sha256("abc", 3, d);
+    hex(d, 32, got);
+    CHECK(strcmp(got, "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad") == 0);
+    /* RFC 4231, test cases 1, 2, 3, 4, 6 and 7 (5 truncates the MAC). */
+    memset(k, 0x0b, 20);
+    hmac_is(k, 20, "Hi There", 8,
+            "b0344c61d8db38535ca8afceaf0bf12b881dc200c9833da726e9376c2e32cff7");
+    hmac_is("Jefe", 4, "what do ya want for nothing?", 28,
+            "5bdcc146bf60754e6a042426089575c75a003f089d2739839dec58b964ec3843");
+    memset(k, 0xaa, 20);
+    memset(m, 0xdd, 50);
+    hmac_is(k, 20, m, 50, "773ea91e36800e46854db8ebd09181a72959098b3ef8c122d9635514ced565fe");
+    for (int i = 0; i < 25; i++) k[i] = (unsigned char)(i + 1);
+    memset(m, 0xcd, 50);
+    hmac_is(k, 25, m, 50, "82558a389a443c0ea4cc819899f2083a85f0faa3e578f8077a2e3ff46729665b");
+    memset(k, 0xaa, 131);
+    const char *t6 = "Test Using Larger Than Block-Size Key - Hash Key First";
+    hmac_is(k, 131, t6, strlen(t6),
+            "60e431591ee0b67f0d8a26aacbf5b77f8e0bc6213728c5140546040f0ee37f54");
+    const char *t7 = "This is a test using a larger than block-size key and a larger than "
+                     "block-size data. The key needs to be hashed before being used by the HMAC "
+                     "algorithm.";
+    hmac_is(k, 131, t7, strlen(t7),
+            "9b09ffa71b942fcb27635fbcd5b0e944bfdc63644f0713938a7f51535c3a35e2");
+}
+
+static void a_signed_packet_matches_an_independent_hmac(void)
+{
+    /* The MAC below is Python's hmac module over the same bytes. */
+    const char *key = "0123456789abcdef-a-test-key";
+    char buf[256] = "@ <hub> 0\nmin_priority value 5";
+    size_t len = strlen(buf);
+    CHECK(colony_sign(buf, &len, sizeof buf, key, strlen(key), 42) == COLONY_OK);
+    CHECK(strncmp(buf, "@ <hub> 0\nmin_priority value 5\nauth n 42 mac ", 45) == 0);
+    CHECK(strcmp(buf + 45, "066e4cfc96a82a7a45714af774766fbba07f8c0b7c29bb8406df28d005b1fef2\n") == 0);
+    colony_packet p;
+    CHECK(colony_parse(&p, buf, len, NULL) == COLONY_OK);
+    CHECK(colony_sign(buf, &len, len + 10, key, strlen(key), 43) == COLONY_NO_SPACE);
+}
+
+static colony_error parse_error(const char *text)
+{
+    colony_packet p;
+    colony_error e;
+    colony_parse(&p, text, strlen(text), &e);
+    return e;
+}
+
+#define REJECTS(text, st, l, c)                                                           \
+    do {                                                                                  \
+        colony_error e_ = parse_error(text);                                              \
+        if (e_.status != (st) || e_.line != (l) || e_.column != (c)) {                    \
+            fprintf(stderr, "%s:%d: %s at %u:%u, want %s at %u:%u\n", __FILE__, __LINE__, \
+                    colony_status_name(e_.status), e_.line, e_.column,                    \
+                    colony_status_name(st), (unsigned)(l), (unsigned)(c));                \
+            failures++;                                                                   \
+        }                                                                                 \
+    } while (0)
+
+static void malformed_packets_are_refused_with_their_place(void)
+{
+    REJECTS("", COLONY_EMPTY, 1, 1);
+    REJECTS("hello", COLONY_BAD_HEADER, 1, 1);
+    REJECTS("@<a> 0\n", COLONY_BAD_HEADER, 1, 2);
+    REJECTS("@ <a b> 0\n", COLONY_BAD_SUBJECT, 1, 3);
+    REJECTS("@ <a> <a> 0\n", COLONY_DUPLICATE_SUBJECT, 1, 7);
+    REJECTS("@ <a> 2147483648\n", COLONY_BAD_PRIORITY, 1, 7);
+    REJECTS("@ <a> 0\nx y\n", COLONY_MISSING_VALUE, 2, 3);
+    REJECTS("@ <a> 0\nx y 1 y 2\n", COLONY_DUPLICATE_NAME, 2, 7);
+    REJECTS("@ <a> 0\nx y (z 1\n", COLONY_UNCLOSED_GROUP, 2, 9);
+    REJECTS("@ <a> 0\nx y 1)\n", COLONY_UNMATCHED_CLOSE, 2, 6);
+    REJECTS("@ <a> 0\nx y \"abc\n", COLONY_UNTERMINATED_STRING, 2, 5);
+    REJECTS("@ <a> 0\nx y \"a\\qb\"\n", COLONY_BAD_ESCAPE, 2, 7);
+    REJECTS("@ <a> 0\n\"x\" y 1\n", COLONY_EXPECTED_LABEL, 2, 1);
+    REJECTS("@ <a> 0\nx (y 1)\n", COLONY_EXPECTED_NAME, 2, 3);
+    REJECTS("@ <a> 0\nx y\x01 1\n", COLONY_CONTROL_CHAR, 2, 4);
+    REJECTS("@ <a> 0\nx y \xc0\x80\n", COLONY_NOT_UTF8, 2, 5);
+    REJECTS("@ <a> 0\nx y \xed\xa0\x80\n", COLONY_NOT_UTF8, 2, 5);
+    REJECTS("@ <a> 0\r\nx y 1\rz 2\n", COLONY_CONTROL_CHAR, 2, 6);
+    char deep[256] = "@ <a> 0\nx";
+    for (int i = 0; i < 33; i++) strcat(deep, " g (");
+    REJECTS(deep, COLONY_TOO_DEEP, 2, 2 + 4 * 32 + 3);
+}
+
+static void a_line_of_thousands_of_names_is_checked_for_repeats(void)
+{
+    static char big[COLONY_MAX_PACKET + 1];
+    size_t n = (size_t)sprintf(big, "@ <a> 0\nline");
+    for (int i = 0; i < 5000; i++) n += (size_t)sprintf(big + n, " n%d 1", i);
+    /* the same names again in a group, and after it on the line: both legal */
+    n += (size_t)sprintf(big + n, " g (");
+    for (int i = 0; i < 40; i++) n += (size_t)sprintf(big + n, " m%d 1", i);
+    n += (size_t)sprintf(big + n, ") m0 2 m39 2\n");
+    colony_packet p;
+    colony_error e;
+    CHECK(colony_parse(&p, big, n, &e) == COLONY_OK);
+    n += (size_t)sprintf(big + n - 1, " n4999 2\n") - 1;
+    CHECK(colony_parse(&p, big, n, &e) == COLONY_DUPLICATE_NAME && e.line == 2);
+}
+
+static void fields_are_read_in_place(void)
+{
+    const char *text = "@ <vision_out> <b> -3\r\n\nball x 5.3 y -2.5\n"
+                       "blue id 0 x 15.2 pose (xh 1.0 yh 0.0 deep (z 7))\n"
+                       "note text \"kick \\\"off\\\"\\n\" n 9223372036854775807\n";
+    colony_packet p;
+    CHECK(colony_parse(&p, text, strlen(text), NULL) == COLONY_OK);
+    CHECK(p.subject_count == 2 && p.priority == -3);
+    CHECK(colony_has_subject(&p, "b") && !colony_has_subject(&p, "vision"));
+    colony_line l;
+    memset(&l, 0, sizeof l);
+    double x = 0, y = 0;
+    CHECK(colony_find_line(&p, "ball", &l) && l.number == 3);
+    CHECK(colony_get_f64(l.fields, "x", &x) == COLONY_OK && x == 5.3);
+    CHECK(colony_get_f64(l.fields, "y", &y) == COLONY_OK && y == -2.5);
+    CHECK(colony_get_f64(l.fields, "z", &y) == COLONY_MISSING);
+    colony_span pose, deep;
+    CHECK(colony_find_line(&p, "blue", &l) && l.number == 4);
+    CHECK(colony_get_group(l.fields, "pose", &pose) == COLONY_OK);
+    CHECK(colony_get_group(pose, "deep", &deep) == COLONY_OK);
+    int64_t z = 0;
+    CHECK(colony_get_i64(deep, "z", &z) == COLONY_OK && z == 7);
+    CHECK(colony_get_i64(l.fields, "pose", &z) == COLONY_WRONG_TYPE);
+    char s[32];
+    CHECK(colony_find_line(&p, "note", &l));
+    CHECK(colony_get_str(l.fields, "text", s, sizeof s) == COLONY_OK);
+    CHECK(strcmp(s, "kick \"off\"\n") == 0);
+    CHECK(colony_get_str(l.fields, "text", s, 5) == COLONY_NO_SPACE);
+    CHECK(colony_get_i64(l.fields, "n", &z) == COLONY_OK && z == INT64_MAX);
+    CHECK(colony_get_f64(l.fields, "text", &x) == COLONY_WRONG_TYPE);
+    CHECK(!colony_find_line(&p, "note", &l));
+}
+
+static void numbers_follow_rusts_grammar(void)
+{
+    const char *text = "@ <a> 0\nn a 1e5 b .5 c 5. d inf e -Infinity f NaN g 0x10 h 1e i +7 j - k 1_0\n";
+    colony_packet p;
+    colony_line l;
+    memset(&l, 0, sizeof l);
+    CHECK(colony_parse(&p, text, strlen(text), NULL) == COLONY_OK && colony_next_line(&p, &l));
+    double v;
+    int64_t i;
+    CHECK(colony_get_f64(l.fields, "a", &v) == COLONY_OK && v == 1e5);
+    CHECK(colony_get_f64(l.fields, "b", &v) == COLONY_OK && v == 0.5);
+    CHECK(colony_get_f64(l.fields, "c", &v) == COLONY_OK && v == 5.0);
+    CHECK(colony_get_f64(l.fields, "d", &v) == COLONY_OK && isinf(v) && v > 0);
+    CHECK(colony_get_f64(l.fields, "e", &v) == COLONY_OK && isinf(v) && v < 0);
+    CHECK(colony_get_f64(l.fields, "f", &v) == COLONY_OK && isnan(v));
+    CHECK(colony_get_f64(l.fields, "g", &v) == COLONY_WRONG_TYPE);
+    CHECK(colony_get_f64(l.fields, "h", &v) == COLONY_WRONG_TYPE);
+    CHECK(colony_get_i64(l.fields, "i", &i) == COLONY_OK && i == 7);
+    CHECK(colony_get_i64(l.fields, "j", &i) == COLONY_WRONG_TYPE);
+    CHECK(colony_get_i64(l.fields, "k", &i) == COLONY_WRONG_TYPE);
+}
+
+static void built_packets_read_back_exactly(void)
+{
+    char buf[512];
+    colony_builder b;
+    colony_begin(&b, buf, sizeof buf, "radio  robot.2", 10);
+    colony_put_line(&b, "cmd");
+    colony_put_int(&b, "id", 2);
+    colony_put_f64(&b, "forward", 0.1);
+    colony_put_f64(&b, "turn", -1);
+    colony_put_f64(&b, "big", 1e300);
+    colony_put_f64(&b, "odd", 0.1 + 0.2);
+    colony_put_f64(&b, "nan", NAN);
+    colony_put_f64(&b, "inf", -INFINITY);
+    colony_put_open(&b, "pose");
+    colony_put_f64(&b, "x", 1.5);
+    colony_put_close(&b);
+    colony_put_line(&b, "note");
+    colony_put_text(&b, "text", "a \"b\"\\\n\t\x01");
+    colony_put_bare(&b, "kind", "red");
+    colony_putf(&b, " k %d", 3);
+    colony_error e;
+    size_t n = colony_finish(&b, &e);
+    CHECK(n > 0);
+    CHECK(strcmp(buf, "@ <radio> <robot.2> 10\n"
+                      "cmd id 2 forward 0.1 turn -1.0 big 1e+300 odd 0.30000000000000004 nan NaN "
+                      "inf -inf pose (x 1.5)\n"
+                      "note text \"a \\\"b\\\"\\\\\\n\\t\xef\xbf\xbd\" kind red k 3\n") == 0);
+    colony_packet p;
+    colony_line l;
+    memset(&l, 0, sizeof l);
+    double v;
+    char s[32];
+    CHECK(colony_parse(&p, buf, n, NULL) == COLONY_OK && colony_find_line(&p, "cmd", &l));
+    CHECK(colony_get_f64(l.fields, "odd", &v) == COLONY_OK && v == 0.1 + 0.2);
+    CHECK(colony_find_line(&p, "note", &l));
+    CHECK(colony_get_str(l.fields, "text", s, sizeof s) == COLONY_OK);
+    CHECK(strcmp(s, "a \"b\"\\\n\t\xef\xbf\xbd") == 0);
+
+    colony_begin(&b, buf, 16, "radio", 0);
+    colony_put_line(&b, "cmd");
+    colony_put_int(&b, "id", 12345);
+    CHECK(colony_finish(&b, &e) == 0 && e.status == COLONY_NO_SPACE);
+    colony_begin(&b, buf, sizeof buf, "radio", 0);
+    colony_putf(&b, "cmd id 1 id 2");
+    CHECK(colony_finish(&b, &e) == 0 && e.status == COLONY_DUPLICATE_NAME && e.line == 2);
+}
+
+int main(void)
+{
+    sha256_and_hmac_match_published_vectors();
+    a_signed_packet_matches_an_independent_hmac();
+    malformed_packets_are_refused_with_their_place();
+    a_line_of_thousands_of_names_is_checked_for_repeats();
+    fields_are_read_in_place();
+    numbers_follow_rusts_grammar();
+    built_packets_read_back_exactly();
+    if (failures) {
+        fprintf(stderr, "test_unit: %d checks failed\n", failures);
+        return 1;
+    }
+    printf("test_unit: every check passed\n");
+    return 0;
+}
