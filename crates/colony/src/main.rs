@@ -36,6 +36,8 @@ enum Command {
     Bridge(cmd::bridge::Args),
     /// Ask the hub for its clients, channels and drops.
     Status(cmd::status::Args),
+    /// Watch a live hub (or a traffic log) in the terminal, channel by channel, field by field.
+    Spy(cmd::spy::Args),
     /// List a traffic log, filtered by channel and time.
     Log(cmd::traffic::LogArgs),
     /// Publish a traffic log again with its original timing.
@@ -79,6 +81,7 @@ fn main() -> ExitCode {
         Command::Monitor(a) => cmd::monitor::run(a),
         Command::Bridge(a) => cmd::bridge::run(a),
         Command::Status(a) => cmd::status::run(a),
+        Command::Spy(a) => cmd::spy::run(a),
         Command::Log(a) => cmd::traffic::list(a),
         Command::Replay(a) => cmd::traffic::replay(a),
         Command::Sort(c) => cmd::sort::run(c),

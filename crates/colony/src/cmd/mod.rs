@@ -9,6 +9,7 @@ pub mod path;
 pub mod pubsub;
 pub mod rpc;
 pub mod sort;
+pub mod spy;
 pub mod status;
 pub mod tasks;
 pub mod traffic;

@@ -1,0 +1,352 @@
+//! `colony spy`: a terminal view of a live hub (or of a traffic log), in the manner of
+//! lcm-spy. Every channel with its rate, bandwidth, priority mix and last packet, updated in
+//! place; Enter opens a channel, decoded field by field, with a plot of any numeric field.
+//!
+//! The spy taps the hub (the `tap` request, as the monitor does: every packet the hub forwards,
+//! whatever its subjects) and asks for the hub's status once a second, to tell whether the hub
+//! lets it tap and how many packets it missed. What it knows is a sans-IO [`model::Spy`] fed
+//! packets and time; [`view`] draws it with ratatui; this module owns the loop, the socket
+//! (or the log) and the terminal.
+
+mod fields;
+mod model;
+mod rate;
+mod view;
+
+use std::io::IsTerminal as _;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use anyhow::Context as _;
+use colony_client::{Delivery, HubState};
+use colony_hub::log::{LogReader, Record};
+use colony_hub::replay::Pacer;
+use colony_wire::{Packet, Reply, Request, HUB_SUBJECT};
+use ratatui::crossterm::event::{self, Event, KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
+use ratatui::DefaultTerminal;
+
+use model::{Action, Feed, HubLink, Key, LogState, Spy};
+
+use super::{Bounds, HubAddr};
+
+/// The channel the spy leases, so the hub keeps its tap and answers its status requests.
+pub const LEASE_CHANNEL: &str = "colony-spy";
+/// The window rates are measured over: a tenth of a second to an hour.
+pub const WINDOW: Bounds = Bounds::new(0.1, 3600.0, "seconds");
+/// The screen is drawn this often (and at once after a key).
+const DRAW_EVERY: Duration = Duration::from_millis(250);
+const STATUS_EVERY: Duration = Duration::from_secs(1);
+/// The longest the loop waits for the hub's socket before looking at the keyboard.
+const TICK: Duration = Duration::from_millis(15);
+/// Datagrams or records taken in per round at most, so keys and drawing go on under a flood.
+const BATCH: usize = 20_000;
+
+#[derive(clap::Args, Debug)]
+#[command(after_help = "\
+Keys: arrows or j/k select a channel, Enter opens it; Tab, Shift-Tab or the arrows pick a \
+numeric field to plot; Esc or q goes back, and quits from the table; Ctrl-C quits.
+
+The status line counts packets seen, packets the hub's status says it published that never \
+reached the spy (missed), and datagrams that were no packet (unparsed).
+
+With --log, the log is played at its recorded pace (faster with --speed), and rates are the \
+recorded rates, per second of the log, whatever the speed; at its end the clock stops, so the \
+last rates stay on the screen.")]
+pub struct Args {
+    #[command(flatten)]
+    pub hub: HubAddr,
+    /// Play this traffic log (as written by `colony hub --log`) instead of tapping a hub.
+    #[arg(long, value_name = "FILE")]
+    pub log: Option<PathBuf>,
+    /// With --log: how many times faster than it was recorded.
+    #[arg(long, default_value_t = 1.0, value_parser = super::SPEED, requires = "log")]
+    pub speed: f64,
+    /// Rates and bandwidths are the packets and bytes of the last this many seconds, over
+    /// that span (as a rate from two of the hub's status reports is).
+    #[arg(long, default_value_t = 1.0, value_parser = WINDOW, value_name = "SECONDS")]
+    pub window: f64,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let window = super::seconds("--window", args.window)?;
+    if !std::io::stdout().is_terminal() {
+        anyhow::bail!(
+            "colony spy draws in a terminal, and standard output is not one (for a list of packets, try `colony sub` or `colony log`)"
+        );
+    }
+    // Everything that can fail for want of a hub or a file fails here, before the screen
+    // changes, so the error reads as any other command's.
+    let source = match &args.log {
+        Some(file) => Source::Log(LogReader::open(file)?),
+        None => Source::Hub(Box::new(args.hub.connect()?)),
+    };
+    let stop = super::stop_flag()?;
+    // The terminal is restored however this ends: on return, on error (the guard) and on a
+    // panic (ratatui's hook restores it before the message is printed).
+    let mut terminal = ratatui::try_init().context("cannot set up the terminal")?;
+    let _restore = Restore;
+    match source {
+        Source::Hub(client) => run_live(&mut terminal, *client, window, &stop),
+        Source::Log(reader) => {
+            let file = args.log.as_ref().expect("a log source has a file");
+            let name = file.file_name().map_or_else(
+                || file.display().to_string(),
+                |n| n.to_string_lossy().into(),
+            );
+            run_log(&mut terminal, reader, name, args.speed, window, &stop)
+        }
+    }
+}
+
+enum Source {
+    Hub(Box<colony_client::UdpClient>),
+    Log(LogReader),
+}
+
+/// Puts the terminal back as it was when dropped.
+struct Restore;
+
+impl Drop for Restore {
+    fn drop(&mut self) {
+        ratatui::restore();
+    }
+}
+
+fn run_live(
+    terminal: &mut DefaultTerminal,
+    mut client: colony_client::UdpClient,
+    window: Duration,
+    stop: &AtomicBool,
+) -> anyhow::Result<()> {
+    client.set_standing(vec![Request::Tap, Request::About("colony spy".into())])?;
+    client.subscribe(LEASE_CHANNEL)?;
+    let me = client.local_addr().ok().map(|a| a.to_string());
+    let start = Instant::now();
+    let mut spy = Spy::new(
+        Feed::Hub {
+            addr: client.hub_addr().to_string(),
+            state: HubLink::Waiting,
+        },
+        window,
+    );
+    let mut next_status = start;
+    let mut next_draw = start;
+    let result = loop {
+        if stop.load(Ordering::Relaxed) {
+            break Ok(());
+        }
+        let now = Instant::now();
+        if now >= next_status {
+            client.request(&[Request::Status])?;
+            next_status = now + STATUS_EVERY;
+        }
+        client.poll(now)?;
+        for _ in 0..BATCH {
+            let at = start.elapsed();
+            match client.recv_any()? {
+                Some(Delivery::Packet(p)) => spy.on_packet(at, &p),
+                Some(Delivery::Reply(Reply::Status(r))) => spy.on_status(at, &r, me.as_deref()),
+                Some(Delivery::Reply(_)) => {}
+                None => break,
+            }
+        }
+        spy.set_unparsed_elsewhere(client.malformed_count());
+        if let Feed::Hub { state, .. } = &mut spy.feed {
+            *state = match client.hub_state() {
+                HubState::Unknown => HubLink::Waiting,
+                HubState::Alive => HubLink::Alive,
+                HubState::Unreachable { silent_for } => HubLink::Unreachable { silent_for },
+            };
+        }
+        spy.set_now(start.elapsed());
+        match keys(&mut spy)? {
+            Some(Action::Quit) => break Ok(()),
+            Some(Action::Continue) => next_draw = Instant::now(),
+            None => {}
+        }
+        if Instant::now() >= next_draw {
+            terminal.draw(|f| view::draw(f, &spy))?;
+            next_draw = Instant::now() + DRAW_EVERY;
+        }
+        let wake = [Some(next_draw), Some(next_status), client.next_deadline()]
+            .into_iter()
+            .flatten()
+            .fold(Instant::now() + TICK, Instant::min);
+        client.wait(Some(wake))?;
+    };
+    // Let the tap go at once: a hub lets only a few clients tap.
+    let _ = client.unsubscribe_all();
+    result
+}
+
+fn run_log(
+    terminal: &mut DefaultTerminal,
+    mut reader: LogReader,
+    file: String,
+    speed: f64,
+    window: Duration,
+    stop: &AtomicBool,
+) -> anyhow::Result<()> {
+    let start = Instant::now();
+    let mut pacer = Pacer::new(start, speed);
+    let mut spy = Spy::new(
+        Feed::Log {
+            file,
+            speed,
+            state: LogState::Playing,
+        },
+        window,
+    );
+    let mut first: Option<u64> = None;
+    let mut pending: Option<(Duration, Record)> = None;
+    let mut next_draw = start;
+    loop {
+        if stop.load(Ordering::Relaxed) {
+            return Ok(());
+        }
+        let playing = matches!(
+            spy.feed,
+            Feed::Log {
+                state: LogState::Playing,
+                ..
+            }
+        );
+        let mut next_due = None;
+        if playing {
+            for _ in 0..BATCH {
+                if pending.is_none() {
+                    match reader.next() {
+                        Some(Ok(r)) => {
+                            let t0 = *first.get_or_insert(r.time_us);
+                            pending =
+                                Some((Duration::from_micros(r.time_us.saturating_sub(t0)), r));
+                        }
+                        Some(Err(e)) => {
+                            set_log_state(&mut spy, LogState::Failed(e.to_string()));
+                            break;
+                        }
+                        None => {
+                            set_log_state(&mut spy, LogState::Ended);
+                            break;
+                        }
+                    }
+                }
+                let Some((since, _)) = &pending else { break };
+                let due = pacer.due(*since);
+                if due > Instant::now() {
+                    next_due = Some(due);
+                    break;
+                }
+                let (since, record) = pending.take().expect("a pending record");
+                take_record(&mut spy, since, &record);
+            }
+            // While playing, the log's clock runs at its pace; once done it stops at the last
+            // record, so the rates at the end stay on the screen.
+            if matches!(
+                spy.feed,
+                Feed::Log {
+                    state: LogState::Playing,
+                    ..
+                }
+            ) {
+                let elapsed = start.elapsed().as_secs_f64() * speed;
+                let mut log_now = Duration::try_from_secs_f64(elapsed).unwrap_or(Duration::MAX);
+                if let Some((since, _)) = &pending {
+                    log_now = log_now.min(*since);
+                }
+                spy.set_now(log_now);
+            }
+        }
+        match keys(&mut spy)? {
+            Some(Action::Quit) => return Ok(()),
+            Some(Action::Continue) => next_draw = Instant::now(),
+            None => {}
+        }
+        if Instant::now() >= next_draw {
+            terminal.draw(|f| view::draw(f, &spy))?;
+            next_draw = Instant::now() + DRAW_EVERY;
+        }
+        let wake = [Some(next_draw), next_due]
+            .into_iter()
+            .flatten()
+            .fold(Instant::now() + TICK, Instant::min);
+        let wait = wake.saturating_duration_since(Instant::now());
+        // Waiting on the keyboard is waiting for the next record too.
+        event::poll(wait).context("cannot read the terminal")?;
+    }
+}
+
+fn set_log_state(spy: &mut Spy, new: LogState) {
+    if let Feed::Log { state, .. } = &mut spy.feed {
+        *state = new;
+    }
+}
+
+/// A logged datagram, as a tap would have received it: control requests belonged to their
+/// senders and never reached a tap, so they are left out, as a replay leaves them out.
+fn take_record(spy: &mut Spy, since: Duration, record: &Record) {
+    match Packet::parse(&record.payload) {
+        Ok(p) if p.has_subject(HUB_SUBJECT) => spy.set_now(since),
+        Ok(p) => spy.on_packet(since, &p),
+        Err(_) => spy.on_datagram(since, &record.payload),
+    }
+}
+
+/// Takes every key waiting; `None` when there was none.
+fn keys(spy: &mut Spy) -> anyhow::Result<Option<Action>> {
+    let mut any = None;
+    while event::poll(Duration::ZERO).context("cannot read the terminal")? {
+        match event::read().context("cannot read the terminal")? {
+            Event::Key(k) if k.kind != KeyEventKind::Release => {
+                let Some(key) = key_of(k) else { continue };
+                if spy.on_key(key) == Action::Quit {
+                    return Ok(Some(Action::Quit));
+                }
+                any = Some(Action::Continue);
+            }
+            Event::Resize(..) => any = Some(Action::Continue),
+            _ => {}
+        }
+    }
+    Ok(any)
+}
+
+fn key_of(k: KeyEvent) -> Option<Key> {
+    if k.modifiers.contains(KeyModifiers::CONTROL) {
+        return matches!(k.code, KeyCode::Char('c' | 'd')).then_some(Key::Quit);
+    }
+    Some(match k.code {
+        KeyCode::Up | KeyCode::Char('k') => Key::Up,
+        KeyCode::Down | KeyCode::Char('j') => Key::Down,
+        KeyCode::PageUp => Key::PageUp,
+        KeyCode::PageDown | KeyCode::Char(' ') => Key::PageDown,
+        KeyCode::Home | KeyCode::Char('g') => Key::Home,
+        KeyCode::End | KeyCode::Char('G') => Key::End,
+        KeyCode::Enter => Key::Open,
+        KeyCode::Tab | KeyCode::Right | KeyCode::Char('l') => Key::Next,
+        KeyCode::BackTab | KeyCode::Left | KeyCode::Char('h') => Key::Previous,
+        KeyCode::Esc | KeyCode::Backspace | KeyCode::Char('q') => Key::Back,
+        _ => return None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_map_as_the_help_says() {
+        let k = |code| key_of(KeyEvent::new(code, KeyModifiers::NONE));
+        assert_eq!(k(KeyCode::Char('j')), Some(Key::Down));
+        assert_eq!(k(KeyCode::Up), Some(Key::Up));
+        assert_eq!(k(KeyCode::Enter), Some(Key::Open));
+        assert_eq!(k(KeyCode::Tab), Some(Key::Next));
+        assert_eq!(k(KeyCode::BackTab), Some(Key::Previous));
+        assert_eq!(k(KeyCode::Esc), Some(Key::Back));
+        assert_eq!(k(KeyCode::Char('q')), Some(Key::Back));
+        assert_eq!(k(KeyCode::Char('x')), None);
+        let ctrl_c = KeyEvent::new(KeyCode::Char('c'), KeyModifiers::CONTROL);
+        assert_eq!(key_of(ctrl_c), Some(Key::Quit));
+    }
+}

@@ -1,0 +1,357 @@
+//! `colony spy` as a person meets it: in a real terminal (tmux, 80 columns by 24 lines), on a
+//! running `colony demo` and on a log written by `colony hub --log`. The spy's rates are checked
+//! against the hub's own counts: the status report's packets over a span of its uptime.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::net::{TcpListener, UdpSocket};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use colony_client::status::fetch_status;
+use colony_wire::StatusReport;
+use common::{colony, HubProcess};
+
+/// The world's channels in `colony demo`.
+const WORLD: [&str; 8] = [
+    "vision", "camera.0", "camera.1", "camera.2", "camera.3", "debug", "radio", "metrics",
+];
+/// The rates are compared over this many seconds: the slowest channel (`metrics`, 0.4 a
+/// second) then counts a dozen packets, so one packet more or less at an edge of the span is
+/// under 10 %.
+const WINDOW: u64 = 30;
+
+/// A tmux server of its own with one 80×24 session running a command; killed when dropped.
+struct Tmux {
+    socket: String,
+}
+
+impl Tmux {
+    /// Runs `args` (after the colony binary) in a fresh session. When the command ends, its
+    /// last words stay on the screen for the test to show.
+    fn start(name: &str, args: &[&str]) -> Tmux {
+        let socket = format!("colony-spy-test-{name}-{}", std::process::id());
+        let quoted: Vec<String> = std::iter::once(env!("CARGO_BIN_EXE_colony"))
+            .chain(args.iter().copied())
+            .map(|a| format!("'{}'", a.replace('\'', r"'\''")))
+            .collect();
+        let line = format!(
+            "COLONY_LOG=warn {}; echo \"[colony exited: $?]\"; sleep 600",
+            quoted.join(" ")
+        );
+        let status = Command::new("tmux")
+            .args(["-L", &socket, "-f", "/dev/null", "new-session", "-d"])
+            .args(["-x", "80", "-y", "24", "-s", "spy", &line])
+            .status()
+            .unwrap_or_else(|e| panic!("cannot run tmux ({e}): scripts/test installs it"));
+        assert!(status.success(), "tmux new-session failed");
+        Tmux { socket }
+    }
+
+    fn screen(&self) -> String {
+        let out = Command::new("tmux")
+            .args(["-L", &self.socket, "capture-pane", "-p", "-t", "spy"])
+            .output()
+            .expect("tmux capture-pane");
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    }
+
+    fn keys(&self, keys: &[&str]) {
+        let status = Command::new("tmux")
+            .args(["-L", &self.socket, "send-keys", "-t", "spy"])
+            .args(keys)
+            .status()
+            .expect("tmux send-keys");
+        assert!(status.success());
+    }
+
+    /// The screen once `done` holds for it, waiting up to `within`.
+    fn wait_for(&self, within: Duration, what: &str, done: impl Fn(&str) -> bool) -> String {
+        let deadline = Instant::now() + within;
+        loop {
+            let s = self.screen();
+            if done(&s) {
+                return s;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "the spy never showed {what} within {within:?}; its screen:\n{s}"
+            );
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    }
+}
+
+impl Drop for Tmux {
+    fn drop(&mut self) {
+        let _ = Command::new("tmux")
+            .args(["-L", &self.socket, "kill-server"])
+            .stderr(Stdio::null())
+            .status();
+    }
+}
+
+/// A process killed when dropped.
+struct Killed(Child);
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn free_udp_port() -> u16 {
+    UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+fn free_tcp_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// Each channel's row on the spy's screen: its name and the rate column.
+fn screen_rates(screen: &str) -> BTreeMap<String, f64> {
+    screen
+        .lines()
+        .filter_map(|l| {
+            let mut words = l.split_whitespace();
+            let name = words.next()?;
+            let rate = words.next()?.parse().ok()?;
+            Some((name.to_string(), rate))
+        })
+        .collect()
+}
+
+fn packets(report: &StatusReport, channel: &str) -> Option<u64> {
+    report
+        .channels
+        .iter()
+        .find(|c| c.subjects == channel)
+        .map(|c| c.packets)
+}
+
+#[test]
+fn the_spy_shows_every_channel_of_a_running_demo_at_the_rate_the_hub_counts() {
+    let (hub_port, monitor_port) = (free_udp_port(), free_tcp_port());
+    let hub = format!("127.0.0.1:{hub_port}");
+    let _demo = Killed(
+        colony()
+            .args(["demo", "--hub-bind", &hub])
+            .args(["--monitor-bind", &format!("127.0.0.1:{monitor_port}")])
+            .args(["--seconds", "180"])
+            .env("COLONY_LOG", "warn")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start colony demo"),
+    );
+    // The demo is up once every channel of its world has carried a packet.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    loop {
+        let report = fetch_status(&hub, Duration::from_secs(1)).ok();
+        if report.is_some_and(|r| WORLD.iter().all(|c| packets(&r, c).is_some())) {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the demo's world never published"
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
+
+    let window = WINDOW.to_string();
+    let spy = Tmux::start("demo", &["spy", "--hub", &hub, "--window", &window]);
+    let screen = spy.wait_for(Duration::from_secs(30), "every channel", |s| {
+        let rates = screen_rates(s);
+        WORLD.iter().all(|c| rates.contains_key(*c))
+    });
+    assert!(screen.contains("alive tapping"), "{screen}");
+
+    // The hub's count over one window, and the spy's rate over the same span, read at once.
+    std::thread::sleep(Duration::from_secs(2));
+    let a = fetch_status(&hub, Duration::from_secs(5)).expect("status");
+    std::thread::sleep(Duration::from_secs(WINDOW));
+    let b = fetch_status(&hub, Duration::from_secs(5)).expect("status");
+    let screen = spy.screen();
+    let span = (b.uptime_ms - a.uptime_ms) as f64 / 1000.0;
+    let rates = screen_rates(&screen);
+    let mut compared = Vec::new();
+    for c in &b.channels {
+        let before = packets(&a, &c.subjects).unwrap_or(0);
+        let hub_rate = (c.packets - before) as f64 / span;
+        let Some(&spy_rate) = rates.get(&c.subjects) else {
+            panic!(
+                "channel {} is not on the spy's screen:\n{screen}",
+                c.subjects
+            );
+        };
+        eprintln!(
+            "{:<10} hub {hub_rate:7.3}/s  spy {spy_rate:7.3}/s  ({:+.1} %)",
+            c.subjects,
+            (spy_rate - hub_rate) / hub_rate * 100.0
+        );
+        compared.push((c.subjects.clone(), hub_rate, spy_rate));
+    }
+    for c in WORLD {
+        assert!(
+            compared.iter().any(|(n, ..)| n == c),
+            "no channel {c}:\n{screen}"
+        );
+    }
+    for (name, hub_rate, spy_rate) in &compared {
+        assert!(
+            (spy_rate - hub_rate).abs() <= 0.1 * hub_rate,
+            "{name}: the spy shows {spy_rate}/s, the hub counted {hub_rate}/s over {span} s:\n{screen}"
+        );
+    }
+    // The status line's figures.
+    assert!(screen.contains("missed 0"), "{screen}");
+    assert!(screen.contains("unparsed 0"), "{screen}");
+
+    // Opening a channel decodes its last packet field by field and plots a number.
+    spy.keys(&["Home", "Enter"]);
+    let screen = spy.wait_for(Duration::from_secs(10), "the open channel", |s| {
+        s.lines().nth(1).is_some_and(|l| l.starts_with(" camera.0"))
+            && s.contains("field")
+            && s.contains(" now ")
+    });
+    assert!(!screen.is_empty());
+    spy.keys(&["q"]);
+    spy.wait_for(Duration::from_secs(5), "the table again", |s| {
+        s.lines().nth(1).is_some_and(|l| l.starts_with("channel"))
+    });
+    spy.keys(&["q"]);
+    spy.wait_for(Duration::from_secs(10), "its exit", |s| {
+        s.contains("[colony exited: 0]")
+    });
+}
+
+/// Publishes `text` to the hub from a client of its own.
+fn publish_all(hub: &HubProcess, packets: impl IntoIterator<Item = (String, Duration)>) {
+    let mut client = hub.client();
+    for (p, pause) in packets {
+        client.publish(p.as_bytes()).expect("publish");
+        std::thread::sleep(pause);
+    }
+}
+
+fn log_records(path: &Path) -> usize {
+    colony_hub::log::LogReader::open(path)
+        .map(|r| r.filter_map(Result::ok).count())
+        .unwrap_or(0)
+}
+
+#[test]
+fn the_spy_plays_a_log_the_hub_wrote() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("traffic.clog");
+    let log_text = log.to_str().unwrap().to_string();
+    let mut hub = HubProcess::start(&["--log", &log_text]);
+    // 60 packets on `pose` 20 ms apart (50 a second), a few on others.
+    let pose = (0..60).map(|i| {
+        (
+            format!("@ <pose> 3\nrobot id 7 x {i}.5 y -2 name \"r7\"\n"),
+            Duration::from_millis(20),
+        )
+    });
+    let other = [
+        ("@ <note> 0\nsay text \"hi\"\n".to_string(), Duration::ZERO),
+        ("@ <a> <b> 9\nv n 1\n".to_string(), Duration::ZERO),
+    ];
+    publish_all(&hub, pose.chain(other));
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while log_records(&log) < 62 {
+        assert!(
+            Instant::now() < deadline,
+            "the hub never logged the packets"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    hub.kill();
+
+    let spy = Tmux::start("log", &["spy", "--log", &log_text, "--speed", "2"]);
+    let screen = spy.wait_for(Duration::from_secs(20), "the end of the log", |s| {
+        s.contains("ended")
+    });
+    assert!(screen.contains("seen 62"), "{screen}");
+    // Every channel, the subject set named as the hub names it; the last two came in the
+    // log's last moment, too late for a rate.
+    for c in ["pose ", "note ", "a b "] {
+        assert!(
+            screen.lines().any(|l| l.starts_with(c)),
+            "no channel {c}:\n{screen}"
+        );
+    }
+    // The recorded rate, whatever the speed it is played at: 50 a second, give or take the
+    // pauses of a busy machine.
+    let pose_rate = screen_rates(&screen)["pose"];
+    assert!((25.0..=75.0).contains(&pose_rate), "{screen}");
+    let row = screen.lines().find(|l| l.starts_with("pose")).unwrap();
+    assert!(
+        row.contains(" 3 ") && row.contains("robot id 7 x 59.5"),
+        "{row}"
+    );
+
+    spy.keys(&["Home", "Down", "Down", "Enter"]);
+    let screen = spy.wait_for(Duration::from_secs(10), "the pose channel", |s| {
+        s.lines().nth(1).is_some_and(|l| l.starts_with(" pose"))
+    });
+    assert!(screen.contains("60 packets"), "{screen}");
+    for field in ["robot.id", "robot.x", "robot.y", "robot.name"] {
+        assert!(screen.contains(field), "{field}:\n{screen}");
+    }
+    assert!(
+        screen.contains("59.5") && screen.contains("\"r7\""),
+        "{screen}"
+    );
+    // The first numeric field is plotted; Tab picks the next.
+    assert!(screen.contains("robot.id  now 7"), "{screen}");
+    spy.keys(&["Tab"]);
+    let screen = spy.wait_for(Duration::from_secs(5), "robot.x plotted", |s| {
+        s.contains("robot.x  now 59.5")
+    });
+    assert!(
+        screen.contains("min 59.5"),
+        "only the last packet was before opening: {screen}"
+    );
+    spy.keys(&["C-c"]);
+    spy.wait_for(Duration::from_secs(10), "its exit", |s| {
+        s.contains("[colony exited: 0]")
+    });
+}
+
+#[test]
+fn a_bad_window_or_speed_is_a_usage_error_and_no_terminal_is_an_error() {
+    for (args, flag) in [
+        (vec!["spy", "--log", "x.clog", "--speed", "nan"], "--speed"),
+        (
+            vec!["spy", "--log", "x.clog", "--speed", "1e300"],
+            "--speed",
+        ),
+        (vec!["spy", "--log", "x.clog", "--speed", "0"], "--speed"),
+        (vec!["spy", "--window", "0"], "--window"),
+        (vec!["spy", "--window", "1e300"], "--window"),
+        (vec!["spy", "--window", "inf"], "--window"),
+    ] {
+        let (code, _, err) = common::run_bounded(&args, "warn");
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert!(err.contains(flag) && err.contains("must be from"), "{err}");
+    }
+    // --speed belongs to --log.
+    let (code, _, err) = common::run_bounded(&["spy", "--speed", "2"], "warn");
+    assert_eq!(code, Some(2), "{err}");
+    // Standard output is a pipe here: the spy says it needs a terminal, and changes nothing.
+    let (code, out, err) = common::run_bounded(&["spy", "--hub", "127.0.0.1:9"], "warn");
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("terminal") && out.is_empty(), "{err}");
+}
