@@ -57,6 +57,16 @@ __all__ = [
     "Signer",
     "read_key",
     "Client",
+    "SERVICE_PREFIX",
+    "REPLY_PREFIX",
+    "MAX_SERVICE_LEN",
+    "CallError",
+    "Answer",
+    "Caller",
+    "Call",
+    "Provider",
+    "CallClient",
+    "ServeClient",
 ]
 
 #: The largest packet: the payload of one UDP datagram over IPv4.
@@ -1438,6 +1448,473 @@ class Client:
                 self.hub[0], self.hub[1], timeout
             )
         )
+
+
+# --------------------------------------------------------------------------- request and reply
+
+# Request and reply over publish/subscribe, as the Rust client's ``rpc``
+# module writes it (crates/client/src/rpc/message.rs holds the one definition):
+# a provider announces ``provider id P lease_ms L`` on ``svc.NAME`` every third
+# of its lease and at once when a caller asks ``who``; a call goes to one
+# provider's inbox ``svc.NAME.P`` with ``call id N reply_to reply.C`` first;
+# the answer comes to the caller's inbox ``reply.C`` with ``reply id N from P``
+# (or ``refused id N from P text "why"``); a provider that stops says
+# ``leaving id P``.
+
+#: What a service's channel name starts with.
+SERVICE_PREFIX = "svc."
+#: What a caller's inbox starts with (a call may name no other place to answer).
+REPLY_PREFIX = "reply."
+_ID = re.compile(r"[0-9a-f]{16}")
+#: The longest service name: room for the prefix, a dot and a provider id.
+MAX_SERVICE_LEN = MAX_SUBJECT_LEN - len(SERVICE_PREFIX) - 1 - 16
+#: A caller with calls but no provider asks who provides this often (seconds).
+_ASK_EVERY = 0.25
+#: A provider answers ``who`` at most this often (seconds).
+_ANSWER_WHO_EVERY = 0.1
+_LONGEST_LEASE = 86400.0
+
+
+def _fresh_id():
+    return "{:016x}".format(random.SystemRandom().getrandbits(64))
+
+
+def _service_channel(name):
+    if not isinstance(name, str) or not 0 < len(name) <= MAX_SERVICE_LEN or not is_subject(SERVICE_PREFIX + name):
+        raise ValueError(
+            "{!r} cannot name a service: use letters, digits and `_-.:/`, 1 to {} bytes".format(
+                name, MAX_SERVICE_LEN
+            )
+        )
+    return SERVICE_PREFIX + name
+
+
+def _body_lines(packet):
+    """The lines after the first, as written (a call's or an answer's own lines)."""
+    raw = (l.strip(" \t\r") for l in packet.text[packet._body:].split("\n"))
+    return [l for l in raw if l][1:]
+
+
+def _rpc_packet(subject, priority, first, lines):
+    text = "@ <{}> {}\n{}\n{}".format(subject, priority, first, "".join(l + "\n" for l in lines))
+    data = text.encode("utf-8")
+    parse(data)
+    return data
+
+
+class CallError(Exception):
+    """Why a call ended without an answer. ``kind`` is one of ``no_provider``,
+    ``timeout``, ``provider_left``, ``provider_lapsed`` (silent past its lease),
+    ``refused`` or ``unsendable``; ``provider`` the provider's id, if one was chosen."""
+
+    def __init__(self, kind, message, provider=None):
+        super().__init__(message)
+        self.kind = kind
+        self.provider = provider
+
+
+class Answer:
+    """A provider's answer: the call's ``id``, the ``provider``'s id, and the
+    answer's ``lines`` as written (the ``reply`` line left out)."""
+
+    __slots__ = ("id", "provider", "lines")
+
+    def __init__(self, id, provider, lines):
+        self.id = id
+        self.provider = provider
+        self.lines = lines
+
+    def __repr__(self):
+        return "Answer(id={!r}, provider={!r}, lines={!r})".format(self.id, self.provider, self.lines)
+
+
+class Caller:
+    """One caller of one service, sans I/O, like the Rust ``rpc::Caller``.
+
+    Subscribe a client to :meth:`subjects`, hand every packet from them to
+    :meth:`handle_packet`, call :meth:`handle_timeout` at :meth:`poll_timeout`,
+    publish what :meth:`poll_transmit` gives, and read :meth:`poll_outcome`.
+    Calls go to the live providers in turn; each ends exactly once: with the
+    answer of the provider it went to, or a :class:`CallError`. A call is
+    never sent to a second provider (the first may have acted on it).
+    """
+
+    def __init__(self, service, caller_id=None):
+        self.channel = _service_channel(service)
+        self.service = service
+        self.id = caller_id or _fresh_id()
+        if not _ID.fullmatch(self.id):
+            raise ValueError("an id is 16 lowercase hex digits")
+        self.inbox = REPLY_PREFIX + self.id
+        self._providers = {}  # id -> [lease_s, seen]
+        self._order = []
+        self._turn = 0
+        self._calls = {}  # id -> dict(lines, priority, started, deadline, sent_to)
+        self._next = random.SystemRandom().getrandbits(48)
+        self._outbox = deque()
+        self._outcomes = deque()
+        self._last_asked = None
+        #: Answers that matched no call in flight (late, repeated or forged).
+        self.strays = 0
+
+    def subjects(self):
+        return [self.channel, self.inbox]
+
+    def providers(self):
+        """The providers believed alive, in the order calls go to them."""
+        return list(self._order)
+
+    @property
+    def in_flight(self):
+        return len(self._calls)
+
+    def call(self, now, lines, timeout=5.0, priority=0):
+        """Starts a call with these lines (packet lines as written); returns its id.
+        Raises ParseError at once if the lines do not make a packet."""
+        lines = [str(l) for l in lines]
+        if not (isinstance(timeout, (int, float)) and 0 < timeout <= _LONGEST_LEASE):
+            raise ValueError("a call's timeout is from 0 to 86400 seconds")
+        call_id = "{:016x}".format(self._next)
+        self._next = (self._next + 1) % (1 << 64)
+        # Checked with an inbox as long as any provider's.
+        _rpc_packet(self.channel + "." + "0" * 16, priority,
+                    "call id {} reply_to {}".format(call_id, self.inbox), lines)
+        self._calls[call_id] = {"lines": lines, "priority": priority, "started": now,
+                                "deadline": now + timeout, "sent_to": None}
+        self._dispatch(now)
+        return call_id
+
+    def handle_packet(self, now, packet):
+        if len(packet.subjects) != 1 or not packet.lines:
+            return
+        label, raw = _first_line_raw(packet)
+        if packet.subjects[0] == self.channel:
+            pid = raw.get("id")
+            if label == "provider" and pid and _ID.fullmatch(pid):
+                ms = packet.lines[0][1].get("lease_ms")
+                if isinstance(ms, bool) or not isinstance(ms, int) or ms < 0:
+                    return
+                lease = min(max(ms, MIN_LEASE_MS) / 1000.0, _LONGEST_LEASE)
+                if pid not in self._providers:
+                    self._order.append(pid)
+                self._providers[pid] = [lease, now]
+                self._dispatch(now)
+            elif label == "leaving" and pid and _ID.fullmatch(pid):
+                self._drop(pid, now, left=True)
+        elif packet.subjects[0] == self.inbox:
+            call_id, frm = raw.get("id"), raw.get("from")
+            call = self._calls.get(call_id)
+            # Only the provider the call went to may end it.
+            if label not in ("reply", "refused") or call is None or frm is None or call["sent_to"] != frm:
+                self.strays += 1
+                return
+            if label == "refused":
+                why = packet.lines[0][1].get("text")
+                if why is None:
+                    self.strays += 1
+                    return
+                result = CallError("refused", "provider {} refused the call: {}".format(frm, why), frm)
+            else:
+                result = Answer(call_id, frm, _body_lines(packet))
+            del self._calls[call_id]
+            self._outcomes.append((call_id, result))
+
+    def handle_timeout(self, now):
+        for pid in [p for p, (lease, seen) in self._providers.items() if seen + lease <= now]:
+            self._drop(pid, now, left=False)
+        for call_id in [c for c, call in self._calls.items() if call["deadline"] <= now]:
+            call = self._calls.pop(call_id)
+            waited = now - call["started"]
+            if call["sent_to"] is None:
+                err = CallError("no_provider", "no provider of the service answered within {:.1f} s "
+                                "(is one running on this hub?)".format(waited))
+            else:
+                err = CallError("timeout", "provider {} did not answer within {:.1f} s".format(
+                    call["sent_to"], waited), call["sent_to"])
+            self._outcomes.append((call_id, err))
+        self._ask_if_waiting(now)
+
+    def poll_timeout(self):
+        times = [c["deadline"] for c in self._calls.values()]
+        times += [seen + lease for lease, seen in self._providers.values()]
+        if self._waiting() and self._last_asked is not None:
+            times.append(self._last_asked + _ASK_EVERY)
+        return min(times) if times else None
+
+    def poll_transmit(self):
+        return self._outbox.popleft() if self._outbox else None
+
+    def poll_outcome(self):
+        """``(call_id, Answer or CallError)`` for the next call that ended, or None."""
+        return self._outcomes.popleft() if self._outcomes else None
+
+    def _waiting(self):
+        return any(c["sent_to"] is None for c in self._calls.values())
+
+    def _ask_if_waiting(self, now):
+        if self._waiting() and (self._last_asked is None or now >= self._last_asked + _ASK_EVERY):
+            self._last_asked = now
+            self._outbox.append(_rpc_packet(self.channel, 0, "who", ()))
+
+    def _dispatch(self, now):
+        live = [p for p in self._order if self._providers[p][1] + self._providers[p][0] > now]
+        if live:
+            for call_id, call in self._calls.items():
+                if call["sent_to"] is not None:
+                    continue
+                to = live[self._turn % len(live)]
+                self._turn += 1
+                first = "call id {} reply_to {}".format(call_id, self.inbox)
+                self._outbox.append(_rpc_packet(self.channel + "." + to, call["priority"], first, call["lines"]))
+                call["sent_to"] = to
+        self._ask_if_waiting(now)
+
+    def _drop(self, pid, now, left):
+        lease, seen = self._providers.pop(pid)
+        self._order.remove(pid)
+        for call_id in [c for c, call in self._calls.items() if call["sent_to"] == pid]:
+            del self._calls[call_id]
+            if left:
+                err = CallError("provider_left", "provider {} stopped before answering".format(pid), pid)
+            else:
+                err = CallError("provider_lapsed", "provider {} fell silent for {:.1f} s, past its {:.1f} s "
+                                "lease, before answering".format(pid, now - seen, lease), pid)
+            self._outcomes.append((call_id, err))
+
+
+class Call:
+    """A call taken by a :class:`Provider`: its ``id``, the caller's ``reply_to``
+    inbox, its ``priority``, its ``lines`` as written and the whole ``packet``."""
+
+    __slots__ = ("id", "reply_to", "priority", "lines", "packet")
+
+    def __init__(self, id, reply_to, priority, lines, packet):
+        self.id = id
+        self.reply_to = reply_to
+        self.priority = priority
+        self.lines = lines
+        self.packet = packet
+
+
+class Provider:
+    """One provider of one service, sans I/O, like the Rust ``rpc::Provider``:
+    announces itself when made, every third of its ``lease`` (seconds) and when
+    asked ``who`` (at most every 0.1 s); :meth:`handle_packet` returns each
+    call, to :meth:`answer` or :meth:`refuse`."""
+
+    def __init__(self, service, now, lease=3.0, provider_id=None):
+        self.channel = _service_channel(service)
+        self.id = provider_id or _fresh_id()
+        if not _ID.fullmatch(self.id):
+            raise ValueError("an id is 16 lowercase hex digits")
+        if not (isinstance(lease, (int, float)) and lease == lease):
+            raise ValueError("a lease is a number of seconds")
+        self.lease = min(max(float(lease), MIN_LEASE_MS / 1000.0), _LONGEST_LEASE)
+        self.inbox = self.channel + "." + self.id
+        self._outbox = deque()
+        self._last_who = None
+        #: Calls answered or refused.
+        self.served = 0
+        self._announce(now)
+
+    def subjects(self):
+        return [self.channel, self.inbox]
+
+    def _announce(self, now):
+        self._last_announced = now
+        first = "provider id {} lease_ms {}".format(self.id, int(round(self.lease * 1000)))
+        self._outbox.append(_rpc_packet(self.channel, 0, first, ()))
+
+    def handle_packet(self, now, packet):
+        """A :class:`Call` for this provider, or None."""
+        if len(packet.subjects) != 1 or not packet.lines:
+            return None
+        label, raw = _first_line_raw(packet)
+        if packet.subjects[0] == self.channel:
+            if label == "who" and (self._last_who is None or now - self._last_who >= _ANSWER_WHO_EVERY):
+                self._last_who = now
+                self._announce(now)
+            return None
+        if packet.subjects[0] != self.inbox or label != "call":
+            return None
+        call_id, reply_to = raw.get("id"), raw.get("reply_to")
+        if not (call_id and _ID.fullmatch(call_id) and reply_to and reply_to.startswith(REPLY_PREFIX)
+                and is_subject(reply_to)):
+            return None
+        return Call(call_id, reply_to, packet.priority, _body_lines(packet), packet)
+
+    def answer(self, call, lines):
+        """Answers with these lines; raises ParseError if they do not make a packet."""
+        first = "reply id {} from {}".format(call.id, self.id)
+        self._outbox.append(_rpc_packet(call.reply_to, call.priority, first, [str(l) for l in lines]))
+        self.served += 1
+
+    def refuse(self, call, why):
+        first = "refused id {} from {} text {}".format(call.id, self.id, _quote(str(why)[:1024]))
+        self._outbox.append(_rpc_packet(call.reply_to, call.priority, first, ()))
+        self.served += 1
+
+    def handle_timeout(self, now):
+        if now >= self.poll_timeout():
+            self._announce(now)
+
+    def poll_timeout(self):
+        return self._last_announced + self.lease / 3.0
+
+    def leave(self):
+        """Says the provider is stopping, so callers end its calls at once."""
+        self._outbox.append(_rpc_packet(self.channel, 0, "leaving id " + self.id, ()))
+
+    def poll_transmit(self):
+        return self._outbox.popleft() if self._outbox else None
+
+
+def _earliest(*times):
+    times = [t for t in times if t is not None]
+    return min(times) if times else None
+
+
+class CallClient:
+    """A :class:`Caller` on its own :class:`Client`::
+
+        with CallClient("127.0.0.1:7400", "echo") as c:
+            print(c.call(['text value "hi"']).lines)
+
+    :meth:`call` waits for the answer and raises :class:`CallError`; or keep
+    your own loop with :meth:`start`, :meth:`poll` and :meth:`poll_outcome`.
+    Extra keyword arguments go to :class:`Client` (``key=...``)."""
+
+    def __init__(self, hub, service, **client_args):
+        self.caller = Caller(service)
+        self.client = Client(hub, **client_args)
+        self._parked = deque()
+        for s in self.caller.subjects():
+            self.client.subscribe(s)
+
+    def fileno(self):
+        return self.client.fileno()
+
+    def close(self):
+        self.client.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def start(self, lines, timeout=5.0, priority=0):
+        call_id = self.caller.call(time.monotonic(), lines, timeout, priority)
+        self._flush()
+        return call_id
+
+    def _flush(self):
+        while True:
+            d = self.caller.poll_transmit()
+            if d is None:
+                return
+            self.client.publish_raw(d)
+
+    def poll(self, now=None):
+        now = time.monotonic() if now is None else now
+        self.client.poll(now)
+        for packet in self.client:
+            self.caller.handle_packet(now, packet)
+        self.caller.handle_timeout(now)
+        self._flush()
+
+    def next_deadline(self):
+        return _earliest(self.client.next_deadline(), self.caller.poll_timeout())
+
+    def poll_outcome(self):
+        if self._parked:
+            return self._parked.popleft()
+        return self.caller.poll_outcome()
+
+    def call(self, lines, timeout=5.0, priority=0):
+        """Calls and waits; the :class:`Answer`, or raises :class:`CallError`."""
+        call_id = self.start(lines, timeout, priority)
+        while True:
+            while True:
+                got = self.caller.poll_outcome()
+                if got is None:
+                    break
+                if got[0] == call_id:
+                    if isinstance(got[1], CallError):
+                        raise got[1]
+                    return got[1]
+                self._parked.append(got)
+            now = time.monotonic()
+            wake = _earliest(self.next_deadline(), now + 0.1)
+            select.select([self.client], [], [], max(0.0, wake - now))
+            self.poll()
+
+
+class ServeClient:
+    """A :class:`Provider` on its own :class:`Client`. ``handler(call)``
+    returns the answer's lines, or raises to refuse the call (its message is
+    the reason). It announces itself only once the hub has leased its
+    subscriptions, so no caller hears of it before its calls can arrive."""
+
+    def __init__(self, hub, service, lease=3.0, **client_args):
+        self.provider = Provider(service, time.monotonic(), lease)
+        self.client = Client(hub, **client_args)
+        for s in self.provider.subjects():
+            self.client.subscribe(s)
+
+    def fileno(self):
+        return self.client.fileno()
+
+    def close(self):
+        self.client.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def _flush(self):
+        if self.client.lease_ms is None:
+            return
+        while True:
+            d = self.provider.poll_transmit()
+            if d is None:
+                return
+            self.client.publish_raw(d)
+
+    def next_deadline(self):
+        return _earliest(self.client.next_deadline(), self.provider.poll_timeout())
+
+    def poll(self, handler, now=None):
+        now = time.monotonic() if now is None else now
+        self.client.poll(now)
+        for packet in self.client:
+            call = self.provider.handle_packet(now, packet)
+            if call is None:
+                continue
+            try:
+                lines = handler(call)
+                self.provider.answer(call, lines)
+            except Exception as e:  # the handler's failure is the caller's answer
+                self.provider.refuse(call, "{}: {}".format(type(e).__name__, e))
+        self.provider.handle_timeout(now)
+        self._flush()
+
+    def serve(self, handler, until=None):
+        """Serves until ``until()`` is true (or forever), then says it is leaving."""
+        try:
+            while until is None or not until():
+                now = time.monotonic()
+                wake = _earliest(self.next_deadline(), now + 0.1)
+                select.select([self.client], [], [], max(0.0, wake - now))
+                self.poll(handler)
+        finally:
+            self.leave()
+
+    def leave(self):
+        self.provider.leave()
+        self._flush()
 
 
 # --------------------------------------------------------------------------- command line

@@ -1361,9 +1361,12 @@ class Hub:
         self.port = port or free_udp_port()
         self.args = list(args)
         self.proc = None
-        # Append mode: the hub shares this file's offset, and each read here
-        # seeks it back to the start; without O_APPEND the hub's next line
-        # would overwrite the first.
+        # Append mode, so the hub always writes at the end. The hub shares
+        # this file's offset; reads here use pread, which neither uses nor
+        # moves it: a seek and a read could be split by the hub's append,
+        # which moves the shared offset past the line it wrote, and the
+        # buffered reader then kept serving the text after it (a hub that
+        # "did not start" although its log said it listened).
         self.log = tempfile.TemporaryFile(mode="a+b")
 
     @property
@@ -1376,8 +1379,7 @@ class Hub:
 
     def start(self, timeout=10.0):
         path, _ = colony_bin()
-        self.log.seek(0)
-        self.log.truncate()
+        os.ftruncate(self.log.fileno(), 0)
         self.proc = subprocess.Popen(
             [path, "hub", "--bind", self.addr_text] + self.args,
             stdin=subprocess.DEVNULL,
@@ -1398,8 +1400,8 @@ class Hub:
         raise AssertionError("the hub did not start on %s:\n%s" % (self.addr_text, text))
 
     def log_text(self):
-        self.log.seek(0)
-        return self.log.read()
+        fd = self.log.fileno()
+        return os.pread(fd, os.fstat(fd).st_size, 0)
 
     def stop(self):
         if self.proc is not None:
@@ -1414,6 +1416,36 @@ class Hub:
     def close(self):
         self.stop()
         self.log.close()
+
+
+class HubLog(unittest.TestCase):
+    def test_the_log_reads_whole_while_another_process_appends_to_it(self):
+        # The hub writes through its own copy of the descriptor; each append
+        # moves the offset both share. Reading must never lose a line to that.
+        import threading
+
+        hub = Hub()
+        self.addCleanup(hub.log.close)
+        writer = os.dup(hub.log.fileno())
+        self.addCleanup(os.close, writer)
+        os.write(writer, b"first line\n")
+        stop = threading.Event()
+
+        def append():
+            while not stop.is_set():
+                os.write(writer, b"x\n")
+
+        t = threading.Thread(target=append)
+        t.start()
+        try:
+            deadline = time.monotonic() + 1.0
+            reads = 0
+            while time.monotonic() < deadline:
+                self.assertTrue(hub.log_text().startswith(b"first line\n"), "read %d lost the first line" % reads)
+                reads += 1
+        finally:
+            stop.set()
+            t.join()
 
 
 class Pump:

@@ -81,10 +81,10 @@ pub struct Service {
 }
 
 impl Service {
-    /// A service called `name`: subject characters only, at most [`MAX_SERVICE_LEN`] bytes.
+    /// A service called `name`: subject characters only, 1 to [`MAX_SERVICE_LEN`] bytes.
     pub fn new(name: &str) -> Result<Service, RpcError> {
         let bad = || RpcError::BadService(name.to_owned());
-        if name.len() > MAX_SERVICE_LEN {
+        if name.is_empty() || name.len() > MAX_SERVICE_LEN {
             return Err(bad());
         }
         let channel = Subject::new(&format!("{SERVICE_PREFIX}{name}")).map_err(|_| bad())?;

@@ -111,7 +111,7 @@ impl std::error::Error for CallError {}
 pub enum RpcError {
     /// A service name that cannot make a channel.
     #[error(
-        "`{0}` cannot name a service: use letters, digits and `_-.:/`, at most {max} bytes",
+        "`{0}` cannot name a service: use letters, digits and `_-.:/`, 1 to {max} bytes",
         max = message::MAX_SERVICE_LEN
     )]
     BadService(String),
@@ -433,6 +433,7 @@ mod tests {
     #[test]
     fn bad_service_names_and_bad_lines_are_refused_with_a_reason() {
         assert!(matches!(Caller::new("a b"), Err(RpcError::BadService(_))));
+        assert!(matches!(Caller::new(""), Err(RpcError::BadService(_))));
         assert!(matches!(
             Caller::new(&"x".repeat(message::MAX_SERVICE_LEN + 1)),
             Err(RpcError::BadService(_))
