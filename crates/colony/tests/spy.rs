@@ -29,8 +29,9 @@ struct Tmux {
 }
 
 impl Tmux {
-    /// Runs `args` (after the colony binary) in a fresh session. When the command ends, its
-    /// last words stay on the screen for the test to show.
+    /// Runs `args` (after the colony binary) in a fresh session, for 5 minutes at most (should
+    /// the test be killed before it kills tmux). When the command ends, its last words stay
+    /// on the screen for the test to show.
     fn start(name: &str, args: &[&str]) -> Tmux {
         let socket = format!("colony-spy-test-{name}-{}", std::process::id());
         let quoted: Vec<String> = std::iter::once(env!("CARGO_BIN_EXE_colony"))
@@ -38,7 +39,7 @@ impl Tmux {
             .map(|a| format!("'{}'", a.replace('\'', r"'\''")))
             .collect();
         let line = format!(
-            "COLONY_LOG=warn {}; echo \"[colony exited: $?]\"; sleep 600",
+            "COLONY_LOG=warn timeout --foreground 300 {}; echo \"[colony exited: $?]\"; sleep 300",
             quoted.join(" ")
         );
         let status = Command::new("tmux")
@@ -328,6 +329,51 @@ fn the_spy_plays_a_log_the_hub_wrote() {
     spy.wait_for(Duration::from_secs(10), "its exit", |s| {
         s.contains("[colony exited: 0]")
     });
+}
+
+/// The `seen N` figure of the status line.
+fn seen(screen: &str) -> u64 {
+    screen
+        .split("seen ")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(0)
+}
+
+#[test]
+fn the_spy_says_when_the_hub_is_gone_and_carries_on_when_it_is_back() {
+    let addr = format!("127.0.0.1:{}", free_udp_port());
+    let mut hub = HubProcess::start_on(&addr, &[]);
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let publisher = {
+        let (stop, addr) = (stop.clone(), addr.clone());
+        std::thread::spawn(move || {
+            let mut client = colony_client::UdpClient::connect(addr.as_str()).unwrap();
+            let mut i = 0u64;
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                let _ = client.publish(format!("@ <tick> 0\nt n {i}\n").as_bytes());
+                i += 1;
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        })
+    };
+    let spy = Tmux::start("restart", &["spy", "--hub", &addr]);
+    spy.wait_for(Duration::from_secs(20), "the tick channel", |s| {
+        s.contains("alive tapping") && s.lines().any(|l| l.starts_with("tick "))
+    });
+    hub.kill();
+    let screen = spy.wait_for(Duration::from_secs(30), "the hub unreachable", |s| {
+        s.contains("UNREACHABLE")
+    });
+    let before = seen(&screen);
+    let _hub = HubProcess::start_on(&addr, &[]);
+    let screen = spy.wait_for(Duration::from_secs(30), "the hub back", |s| {
+        s.contains("alive tapping") && seen(s) > before + 10
+    });
+    assert!(screen.lines().any(|l| l.starts_with("tick ")), "{screen}");
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    publisher.join().unwrap();
 }
 
 #[test]

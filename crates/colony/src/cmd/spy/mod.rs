@@ -9,6 +9,7 @@
 //! (or the log) and the terminal.
 
 mod fields;
+mod missed;
 mod model;
 mod rate;
 mod view;

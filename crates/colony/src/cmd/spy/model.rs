@@ -14,6 +14,7 @@ use std::time::Duration;
 use colony_wire::{Packet, StatusReport};
 
 use super::fields::{self, printable};
+use super::missed::Missed;
 use super::rate::RateWindow;
 
 /// Channels tracked at most (the hub itself counts at most 1024); packets on more are counted
@@ -27,9 +28,6 @@ pub const MAX_PRIORITIES: usize = 4;
 pub const MAX_SERIES: usize = 256;
 /// ...and points kept per field.
 pub const MAX_POINTS: usize = 600;
-/// A status report whose hub clock is this much behind the freshest one seen was served from
-/// the hub's cache: its counts are older than its arrival.
-const FRESH_WITHIN: f64 = 0.005;
 
 /// A key, as the spy understands it (the terminal's keys are mapped onto these).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -192,50 +190,6 @@ pub enum LogState {
     Ended,
     /// The log could not be read further; what was read is shown.
     Failed(String),
-}
-
-/// Packets the hub counted as published that the spy never received, from the status reports:
-/// the growth of the hub's total since a baseline, less the growth of the spy's.
-#[derive(Debug, Clone, Default)]
-struct Missed {
-    /// The smallest (arrival time − hub uptime) seen: the freshest report's.
-    min_offset: Option<f64>,
-    last_uptime: u64,
-    /// The hub's total and the spy's at the baseline report.
-    baseline: Option<(u64, u64)>,
-    missed: u64,
-}
-
-impl Missed {
-    fn on_status(&mut self, now: Duration, report: &StatusReport, seen: u64, tapping: bool) {
-        if report.uptime_ms < self.last_uptime {
-            // The hub restarted: its counts began again.
-            *self = Missed::default();
-        }
-        self.last_uptime = report.uptime_ms;
-        let offset = now.as_secs_f64() - report.uptime_ms as f64 / 1000.0;
-        let fresher = self.min_offset.is_none_or(|m| offset < m - FRESH_WITHIN);
-        if fresher {
-            // A fresher report than the baseline's: the baseline's counts were older than its
-            // arrival (what came meanwhile looked missed), so the count starts again from it.
-            self.min_offset = Some(offset);
-            self.baseline = None;
-            self.missed = 0;
-        }
-        let fresh = self.min_offset.is_some_and(|m| offset - m <= FRESH_WITHIN);
-        if !fresh || report.truncated || !tapping {
-            return;
-        }
-        let hub: u64 = report.channels.iter().map(|c| c.packets).sum();
-        match self.baseline {
-            None => self.baseline = Some((hub, seen)),
-            Some((h0, s0)) => {
-                self.missed = hub
-                    .saturating_sub(h0)
-                    .saturating_sub(seen.saturating_sub(s0));
-            }
-        }
-    }
 }
 
 /// The channel view's state: which channel, which field is plotted, and the fields' history.
@@ -547,7 +501,7 @@ impl Spy {
     /// Packets the hub published that never reached the spy, by its status reports (only a
     /// live hub's).
     pub fn missed(&self) -> u64 {
-        self.missed.missed
+        self.missed.count()
     }
 
     pub fn tap(&self) -> Tap {
