@@ -197,6 +197,30 @@ static void numbers_follow_rusts_grammar(void)
     CHECK(colony_get_i64(l.fields, "k", &i) == COLONY_WRONG_TYPE);
 }
 
+static void decimals_read_as_strtod_reads_them(void)
+{
+    /* The fast path for short decimals against the C library's own reading. */
+    unsigned long long x = 88172645463325252ull;
+    int differ = 0;
+    for (int i = 0; i < 200000; i++) {
+        char text[40];
+        x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+        int digits = 1 + (int)(x % 17), point = (int)((x >> 8) % (unsigned)(digits + 1));
+        unsigned long long m = x >> 20;
+        int n = sprintf(text, "%s", (x >> 5) & 1 ? "-" : "");
+        for (int d = 0; d < digits; d++) {
+            if (d == point) text[n++] = '.';
+            text[n++] = (char)('0' + (m % 10));
+            m /= 10;
+        }
+        text[n] = 0;
+        colony_field f = {{"v", 1}, COLONY_BARE, {text, (size_t)n}};
+        double got = 0;
+        if (colony_field_f64(&f, &got) != COLONY_OK || got != strtod(text, NULL)) differ++;
+    }
+    CHECK(differ == 0);
+}
+
 static void built_packets_read_back_exactly(void)
 {
     char buf[512];
@@ -252,6 +276,7 @@ int main(void)
     a_line_of_thousands_of_names_is_checked_for_repeats();
     fields_are_read_in_place();
     numbers_follow_rusts_grammar();
+    decimals_read_as_strtod_reads_them();
     built_packets_read_back_exactly();
     if (failures) {
         fprintf(stderr, "test_unit: %d checks failed\n", failures);
