@@ -172,14 +172,18 @@ fn the_spy_shows_every_channel_of_a_running_demo_at_the_rate_the_hub_counts() {
 
     let window = WINDOW.to_string();
     let spy = Tmux::start("demo", &["spy", "--hub", &hub, "--window", &window]);
+    // Every channel shows at once; its rate once it has been seen for a whole window.
     let screen = spy.wait_for(Duration::from_secs(30), "every channel", |s| {
-        let rates = screen_rates(s);
-        WORLD.iter().all(|c| rates.contains_key(*c))
+        WORLD
+            .iter()
+            .all(|c| s.lines().any(|l| l.starts_with(&format!("{c} "))))
     });
     assert!(screen.contains("alive tapping"), "{screen}");
 
     // The hub's count over one window, and the spy's rate over the same span, read at once.
-    std::thread::sleep(Duration::from_secs(2));
+    // (Three seconds on, so the slowest channel, first seen as the wait ended, has been seen
+    // for a whole window by the end of the span.)
+    std::thread::sleep(Duration::from_secs(3));
     let a = fetch_status(&hub, Duration::from_secs(5)).expect("status");
     std::thread::sleep(Duration::from_secs(WINDOW));
     let b = fetch_status(&hub, Duration::from_secs(5)).expect("status");
@@ -374,6 +378,57 @@ fn the_spy_says_when_the_hub_is_gone_and_carries_on_when_it_is_back() {
     assert!(screen.lines().any(|l| l.starts_with("tick ")), "{screen}");
     stop.store(true, std::sync::atomic::Ordering::Relaxed);
     publisher.join().unwrap();
+}
+
+/// Whether a process runs whose command line holds `text`.
+fn running(text: &str) -> bool {
+    std::fs::read_dir("/proc")
+        .unwrap()
+        .filter_map(Result::ok)
+        .filter_map(|e| std::fs::read(e.path().join("cmdline")).ok())
+        .any(|c| {
+            String::from_utf8_lossy(&c)
+                .replace('\0', " ")
+                .contains(text)
+        })
+}
+
+#[test]
+fn the_spy_ends_when_its_terminal_hangs_up() {
+    // crossterm's reader spins for ever on a terminal that hung up: the spy must still see
+    // SIGHUP and end, live and at the end of a log alike.
+    let hub = HubProcess::start(&[]);
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("hangup.clog");
+    let log_text = log.to_str().unwrap().to_string();
+    let (mut w, _) = colony_hub::log::LogWriter::open(&log).unwrap();
+    w.append(
+        std::time::SystemTime::now(),
+        "127.0.0.1:5".parse().unwrap(),
+        b"@ <x> 0\nv n 1\n",
+    )
+    .unwrap();
+    w.flush().unwrap();
+    let addr = hub.addr.to_string();
+    let live = Tmux::start("hangup-live", &["spy", "--hub", &addr]);
+    let played = Tmux::start("hangup-log", &["spy", "--log", &log_text]);
+    live.wait_for(Duration::from_secs(20), "the hub", |s| s.contains("alive"));
+    played.wait_for(Duration::from_secs(20), "the log's end", |s| {
+        s.contains("ended")
+    });
+    let live_cmd = format!("spy --hub {addr}");
+    let log_cmd = format!("spy --log {log_text}");
+    assert!(running(&live_cmd) && running(&log_cmd));
+    drop(live);
+    drop(played);
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while running(&live_cmd) || running(&log_cmd) {
+        assert!(
+            Instant::now() < deadline,
+            "a spy outlived its terminal by 10 s"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
 }
 
 #[test]

@@ -17,6 +17,7 @@ mod view;
 use std::io::IsTerminal as _;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, Receiver, TryRecvError};
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
@@ -120,6 +121,7 @@ fn run_live(
     window: Duration,
     stop: &AtomicBool,
 ) -> anyhow::Result<()> {
+    let input = terminal_events()?;
     client.set_standing(vec![Request::Tap, Request::About("colony spy".into())])?;
     client.subscribe(LEASE_CHANNEL)?;
     let me = client.local_addr().ok().map(|a| a.to_string());
@@ -161,7 +163,7 @@ fn run_live(
             };
         }
         spy.set_now(start.elapsed());
-        match keys(&mut spy)? {
+        match keys(&mut spy, &input)? {
             Some(Action::Quit) => break Ok(()),
             Some(Action::Continue) => next_draw = Instant::now(),
             None => {}
@@ -189,6 +191,7 @@ fn run_log(
     window: Duration,
     stop: &AtomicBool,
 ) -> anyhow::Result<()> {
+    let input = terminal_events()?;
     let start = Instant::now();
     let mut pacer = Pacer::new(start, speed);
     let mut spy = Spy::new(
@@ -259,7 +262,7 @@ fn run_log(
                 spy.set_now(log_now);
             }
         }
-        match keys(&mut spy)? {
+        match keys(&mut spy, &input)? {
             Some(Action::Quit) => return Ok(()),
             Some(Action::Continue) => next_draw = Instant::now(),
             None => {}
@@ -272,9 +275,7 @@ fn run_log(
             .into_iter()
             .flatten()
             .fold(Instant::now() + TICK, Instant::min);
-        let wait = wake.saturating_duration_since(Instant::now());
-        // Waiting on the keyboard is waiting for the next record too.
-        event::poll(wait).context("cannot read the terminal")?;
+        std::thread::sleep(wake.saturating_duration_since(Instant::now()));
     }
 }
 
@@ -294,11 +295,35 @@ fn take_record(spy: &mut Spy, since: Duration, record: &Record) {
     }
 }
 
+/// The terminal's events, read on a thread of their own. crossterm's reader never returns once
+/// the terminal hangs up (it reads end of file again and again), so the loop must not wait in
+/// it: it would spin there and never see the stop flag that SIGHUP sets. This thread may spin
+/// then, until the loop sees the flag and the process ends.
+fn terminal_events() -> anyhow::Result<Receiver<std::io::Result<Event>>> {
+    let (tx, rx) = mpsc::sync_channel(256);
+    std::thread::Builder::new()
+        .name("spy-keys".into())
+        .spawn(move || loop {
+            let event = event::read();
+            let failed = event.is_err();
+            if tx.send(event).is_err() || failed {
+                break;
+            }
+        })
+        .context("cannot start the thread that reads the keyboard")?;
+    Ok(rx)
+}
+
 /// Takes every key waiting; `None` when there was none.
-fn keys(spy: &mut Spy) -> anyhow::Result<Option<Action>> {
+fn keys(spy: &mut Spy, input: &Receiver<std::io::Result<Event>>) -> anyhow::Result<Option<Action>> {
     let mut any = None;
-    while event::poll(Duration::ZERO).context("cannot read the terminal")? {
-        match event::read().context("cannot read the terminal")? {
+    loop {
+        let event = match input.try_recv() {
+            Ok(event) => event.context("cannot read the terminal")?,
+            Err(TryRecvError::Empty) => return Ok(any),
+            Err(TryRecvError::Disconnected) => anyhow::bail!("the terminal's input ended"),
+        };
+        match event {
             Event::Key(k) if k.kind != KeyEventKind::Release => {
                 let Some(key) = key_of(k) else { continue };
                 if spy.on_key(key) == Action::Quit {
@@ -310,7 +335,6 @@ fn keys(spy: &mut Spy) -> anyhow::Result<Option<Action>> {
             _ => {}
         }
     }
-    Ok(any)
 }
 
 fn key_of(k: KeyEvent) -> Option<Key> {

@@ -71,16 +71,17 @@ impl RateWindow {
         c.1 = c.1.saturating_add(bytes as u64);
     }
 
-    /// Packets and bytes per second at `now`, over the whole slots inside the window that
-    /// ends where the current slot begins; `None` until one whole slot has passed since the
-    /// first packet (a rate over nothing is no rate).
+    /// Packets and bytes per second at `now`: the count of the whole slots of the window that
+    /// ends where the current slot begins, over the window. `None` until a whole window has
+    /// passed since the first packet: a count over part of the window is no rate over it (a
+    /// burst of three packets would read as a hundred a second).
     pub fn rates(&self, now: Duration) -> Option<(f64, f64)> {
         let current = self.slot_of(now);
         let first = self.first?;
-        let whole = current.saturating_sub(first).min(SLOTS as u64);
-        if whole == 0 {
+        if current.saturating_sub(first) < SLOTS as u64 {
             return None;
         }
+        let whole = SLOTS as u64;
         let len = self.counts.len() as u64;
         let (mut packets, mut bytes) = (0u64, 0u64);
         for k in current - whole..current {
@@ -143,14 +144,19 @@ mod tests {
     }
 
     #[test]
-    fn the_rate_of_a_new_channel_is_over_the_time_since_it_appeared() {
+    fn a_new_channel_has_no_rate_until_a_whole_window_has_passed() {
         let mut w = RateWindow::new(Duration::from_secs(32));
         assert_eq!(w.rates(ms(5000)), None);
         for i in 0..40 {
             w.record(ms(10_000 + i * 100), 1);
         }
-        // 4 s of 10 a second: the rate is 10, not 40 packets over the 32 s window.
-        let (p, _) = w.rates(ms(14_000)).unwrap();
+        assert_eq!(w.rates(ms(14_000)), None);
+        for i in 40..320 {
+            w.record(ms(10_000 + i * 100), 1);
+        }
+        assert_eq!(w.rates(ms(41_999)), None);
+        // 32 s of 10 a second by now: the window holds 320 of them.
+        let (p, _) = w.rates(ms(42_000)).unwrap();
         assert!((p - 10.0).abs() < 0.5, "{p}");
     }
 
