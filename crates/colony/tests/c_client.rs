@@ -442,7 +442,7 @@ fn a_c_subscriber_receives_again_after_a_hub_restart_without_being_restarted() {
 }
 
 #[test]
-fn malformed_datagrams_from_the_hubs_address_are_reported_with_their_place_and_skipped() {
+fn forged_datagrams_are_skipped_with_their_place_and_forged_replies_do_not_chatter() {
     // A fake hub: the C client's socket takes datagrams from its hub's address
     // only, so that is where anything hostile would have to come from.
     let fake = UdpSocket::bind("127.0.0.1:0").unwrap();
@@ -509,6 +509,40 @@ fn malformed_datagrams_from_the_hubs_address_are_reported_with_their_place_and_s
         .cloned()
         .collect();
     assert_eq!(errors, want);
+
+    // Forged cookies, two in quick succession after a quiet while: the first
+    // is taken (everything is asked for again with it), the second is not,
+    // so a forger alternating cookies cannot keep the client resending. And
+    // the forged `lease ms 0` above did not set it chattering: it believes
+    // no lease under 100 ms.
+    std::thread::sleep(Duration::from_millis(400));
+    fake.send_to(b"@ <hub> 0\ncookie v 1111111111111111\n", client)
+        .unwrap();
+    fake.send_to(b"@ <hub> 0\ncookie v 2222222222222222\n", client)
+        .unwrap();
+    fake.set_read_timeout(Some(Duration::from_millis(100)))
+        .unwrap();
+    let mut sent = Vec::new();
+    let window = Instant::now() + Duration::from_millis(1500);
+    while Instant::now() < window {
+        if let Ok((n, _)) = fake.recv_from(&mut buf) {
+            sent.push(String::from_utf8_lossy(&buf[..n]).into_owned());
+        }
+    }
+    assert!(
+        sent.iter()
+            .any(|d| d.contains("cookie v 1111111111111111\nsubscribe ch t")),
+        "{sent:?}"
+    );
+    assert!(
+        !sent.iter().any(|d| d.contains("2222222222222222")),
+        "{sent:?}"
+    );
+    assert!(
+        sent.len() < 100,
+        "{} datagrams in 1.5 s: the client believed `lease ms 0`",
+        sent.len()
+    );
 }
 
 #[test]
