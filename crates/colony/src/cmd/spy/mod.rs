@@ -41,6 +41,9 @@ const DRAW_EVERY: Duration = Duration::from_millis(250);
 const STATUS_EVERY: Duration = Duration::from_secs(1);
 /// The longest the loop waits for the hub's socket before looking at the keyboard.
 const TICK: Duration = Duration::from_millis(15);
+/// The receive buffer the spy asks for: a tap receives the whole hub's traffic, and the
+/// default (about 208 KiB: five of the largest packets) drops a burst of it at the spy's socket.
+const RECEIVE_BUFFER: usize = 4 << 20;
 /// Datagrams or records taken in per round at most, so keys and drawing go on under a flood.
 const BATCH: usize = 20_000;
 
@@ -122,6 +125,7 @@ fn run_live(
     stop: &AtomicBool,
 ) -> anyhow::Result<()> {
     let input = terminal_events()?;
+    enlarge_receive_buffer(&client, RECEIVE_BUFFER);
     client.set_standing(vec![Request::Tap, Request::About("colony spy".into())])?;
     client.subscribe(LEASE_CHANNEL)?;
     let me = client.local_addr().ok().map(|a| a.to_string());
@@ -181,6 +185,18 @@ fn run_live(
     // Let the tap go at once: a hub lets only a few clients tap.
     let _ = client.unsubscribe_all();
     result
+}
+
+/// Asks for a receive buffer of `bytes`: the kernel caps a plain request at
+/// `net.core.rmem_max`, which a privileged process may pass. Refusals are fine; what the
+/// spy misses for want of room is counted (missed).
+fn enlarge_receive_buffer(client: &colony_client::UdpClient, bytes: usize) {
+    use colony_sys::buffers::{self, Buffer};
+    let _ = buffers::set_size(client, Buffer::Receive, bytes, false);
+    // Linux reports double the size asked for (it counts its bookkeeping).
+    if buffers::size(client, Buffer::Receive).map_or(0, |b| b / 2) < bytes {
+        let _ = buffers::set_size(client, Buffer::Receive, bytes, true);
+    }
 }
 
 fn run_log(
