@@ -242,7 +242,8 @@ colony_status colony_publish(colony_client *c, const void *data, size_t len, col
 
 /* The next packet the hub forwarded: COLONY_OK with *p pointing into the
  * client's buffer (valid until the next colony_recv), COLONY_AGAIN when
- * nothing is waiting, a parse error (with *err) for a datagram that did not
+ * nothing is waiting (or after 64 hub replies in one call: a flood of them
+ * cannot hold your loop, and the socket stays readable), a parse error (with *err) for a datagram that did not
  * parse (it is counted and dropped; call again), or COLONY_SYSTEM. Leases and
  * cookies are taken in along the way; status reports are returned as packets. */
 colony_status colony_recv(colony_client *c, colony_packet *p, colony_error *err, int64_t now);

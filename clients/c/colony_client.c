@@ -278,7 +278,10 @@ colony_status colony_recv(colony_client *c, colony_packet *p, colony_error *err,
     colony_error ignored;
     if (!err) err = &ignored;
     tick(c, now);
-    for (;;) {
+    /* Replies are taken in here without returning; a bounded number per call,
+     * so a flood of them (forged from the hub's address) cannot hold the
+     * application's loop. The socket stays readable for the next call. */
+    for (int replies = 0; replies < 64;) {
         ssize_t n = recv(c->fd, c->in, sizeof c->in, 0);
         if (n < 0) {
             if (errno == EAGAIN || errno == EWOULDBLOCK) return COLONY_AGAIN;
@@ -293,11 +296,15 @@ colony_status colony_recv(colony_client *c, colony_packet *p, colony_error *err,
             c->malformed++;
             return st;
         }
-        if (hub_reply(c, p, now)) continue;
+        if (hub_reply(c, p, now)) {
+            replies++;
+            continue;
+        }
         for (int i = 0; i < c->sub_count; i++)
             if (colony_has_subject(p, c->subs[i].name)) c->subs[i].last_data = now;
         return COLONY_OK;
     }
+    return COLONY_AGAIN;
 }
 
 int colony_hub_alive(const colony_client *c, int64_t now, int64_t within_ms)

@@ -2,9 +2,9 @@
  * crates/wire/src/scan.rs, walking the bytes in place with no allocation. */
 #include "colony.h"
 
-#include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 /* ---------------------------------------------------------------- bytes */
 
@@ -303,6 +303,7 @@ typedef struct body_state {
     uint16_t at[(COLONY_MAX_DEPTH + 1) * LINEAR]; /* packets < 64 KB */
     uint16_t len[(COLONY_MAX_DEPTH + 1) * LINEAR];
     uint16_t *table; /* NULL until a frame needs it */
+    uint64_t seed;   /* of the table's hash */
 } body_state;
 
 /* What body() returns to ask for the table: never a parse verdict. */
@@ -315,18 +316,25 @@ static size_t bare_len(const scanner *s, size_t at)
     return e - at;
 }
 
-static uint32_t hash_name(const unsigned char *p, size_t n)
+/* FNV-1a from a secret start, then mixed (MurmurHash3's finalizer). Unkeyed,
+ * a publisher could send names that all fall in one bucket, which the hub
+ * (whose Rust parser hashes with a random key) would forward to every C
+ * subscriber, and each would spend quadratic time on it. */
+static uint32_t hash_name(uint64_t seed, const unsigned char *p, size_t n)
 {
-    uint32_t h = 2166136261u;
-    for (size_t i = 0; i < n; i++) h = (h ^ p[i]) * 16777619u;
-    return h;
+    uint64_t h = seed ^ 14695981039346656037u;
+    for (size_t i = 0; i < n; i++) h = (h ^ p[i]) * 1099511628211u;
+    h ^= h >> 33;
+    h *= 0xff51afd7ed558ccdu;
+    h ^= h >> 33;
+    return (uint32_t)h;
 }
 
 /* Adds a name to the innermost frame; 0 when the frame holds it already. */
 static int table_insert(body_state *bs, const scanner *s, size_t at, size_t n)
 {
     size_t frame_start = bs->frames[bs->depth].start;
-    uint32_t i = hash_name(s->b + at, n) & (TABLE - 1);
+    uint32_t i = hash_name(bs->seed, s->b + at, n) & (TABLE - 1);
     for (;; i = (i + 1) & (TABLE - 1)) {
         uint16_t v = bs->table[i];
         if (v == EMPTY) break;
@@ -352,7 +360,7 @@ static void forget_frame(body_state *bs, const scanner *s0, const frame *f)
         size_t at;
         if (next_tok(&s, &t, &at) != COLONY_OK || t != TOK_BARE) return;
         size_t n = s.pos - at;
-        uint32_t i = hash_name(s.b + at, n) & (TABLE - 1);
+        uint32_t i = hash_name(bs->seed, s.b + at, n) & (TABLE - 1);
         for (;; i = (i + 1) & (TABLE - 1)) {
             uint16_t v = bs->table[i];
             if (v == EMPTY) break;
@@ -465,6 +473,10 @@ static colony_status body_with_table(scanner *s, body_state *bs)
     uint16_t table[TABLE];
     memset(table, 0, sizeof table);
     bs->table = table;
+    /* A secret in C99 alone, and no shared state: where this thread's stack
+     * lies (randomised by the loader) and the clocks. */
+    bs->seed = (uint64_t)(uintptr_t)table * 0x9e3779b97f4a7c15u ^ (uint64_t)time(NULL) ^
+               (uint64_t)clock() << 32;
     colony_status st = body(s, bs);
     bs->table = NULL;
     return st;
