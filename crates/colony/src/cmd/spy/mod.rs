@@ -39,6 +39,8 @@ pub const WINDOW: Bounds = Bounds::new(0.1, 3600.0, "seconds");
 /// The screen is drawn this often (and at once after a key).
 const DRAW_EVERY: Duration = Duration::from_millis(250);
 const STATUS_EVERY: Duration = Duration::from_secs(1);
+/// A socket error shows this long after it last happened.
+const SHOW_FAILURE: Duration = Duration::from_secs(3);
 /// The longest the loop waits for the hub's socket before looking at the keyboard.
 const TICK: Duration = Duration::from_millis(15);
 /// The receive buffer the spy asks for: a tap receives the whole hub's traffic, and the
@@ -139,31 +141,51 @@ fn run_live(
     );
     let mut next_status = start;
     let mut next_draw = start;
+    let mut last_failure: Option<(Instant, String)> = None;
     let result = loop {
         if stop.load(Ordering::Relaxed) {
             break Ok(());
         }
+        // The network failing (a route gone, an interface down) is the hub's state, shown
+        // until the client talks to it again, never the spy's end.
+        let mut failed: Option<std::io::Error> = None;
         let now = Instant::now();
         if now >= next_status {
-            client.request(&[Request::Status])?;
             next_status = now + STATUS_EVERY;
+            if let Err(e) = client.request(&[Request::Status]) {
+                failed = Some(e);
+            }
         }
-        client.poll(now)?;
+        if let Err(e) = client.poll(now) {
+            failed = Some(e);
+        }
         for _ in 0..BATCH {
             let at = start.elapsed();
-            match client.recv_any()? {
-                Some(Delivery::Packet(p)) => spy.on_packet(at, &p),
-                Some(Delivery::Reply(Reply::Status(r))) => spy.on_status(at, &r, me.as_deref()),
-                Some(Delivery::Reply(_)) => {}
-                None => break,
+            match client.recv_any() {
+                Ok(Some(Delivery::Packet(p))) => spy.on_packet(at, &p),
+                Ok(Some(Delivery::Reply(Reply::Status(r)))) => spy.on_status(at, &r, me.as_deref()),
+                Ok(Some(Delivery::Reply(_))) => {}
+                Ok(None) => break,
+                Err(e) => {
+                    failed = Some(e);
+                    break;
+                }
             }
         }
         spy.set_unparsed_elsewhere(client.malformed_count());
+        if let Some(e) = failed {
+            last_failure = Some((Instant::now(), e.to_string()));
+        }
+        let shown_failure = last_failure
+            .as_ref()
+            .filter(|(at, _)| at.elapsed() < SHOW_FAILURE)
+            .map(|(_, why)| why.clone());
         if let Feed::Hub { state, .. } = &mut spy.feed {
-            *state = match client.hub_state() {
-                HubState::Unknown => HubLink::Waiting,
-                HubState::Alive => HubLink::Alive,
-                HubState::Unreachable { silent_for } => HubLink::Unreachable { silent_for },
+            *state = match (shown_failure, client.hub_state()) {
+                (Some(why), _) => HubLink::Failing(why),
+                (None, HubState::Unknown) => HubLink::Waiting,
+                (None, HubState::Alive) => HubLink::Alive,
+                (None, HubState::Unreachable { silent_for }) => HubLink::Unreachable { silent_for },
             };
         }
         spy.set_now(start.elapsed());
@@ -180,7 +202,9 @@ fn run_live(
             .into_iter()
             .flatten()
             .fold(Instant::now() + TICK, Instant::min);
-        client.wait(Some(wake))?;
+        if client.wait(Some(wake)).is_err() {
+            std::thread::sleep(wake.saturating_duration_since(Instant::now()));
+        }
     };
     // Let the tap go at once: a hub lets only a few clients tap.
     let _ = client.unsubscribe_all();

@@ -11,7 +11,7 @@ use std::collections::{BTreeMap, VecDeque};
 use std::ops::Bound;
 use std::time::Duration;
 
-use colony_wire::{Packet, StatusReport};
+use colony_wire::{Packet, Priority, StatusReport};
 
 use super::fields::{self, printable};
 use super::missed::Missed;
@@ -61,13 +61,13 @@ pub enum Action {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct PriorityMix {
     /// The first [`MAX_PRIORITIES`] priorities seen, with their counts.
-    pub counts: Vec<(i32, u64)>,
+    pub counts: Vec<(Priority, u64)>,
     /// Packets of any other priority.
     pub others: u64,
 }
 
 impl PriorityMix {
-    fn add(&mut self, priority: i32) {
+    fn add(&mut self, priority: Priority) {
         if let Some(c) = self.counts.iter_mut().find(|(p, _)| *p == priority) {
             c.1 += 1;
         } else if self.counts.len() < MAX_PRIORITIES {
@@ -172,7 +172,7 @@ pub enum Feed {
 }
 
 /// How the spy's link to a hub is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub enum HubLink {
     /// Nothing heard yet.
     Waiting,
@@ -180,6 +180,8 @@ pub enum HubLink {
     Unreachable {
         silent_for: Duration,
     },
+    /// The socket fails (a route gone, an interface down), as it said.
+    Failing(String),
 }
 
 /// Where a log's playing is.
@@ -308,7 +310,7 @@ impl Spy {
         c.rate.record(now, text.len());
         c.packets += 1;
         c.bytes += text.len() as u64;
-        c.priorities.add(packet.priority().0);
+        c.priorities.add(packet.priority());
         c.last_at = Some(now);
         c.last_len = text.len();
         let open = self.open.as_mut().filter(|o| o.name == key);
@@ -586,10 +588,10 @@ mod tests {
     fn priorities_beyond_the_few_counted_apart_are_lumped() {
         let mut m = PriorityMix::default();
         assert_eq!(m.summary(), "");
-        m.add(5);
+        m.add(Priority(5));
         assert_eq!(m.summary(), "5");
         for p in [1, 2, 3, 4, 6, 7] {
-            m.add(p);
+            m.add(Priority(p));
         }
         assert_eq!(m.counts.len(), MAX_PRIORITIES);
         assert_eq!(m.others, 3);

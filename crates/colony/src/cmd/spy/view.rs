@@ -51,6 +51,7 @@ fn title_line(spy: &Spy) -> Line<'static> {
                 HubLink::Unreachable { silent_for } => {
                     format!("UNREACHABLE ({} silent)", seconds(*silent_for))
                 }
+                HubLink::Failing(why) => format!("FAILING: {}", printable(why)),
             };
             let tap = match spy.tap() {
                 Tap::Unknown => "",
@@ -408,6 +409,17 @@ mod tests {
         assert!(
             lines[23].starts_with(" seen 120  missed 0  unparsed 0"),
             "{lines:#?}"
+        );
+        // A failing socket says why, with what it said made safe to print.
+        let mut s = s;
+        s.feed = Feed::Hub {
+            addr: "10.0.0.9:7400".into(),
+            state: HubLink::Failing("Network is unreachable\u{1b}[2J".into()),
+        };
+        let title = &screen(&s)[0];
+        assert!(
+            title.contains("10.0.0.9:7400 FAILING: Network is unreachable?[2J"),
+            "{title}"
         );
     }
 
