@@ -380,6 +380,39 @@ fn the_spy_says_when_the_hub_is_gone_and_carries_on_when_it_is_back() {
     publisher.join().unwrap();
 }
 
+#[test]
+fn a_refused_tap_shows_and_a_console_key_taps_anyway() {
+    // A hub lets two clients of one host tap, and a console more.
+    let dir = tempfile::tempdir().unwrap();
+    let key = dir.path().join("colony.key");
+    std::fs::write(
+        &key,
+        "a key shared by the hub and its consoles, long enough",
+    )
+    .unwrap();
+    let key = key.to_str().unwrap();
+    let hub = HubProcess::start(&["--key", key]);
+    let addr = hub.addr.to_string();
+    let plain: Vec<Tmux> = (0..2)
+        .map(|i| {
+            let spy = Tmux::start(&format!("tap{i}"), &["spy", "--hub", &addr]);
+            spy.wait_for(Duration::from_secs(20), "its tap", |s| {
+                s.contains("alive tapping")
+            });
+            spy
+        })
+        .collect();
+    let third = Tmux::start("tap2", &["spy", "--hub", &addr]);
+    third.wait_for(Duration::from_secs(20), "its tap refused", |s| {
+        s.contains("TAP REFUSED")
+    });
+    let console = Tmux::start("tap3", &["spy", "--hub", &addr, "--key", key]);
+    console.wait_for(Duration::from_secs(20), "its tap", |s| {
+        s.contains("alive tapping")
+    });
+    drop(plain);
+}
+
 /// Whether a process runs whose command line holds `text`.
 fn running(text: &str) -> bool {
     std::fs::read_dir("/proc")

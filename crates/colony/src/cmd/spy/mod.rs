@@ -63,6 +63,10 @@ last rates stay on the screen.")]
 pub struct Args {
     #[command(flatten)]
     pub hub: HubAddr,
+    /// The hub's shared key (`colony hub --key FILE`): the spy signs its requests with it and
+    /// taps as a console, which a hub never refuses for too many taps.
+    #[arg(long, value_name = "FILE", conflicts_with = "log")]
+    pub key: Option<PathBuf>,
     /// Play this traffic log (as written by `colony hub --log`) instead of tapping a hub.
     #[arg(long, value_name = "FILE")]
     pub log: Option<PathBuf>,
@@ -86,7 +90,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // changes, so the error reads as any other command's.
     let source = match &args.log {
         Some(file) => Source::Log(LogReader::open(file)?),
-        None => Source::Hub(Box::new(args.hub.connect()?)),
+        None => {
+            let mut client = args.hub.connect()?;
+            if let Some(key) = &args.key {
+                client.set_key(super::read_key(key)?);
+            }
+            Source::Hub(Box::new(client))
+        }
     };
     let stop = super::stop_flag()?;
     // The terminal is restored however this ends: on return, on error (the guard) and on a

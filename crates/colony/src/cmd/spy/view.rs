@@ -56,7 +56,7 @@ fn title_line(spy: &Spy) -> Line<'static> {
             let tap = match spy.tap() {
                 Tap::Unknown => "",
                 Tap::Tapping => " tapping",
-                Tap::Refused => " TAP REFUSED (too many taps)",
+                Tap::Refused => " TAP REFUSED (too many taps; try --key)",
             };
             format!(" colony spy  hub {addr} {state}{tap}  {window}")
         }
