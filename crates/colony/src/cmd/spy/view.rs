@@ -11,7 +11,7 @@ use ratatui::style::{Modifier, Style};
 use ratatui::symbols::Marker;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{
-    Axis, Block, Borders, Cell, Chart, Dataset, GraphType, Paragraph, Row, Table, TableState,
+    Axis, Block, Borders, Cell, Chart, Dataset, GraphType, Paragraph, Row, Table, TableState, Wrap,
 };
 use ratatui::Frame;
 
@@ -23,12 +23,33 @@ const PLOT_HEIGHT: u16 = 9;
 
 /// Draws the whole screen.
 pub fn draw(frame: &mut Frame<'_>, spy: &Spy) {
-    let [title, body, status] = Layout::vertical([
+    // What went wrong is shown whole, wrapped, above the status line.
+    let alert = match &spy.feed {
+        Feed::Hub {
+            state: HubLink::Failing(why),
+            ..
+        }
+        | Feed::Log {
+            state: LogState::Failed(why),
+            ..
+        } => Some(printable(why)),
+        _ => None,
+    };
+    let [title, body, alert_area, status] = Layout::vertical([
         Constraint::Length(1),
         Constraint::Min(3),
+        Constraint::Length(if alert.is_some() { 3 } else { 0 }),
         Constraint::Length(1),
     ])
     .areas(frame.area());
+    if let Some(why) = alert {
+        frame.render_widget(
+            Paragraph::new(why)
+                .wrap(Wrap { trim: true })
+                .style(Style::new().add_modifier(Modifier::BOLD)),
+            alert_area,
+        );
+    }
     frame.render_widget(
         Paragraph::new(title_line(spy)).style(Style::new().add_modifier(Modifier::REVERSED)),
         title,
@@ -51,7 +72,7 @@ fn title_line(spy: &Spy) -> Line<'static> {
                 HubLink::Unreachable { silent_for } => {
                     format!("UNREACHABLE ({} silent)", seconds(*silent_for))
                 }
-                HubLink::Failing(why) => format!("FAILING: {}", printable(why)),
+                HubLink::Failing(_) => "FAILING (below)".to_string(),
             };
             let tap = match spy.tap() {
                 Tap::Unknown => "",
@@ -64,7 +85,7 @@ fn title_line(spy: &Spy) -> Line<'static> {
             let state = match state {
                 LogState::Playing => "playing".to_string(),
                 LogState::Ended => "ended".to_string(),
-                LogState::Failed(why) => format!("STOPPED: {}", printable(why)),
+                LogState::Failed(_) => "STOPPED (below)".to_string(),
             };
             format!(
                 " colony spy  log {file} x{speed} +{:.1} s {state}  {window}",
@@ -416,11 +437,29 @@ mod tests {
             addr: "10.0.0.9:7400".into(),
             state: HubLink::Failing("Network is unreachable\u{1b}[2J".into()),
         };
-        let title = &screen(&s)[0];
+        let lines = screen(&s);
         assert!(
-            title.contains("10.0.0.9:7400 FAILING: Network is unreachable?[2J"),
-            "{title}"
+            lines[0].contains("10.0.0.9:7400 FAILING (below)"),
+            "{lines:#?}"
         );
+        assert!(
+            lines[20].starts_with("Network is unreachable?[2J"),
+            "{lines:#?}"
+        );
+        // A log that cannot be read further says why, whole.
+        let why = format!(
+            "/a/long/path/{}/t.clog: record at byte 1234 is corrupt (checksum)",
+            "x".repeat(60)
+        );
+        s.feed = Feed::Log {
+            file: "t.clog".into(),
+            speed: 1.0,
+            state: LogState::Failed(why),
+        };
+        let lines = screen(&s);
+        assert!(lines[0].contains("STOPPED (below)"), "{lines:#?}");
+        let text: String = lines[20..23].join(" ");
+        assert!(text.contains("is corrupt (checksum)"), "{lines:#?}");
     }
 
     #[test]
