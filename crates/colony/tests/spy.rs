@@ -46,7 +46,12 @@ impl Tmux {
             .args(["-L", &socket, "-f", "/dev/null", "new-session", "-d"])
             .args(["-x", "80", "-y", "24", "-s", "spy", &line])
             .status()
-            .unwrap_or_else(|e| panic!("cannot run tmux ({e}): scripts/test installs it"));
+            .unwrap_or_else(|e| {
+                panic!(
+                    "no `tmux` to run the spy in ({e}): run the README's test command, \
+                     `scripts/test`, which installs it"
+                )
+            });
         assert!(status.success(), "tmux new-session failed");
         Tmux { socket }
     }
