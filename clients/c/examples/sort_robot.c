@@ -6,9 +6,10 @@
  *   ./build/sort_robot 127.0.0.1:7400 0            # drive robot 0 from C
  *
  * (Start `colony sort robot --id N` for the other robots, or leave them be.)
- * Its behaviour is deliberately simple: head for the nearest puck no robot
- * carries, and turn back toward the middle near a wall. The loop is the
- * program's own: poll() on the client's socket until its next deadline.
+ * Its behaviour is deliberately simple: head for the nearest puck (one in its
+ * own gripper excepted), and turn back toward the middle near a wall. The
+ * loop is the program's own: poll() on the client's socket until its next
+ * deadline.
  */
 #define _POSIX_C_SOURCE 200809L
 #include "colony.h"
@@ -26,7 +27,9 @@ typedef struct world {
     double target_x, target_y;
 } world;
 
-/* Reads one `vision` packet: our robot's pose, and the nearest loose puck. */
+/* Reads one `vision` packet: our robot's pose, and the nearest puck. A large
+ * swarm's frame comes in parts; each stands alone, so the robot steers by the
+ * pucks of the part that holds it (the arena comes with part 0). */
 static void read_vision(const colony_packet *p, long id, world *w)
 {
     colony_line l;

@@ -46,11 +46,33 @@ static void print_packet(const colony_packet *p)
     printf("\n");
 }
 
+static int read_key(const char *path, unsigned char *key, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return perror(path), 0;
+    *len = fread(key, 1, COLONY_MAX_KEY, f);
+    fclose(f);
+    return 1;
+}
+
+/* Signs everything the client sends when COLONY_KEY_FILE names the hub's key. */
+static int key_from_env(colony_client *c)
+{
+    unsigned char key[COLONY_MAX_KEY];
+    size_t len;
+    const char *file = getenv("COLONY_KEY_FILE");
+    if (!file) return 1;
+    if (read_key(file, key, &len) && colony_set_key(c, key, len) == COLONY_OK) return 1;
+    fprintf(stderr, "bad key in %s\n", file);
+    return 0;
+}
+
 static int sub(const char *hub, double seconds, char **subjects, int n)
 {
     static colony_client c;
     int64_t start = colony_now_ms(), end = start + (int64_t)(seconds * 1000);
     if (colony_connect(&c, hub, start) != COLONY_OK) return perror("connect"), 1;
+    if (!key_from_env(&c)) return 1;
     for (int i = 0; i < n; i++)
         if (colony_subscribe(&c, subjects[i], start) != COLONY_OK) return fprintf(stderr, "subscribe %s\n", subjects[i]), 1;
     uint64_t leases = 0;
@@ -74,26 +96,13 @@ static int sub(const char *hub, double seconds, char **subjects, int n)
     return 0;
 }
 
-static int read_key(const char *path, unsigned char *key, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return perror(path), 0;
-    *len = fread(key, 1, COLONY_MAX_KEY, f);
-    fclose(f);
-    return 1;
-}
-
 static int pub(const char *hub, const char *subjects, int prio, int count, int every_ms,
                char **lines, int n)
 {
     static colony_client c;
     static char buf[COLONY_MAX_PACKET + 1];
-    unsigned char key[COLONY_MAX_KEY];
-    size_t key_len;
-    const char *key_file = getenv("COLONY_KEY_FILE");
     if (colony_connect(&c, hub, colony_now_ms()) != COLONY_OK) return perror("connect"), 1;
-    if (key_file && (!read_key(key_file, key, &key_len) || colony_set_key(&c, key, key_len)))
-        return fprintf(stderr, "bad key in %s\n", key_file), 1;
+    if (!key_from_env(&c)) return 1;
     colony_builder b;
     colony_begin(&b, buf, sizeof buf, subjects, prio);
     for (int i = 0; i < n; i++) {

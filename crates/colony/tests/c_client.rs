@@ -584,6 +584,43 @@ fn c_signs_exactly_as_rust_and_a_hub_with_a_key_takes_a_c_consoles_min_priority(
 }
 
 #[test]
+fn c_clients_signing_with_the_key_talk_through_a_hub_that_refuses_everything_unsigned() {
+    let dir = tempfile::tempdir().unwrap();
+    let key_file = dir.path().join("colony.key");
+    std::fs::write(&key_file, "0123456789abcdef-a-c-test-key\n").unwrap();
+    let hub = HubProcess::start(&["--key", &key_file.to_string_lossy(), "--auth-all"]);
+    let addr = hub.addr.to_string();
+    let mut sub_cmd = tool();
+    sub_cmd
+        .args(["sub", &addr, "30", "signed"])
+        .env("COLONY_KEY_FILE", &key_file);
+    let c = CProc::start(sub_cmd);
+    assert!(
+        c.saw("lease", Duration::from_secs(10)),
+        "a signed subscription got no lease: {}",
+        c.text()
+    );
+    let publish = |signed: bool, line: &str| {
+        let mut p = tool();
+        p.args(["pub", &addr, "signed", "0", "5", "50", line]);
+        if signed {
+            p.env("COLONY_KEY_FILE", &key_file);
+        }
+        assert!(p.status().unwrap().success());
+    };
+    publish(false, "unsigned n 1");
+    publish(true, "signed n 2");
+    // The hub forwards a signed packet without its `auth` line.
+    assert!(
+        c.saw("packet <signed> 0 :: signed n 2", Duration::from_secs(10)),
+        "{}",
+        c.text()
+    );
+    assert!(!c.text().contains("unsigned"), "{}", c.text());
+    assert!(!c.text().contains("auth n"), "{}", c.text());
+}
+
+#[test]
 fn the_c_example_drives_a_robot_of_a_live_sort_world() {
     let hub = HubProcess::start(&[]);
     let addr = hub.addr.to_string();
