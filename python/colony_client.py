@@ -1470,9 +1470,16 @@ _ID = re.compile(r"[0-9a-f]{16}")
 MAX_SERVICE_LEN = MAX_SUBJECT_LEN - len(SERVICE_PREFIX) - 1 - 16
 #: A caller with calls but no provider asks who provides this often (seconds).
 _ASK_EVERY = 0.25
-#: A provider answers ``who`` at most this often (seconds).
-_ANSWER_WHO_EVERY = 0.1
-_LONGEST_LEASE = 86400.0
+#: A provider answers ``who`` at most once per third of its lease, and at least this often (seconds).
+_ANSWER_WHO_AT_LEAST_EVERY = 1.0
+#: The longest provider lease believed (seconds): a forged announcement holds a place this long at most.
+_LONGEST_LEASE = 60.0
+#: The longest a call may wait (seconds).
+_LONGEST_TIMEOUT = 86400.0
+#: The most providers a caller keeps.
+_MOST_PROVIDERS = 64
+#: The most datagrams one poll takes in, so a flood leaves time for the timers.
+_MOST_PER_POLL = 256
 
 
 def _fresh_id():
@@ -1480,7 +1487,10 @@ def _fresh_id():
 
 
 def _service_channel(name):
-    if not isinstance(name, str) or not 0 < len(name) <= MAX_SERVICE_LEN or not is_subject(SERVICE_PREFIX + name):
+    # A name ending in `.` and an id would make this service's channel another's provider inbox.
+    looks_like_inbox = isinstance(name, str) and bool(_ID.fullmatch(name.rpartition(".")[2])) and "." in name
+    if (not isinstance(name, str) or not 0 < len(name) <= MAX_SERVICE_LEN
+            or not is_subject(SERVICE_PREFIX + name) or looks_like_inbox):
         raise ValueError(
             "{!r} cannot name a service: use letters, digits and `_-.:/`, 1 to {} bytes".format(
                 name, MAX_SERVICE_LEN
@@ -1546,7 +1556,11 @@ class Caller:
         if not _ID.fullmatch(self.id):
             raise ValueError("an id is 16 lowercase hex digits")
         self.inbox = REPLY_PREFIX + self.id
-        self._providers = {}  # id -> [lease_s, seen]
+        # id -> {"lease", "seen", "expires", "left"}; expires is never brought
+        # forward (a forged short lease must not end another's calls), and a
+        # provider that says it is leaving gets no new calls but keeps its own
+        # until its lease lapses (a forged `leaving` must not end them sooner).
+        self._providers = {}
         self._order = []
         self._turn = 0
         self._calls = {}  # id -> dict(lines, priority, started, deadline, sent_to)
@@ -1558,11 +1572,13 @@ class Caller:
         self.strays = 0
 
     def subjects(self):
-        return [self.channel, self.inbox]
+        """The caller's inbox, then the service's channel: the inbox is asked
+        for before any provider can be heard of."""
+        return [self.inbox, self.channel]
 
     def providers(self):
-        """The providers believed alive, in the order calls go to them."""
-        return list(self._order)
+        """The providers new calls may go to, in the order they go to them."""
+        return [p for p in self._order if not self._providers[p]["left"]]
 
     @property
     def in_flight(self):
@@ -1572,7 +1588,7 @@ class Caller:
         """Starts a call with these lines (packet lines as written); returns its id.
         Raises ParseError at once if the lines do not make a packet."""
         lines = [str(l) for l in lines]
-        if not (isinstance(timeout, (int, float)) and 0 < timeout <= _LONGEST_LEASE):
+        if not (isinstance(timeout, (int, float)) and 0 < timeout <= _LONGEST_TIMEOUT):
             raise ValueError("a call's timeout is from 0 to 86400 seconds")
         call_id = "{:016x}".format(self._next)
         self._next = (self._next + 1) % (1 << 64)
@@ -1594,13 +1610,9 @@ class Caller:
                 ms = packet.lines[0][1].get("lease_ms")
                 if isinstance(ms, bool) or not isinstance(ms, int) or ms < 0:
                     return
-                lease = min(max(ms, MIN_LEASE_MS) / 1000.0, _LONGEST_LEASE)
-                if pid not in self._providers:
-                    self._order.append(pid)
-                self._providers[pid] = [lease, now]
-                self._dispatch(now)
-            elif label == "leaving" and pid and _ID.fullmatch(pid):
-                self._drop(pid, now, left=True)
+                self._note_provider(now, pid, min(max(ms, MIN_LEASE_MS) / 1000.0, _LONGEST_LEASE))
+            elif label == "leaving" and pid in self._providers:
+                self._providers[pid]["left"] = True
         elif packet.subjects[0] == self.inbox:
             call_id, frm = raw.get("id"), raw.get("from")
             call = self._calls.get(call_id)
@@ -1609,19 +1621,27 @@ class Caller:
                 self.strays += 1
                 return
             if label == "refused":
-                why = packet.lines[0][1].get("text")
+                # A bare reason as written, a quoted one unescaped; a group is no reason.
+                why = raw.get("text")
                 if why is None:
-                    self.strays += 1
-                    return
+                    why = packet.lines[0][1].get("text")
+                    if not isinstance(why, str):
+                        self.strays += 1
+                        return
                 result = CallError("refused", "provider {} refused the call: {}".format(frm, why), frm)
             else:
                 result = Answer(call_id, frm, _body_lines(packet))
             del self._calls[call_id]
+            # An answer is as good a sign of life as an announcement.
+            known = self._providers.get(frm)
+            if known is not None:
+                known["seen"] = now
+                known["expires"] = max(known["expires"], now + known["lease"])
             self._outcomes.append((call_id, result))
 
     def handle_timeout(self, now):
-        for pid in [p for p, (lease, seen) in self._providers.items() if seen + lease <= now]:
-            self._drop(pid, now, left=False)
+        for pid in [p for p, k in self._providers.items() if k["expires"] <= now]:
+            self._drop(pid, now)
         for call_id in [c for c, call in self._calls.items() if call["deadline"] <= now]:
             call = self._calls.pop(call_id)
             waited = now - call["started"]
@@ -1636,7 +1656,7 @@ class Caller:
 
     def poll_timeout(self):
         times = [c["deadline"] for c in self._calls.values()]
-        times += [seen + lease for lease, seen in self._providers.values()]
+        times += [k["expires"] for k in self._providers.values()]
         if self._waiting() and self._last_asked is not None:
             times.append(self._last_asked + _ASK_EVERY)
         return min(times) if times else None
@@ -1656,8 +1676,25 @@ class Caller:
             self._last_asked = now
             self._outbox.append(_rpc_packet(self.channel, 0, "who", ()))
 
+    def _note_provider(self, now, pid, lease):
+        known = self._providers.get(pid)
+        if known is not None:
+            known.update(lease=lease, seen=now, expires=max(known["expires"], now + lease), left=False)
+        else:
+            if len(self._providers) >= _MOST_PROVIDERS:
+                # Room is made only by one that would lapse before this one.
+                soonest = min(self._providers, key=lambda p: self._providers[p]["expires"])
+                if self._providers[soonest]["expires"] >= now + lease:
+                    return
+                self._drop(soonest, now)
+            self._order.append(pid)
+            self._providers[pid] = {"lease": lease, "seen": now, "expires": now + lease, "left": False}
+        if self._waiting():
+            self._dispatch(now)
+
     def _dispatch(self, now):
-        live = [p for p in self._order if self._providers[p][1] + self._providers[p][0] > now]
+        live = [p for p in self._order
+                if self._providers[p]["expires"] > now and not self._providers[p]["left"]]
         if live:
             for call_id, call in self._calls.items():
                 if call["sent_to"] is not None:
@@ -1669,16 +1706,18 @@ class Caller:
                 call["sent_to"] = to
         self._ask_if_waiting(now)
 
-    def _drop(self, pid, now, left):
-        lease, seen = self._providers.pop(pid)
+    def _drop(self, pid, now):
+        gone = self._providers.pop(pid, None)
+        if gone is None:
+            return
         self._order.remove(pid)
         for call_id in [c for c, call in self._calls.items() if call["sent_to"] == pid]:
             del self._calls[call_id]
-            if left:
+            if gone["left"]:
                 err = CallError("provider_left", "provider {} stopped before answering".format(pid), pid)
             else:
                 err = CallError("provider_lapsed", "provider {} fell silent for {:.1f} s, past its {:.1f} s "
-                                "lease, before answering".format(pid, now - seen, lease), pid)
+                                "lease, before answering".format(pid, now - gone["seen"], gone["lease"]), pid)
             self._outcomes.append((call_id, err))
 
 
@@ -1712,6 +1751,8 @@ class Provider:
         self.lease = min(max(float(lease), MIN_LEASE_MS / 1000.0), _LONGEST_LEASE)
         self.inbox = self.channel + "." + self.id
         self._outbox = deque()
+        # The announcement (or farewell) not yet sent: one at most.
+        self._notice = None
         self._last_who = None
         #: Calls answered or refused.
         self.served = 0
@@ -1722,8 +1763,8 @@ class Provider:
 
     def _announce(self, now):
         self._last_announced = now
-        first = "provider id {} lease_ms {}".format(self.id, int(round(self.lease * 1000)))
-        self._outbox.append(_rpc_packet(self.channel, 0, first, ()))
+        first = "provider id {} lease_ms {}".format(self.id, int(self.lease * 1000))
+        self._notice = _rpc_packet(self.channel, 0, first, ())
 
     def handle_packet(self, now, packet):
         """A :class:`Call` for this provider, or None."""
@@ -1731,7 +1772,8 @@ class Provider:
             return None
         label, raw = _first_line_raw(packet)
         if packet.subjects[0] == self.channel:
-            if label == "who" and (self._last_who is None or now - self._last_who >= _ANSWER_WHO_EVERY):
+            every = min(self.lease / 3.0, _ANSWER_WHO_AT_LEAST_EVERY)
+            if label == "who" and (self._last_who is None or now - self._last_who >= every):
                 self._last_who = now
                 self._announce(now)
             return None
@@ -1750,7 +1792,9 @@ class Provider:
         self.served += 1
 
     def refuse(self, call, why):
-        first = "refused id {} from {} text {}".format(call.id, self.id, _quote(str(why)[:1024]))
+        # What no packet can carry (lone surrogates, raw control characters) becomes `?`.
+        why = _UNWRITABLE.sub("?", str(why)[:1024])
+        first = "refused id {} from {} text {}".format(call.id, self.id, _quote(why))
         self._outbox.append(_rpc_packet(call.reply_to, call.priority, first, ()))
         self.served += 1
 
@@ -1763,9 +1807,12 @@ class Provider:
 
     def leave(self):
         """Says the provider is stopping, so callers end its calls at once."""
-        self._outbox.append(_rpc_packet(self.channel, 0, "leaving id " + self.id, ()))
+        self._notice = _rpc_packet(self.channel, 0, "leaving id " + self.id, ())
 
     def poll_transmit(self):
+        if self._notice is not None:
+            notice, self._notice = self._notice, None
+            return notice
         return self._outbox.popleft() if self._outbox else None
 
 
@@ -1818,7 +1865,10 @@ class CallClient:
     def poll(self, now=None):
         now = time.monotonic() if now is None else now
         self.client.poll(now)
-        for packet in self.client:
+        for _ in range(_MOST_PER_POLL):
+            packet = self.client.recv()
+            if packet is None:
+                break
             self.caller.handle_packet(now, packet)
         self.caller.handle_timeout(now)
         self._flush()
@@ -1887,18 +1937,28 @@ class ServeClient:
         return _earliest(self.client.next_deadline(), self.provider.poll_timeout())
 
     def poll(self, handler, now=None):
+        """Serves the calls that arrived (a bounded batch), announcing
+        between calls when due, so a slow handler does not make callers
+        think this provider dead."""
         now = time.monotonic() if now is None else now
         self.client.poll(now)
-        for packet in self.client:
+        for _ in range(_MOST_PER_POLL):
+            packet = self.client.recv()
+            if packet is None:
+                break
             call = self.provider.handle_packet(now, packet)
             if call is None:
                 continue
             try:
                 lines = handler(call)
+                if isinstance(lines, str):
+                    lines = lines.splitlines()
                 self.provider.answer(call, lines)
             except Exception as e:  # the handler's failure is the caller's answer
                 self.provider.refuse(call, "{}: {}".format(type(e).__name__, e))
-        self.provider.handle_timeout(now)
+            self.provider.handle_timeout(time.monotonic())
+            self._flush()
+        self.provider.handle_timeout(time.monotonic())
         self._flush()
 
     def serve(self, handler, until=None):

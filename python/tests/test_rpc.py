@@ -121,12 +121,17 @@ class SansIO(unittest.TestCase):
         (_, err), = net.outcomes()
         self.assertEqual((err.kind, str(err).endswith("asked to fail")), ("refused", True))
 
+        # A provider that says it is leaving gets no new calls, and the ones
+        # it holds end with its lease, not at once: anyone could forge `leaving`.
         net.dead[0] = True
         net.caller.call(0.0, ["x y 1"])
         net.run(0.0)
         net.dead[0] = False
         net.providers[0].leave()
         net.run(0.0)
+        self.assertEqual(net.outcomes(), [])
+        self.assertEqual(net.caller.providers(), [])
+        net.caller.handle_timeout(LEASE)
         (_, err), = net.outcomes()
         self.assertEqual(err.kind, "provider_left")
 
@@ -151,18 +156,59 @@ class SansIO(unittest.TestCase):
         aimed = "@ <%s> 0\ncall id 0000000000000001 reply_to radio\ncmd id 1\n" % p.inbox
         self.assertIsNone(p.handle_packet(0.0, cc.parse(aimed.encode())))
         who = cc.parse(b"@ <svc.echo> 0\nwho\n")
-        for ms in range(1, 1001):
-            p.handle_packet(ms / 1000.0, who)
         announced = 0
-        while p.poll_transmit() is not None:
-            announced += 1
-        self.assertEqual(announced, 10)
+        for ms in range(1, 2001):
+            p.handle_packet(ms / 1000.0, who)
+            while p.poll_transmit() is not None:
+                announced += 1
+        # At most once per third of its 3 s lease.
+        self.assertEqual(announced, 2)
+
+    def test_forged_notices_neither_crash_nor_cut_a_providers_lease_nor_fill_memory(self):
+        net = Net(1, 0.0)
+        net.run(0.0)
+        # `leaving` for an id nobody knows.
+        net.caller.handle_packet(0.0, cc.parse(b"@ <svc.echo> 0\nleaving id 0123456789abcdef\n"))
+        net.dead[0] = True
+        net.caller.call(0.0, ["x y 1"], timeout=60.0)
+        net.run(0.0)
+        forged = "@ <svc.echo> 0\nprovider id %016x lease_ms 0\n" % 100
+        net.caller.handle_packet(0.0, cc.parse(forged.encode()))
+        net.caller.handle_timeout(1.0)
+        self.assertEqual(net.outcomes(), [])
+        for i in range(2000):
+            p = "@ <svc.echo> 0\nprovider id %016x lease_ms 3600000\n" % (1000 + i)
+            net.caller.handle_packet(0.0, cc.parse(p.encode()))
+        self.assertEqual(len(net.caller.providers()), 64)
+        net.caller.handle_timeout(61.0)
+        self.assertEqual(net.caller.providers(), [])
+
+    def test_ids_are_bare_and_a_reason_is_no_group(self):
+        caller = cc.Caller("echo", "0000000000000007")
+        caller.handle_packet(0.0, cc.parse(b'@ <svc.echo> 0\nprovider id "00000000000000aa" lease_ms 3000\n'))
+        self.assertEqual(caller.providers(), [])
+        caller.handle_packet(0.0, cc.parse(b"@ <svc.echo> 0\nprovider id 00000000000000aa lease_ms 3000\n"))
+        for text, want in [("007", "007"), ("1e5", "1e5"), ('"disk \\"full\\""', 'disk "full"'), ("(a 1)", None)]:
+            call_id = caller.call(0.0, ["x y 1"])
+            d = caller.poll_transmit()
+            while d is not None:
+                d = caller.poll_transmit()
+            answer = "@ <reply.0000000000000007> 0\nrefused id %s from 00000000000000aa text %s\n" % (call_id, text)
+            caller.handle_packet(0.0, cc.parse(answer.encode()))
+            got = caller.poll_outcome()
+            if want is None:
+                self.assertIsNone(got)
+            else:
+                self.assertTrue(str(got[1]).endswith(": " + want), str(got[1]))
 
     def test_bad_names_and_lines_are_refused_at_once(self):
-        for bad in ["a b", "x" * (cc.MAX_SERVICE_LEN + 1), "", 5]:
+        for bad in ["a b", "x" * (cc.MAX_SERVICE_LEN + 1), "", 5, "a.0123456789abcdef"]:
             with self.assertRaises(ValueError):
                 cc.Caller(bad)
         cc.Caller("x" * cc.MAX_SERVICE_LEN)
+        cc.Caller("a.v2")
+        with self.assertRaises(ValueError):
+            cc.Caller("echo").call(0.0, ["x y 1"], timeout=0)
         caller = cc.Caller("echo")
         with self.assertRaises(cc.ParseError):
             caller.call(0.0, ["x ("])
@@ -252,7 +298,7 @@ class ThroughTheRustHub(_HubCase):
         self.assertIn("RuntimeError: no such thing", str(outcome[1]))
 
     def test_calls_spread_over_two_providers_end_once_when_one_is_killed(self):
-        slow = ["--lease", "1", "work", "--", "sh", "-c", "sleep 0.02; cat"]
+        slow = ["--lease", "5", "work", "--", "sh", "-c", "sleep 0.02; cat"]
         first, first_id = self.serve(*slow)
         self.serve(*slow)
         ended = {}
@@ -263,11 +309,11 @@ class ThroughTheRustHub(_HubCase):
                 time.sleep(0.01)
             started = {}
             killed = False
-            deadline = time.monotonic() + 60.0
+            deadline = time.monotonic() + 120.0
             while len(ended) < 40 and time.monotonic() < deadline:
                 while len(started) < 40 and c.caller.in_flight < 6:
                     n = len(started)
-                    started[c.start(["n value %d" % n], timeout=10.0)] = n
+                    started[c.start(["n value %d" % n], timeout=60.0)] = n
                 c.poll()
                 got = c.poll_outcome()
                 while got is not None:

@@ -44,7 +44,8 @@ fn wait_and_poll(client: &mut UdpClient) {
 fn main() {
     let calls: usize = std::env::args()
         .nth(1)
-        .map_or(20_000, |a| a.parse().expect("CALLS is a count"));
+        .map_or(20_000, |a| a.parse().expect("CALLS is a count"))
+        .max(10);
     let stop = Arc::new(AtomicBool::new(false));
     let server = Server::start(&HubSpec::new("127.0.0.1:0")).expect("hub");
     let hub = HubThread::spawn(server, &stop).expect("hub thread");
@@ -55,10 +56,8 @@ fn main() {
         let (addr, stop) = (addr.clone(), stop.clone());
         std::thread::spawn(move || {
             let mut s = ServeClient::connect(&addr, "echo", Duration::from_secs(3)).expect("serve");
-            s.serve(&stop, |call| {
-                Ok(call.lines().map(|l| l.as_str().to_owned()).collect())
-            })
-            .expect("serving");
+            s.serve(&stop, |asked| Ok(asked.lines.clone()))
+                .expect("serving");
         })
     };
     // The floor's echo: what arrives on `ping` goes back on `pong`.
@@ -132,7 +131,10 @@ fn main() {
     println!("pings lost (sent again after 200 ms): {lost}");
     println!("| path | round trips | p50 µs | p90 µs | p99 µs | p99.9 µs |");
     println!("|---|---:|---:|---:|---:|---:|");
-    percentiles("colony call: caller -> hub -> provider -> hub -> caller", rpc);
+    percentiles(
+        "colony call: caller -> hub -> provider -> hub -> caller",
+        rpc,
+    );
     percentiles("floor: publish `ping`, echo on `pong`, same hops", floor);
     stop.store(true, Ordering::Relaxed);
     let _ = provider.join();

@@ -25,6 +25,23 @@ pub fn die_with_parent(command: &mut Command, signal: libc::c_int) {
     }
 }
 
+/// Kills (SIGKILL) every process of the process group `pgid`: a child
+/// started with `process_group(0)` leads one of its own, and whatever it
+/// started in the background ends with it.
+pub fn kill_group(pgid: u32) {
+    let Ok(pgid) = libc::pid_t::try_from(pgid) else {
+        return;
+    };
+    // killpg(0 or 1, ..) would mean our own group or init's: never asked for.
+    if pgid > 1 {
+        // SAFETY: killpg takes plain integers and touches no memory; a group
+        // that is already gone gives ESRCH, which is what we wanted anyway.
+        unsafe {
+            libc::killpg(pgid, libc::SIGKILL);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -35,5 +52,24 @@ mod tests {
         die_with_parent(&mut c, libc::SIGTERM);
         assert!(c.status().unwrap().success());
         let _ = is_root();
+    }
+
+    #[test]
+    fn a_killed_group_takes_its_background_children_with_it() {
+        use std::io::Read as _;
+        let mut child = Command::new("sh")
+            .args(["-c", "sleep 600 & echo started"])
+            .process_group(0)
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut out = child.stdout.take().unwrap();
+        let mut first = [0u8; 8];
+        out.read_exact(&mut first).unwrap();
+        assert!(child.wait().unwrap().success());
+        // The background sleep still holds the pipe; killing the group closes it.
+        kill_group(child.id());
+        let mut rest = Vec::new();
+        out.read_to_end(&mut rest).unwrap();
     }
 }

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use colony_wire::{Packet, Priority, Subject, MIN_LEASE_MS};
 
 use super::message::{body_lines, reply_inbox, AnswerHeader, CallHeader, Id, Notice, Service};
-use super::{CallError, RpcError, LONGEST_LEASE};
+use super::{CallError, RpcError, LONGEST_LEASE, LONGEST_TIMEOUT};
 
 /// How often a caller with calls but no provider asks who provides.
 const ASK_EVERY: Duration = Duration::from_millis(250);
@@ -26,18 +26,23 @@ pub struct Answer {
 /// What became of a call: its answer, or why there is none.
 pub type Outcome = (Id, Result<Answer, CallError>);
 
+/// The most providers a caller keeps: forged announcements with fresh ids
+/// must not grow its memory or its work per packet.
+const MOST_PROVIDERS: usize = 64;
+
 #[derive(Debug)]
 struct Known {
     id: Id,
     inbox: Subject,
     lease: Duration,
+    /// When it was last heard from (an announcement, or an answer).
     seen: Instant,
-}
-
-impl Known {
-    fn expires(&self) -> Instant {
-        self.seen + self.lease
-    }
+    /// Believed until then; never brought forward, so a forged
+    /// announcement with a short lease cannot end another's calls.
+    expires: Instant,
+    /// It said it was leaving: no new calls go to it, and the calls it has
+    /// end when its lease does (a forged `leaving` must not end them sooner).
+    left: bool,
 }
 
 #[derive(Debug)]
@@ -58,9 +63,9 @@ struct Call {
 ///
 /// Calls are spread over the live providers in turn. A call is sent once
 /// and answered at most once: it ends with the first answer from the
-/// provider it went to, at its deadline, or when that provider leaves or
-/// lets its lease lapse. It is never sent to a second provider, since the
-/// first may have acted on it.
+/// provider it went to, at its deadline, or when that provider's lease
+/// lapses (renewed by its announcements and its answers). It is never sent
+/// to a second provider, since the first may have acted on it.
 #[derive(Debug)]
 pub struct Caller {
     service: Service,
@@ -98,10 +103,11 @@ impl Caller {
         })
     }
 
-    /// The subjects the caller's client must subscribe to: the service's
-    /// channel (providers) and the caller's inbox (answers).
+    /// The subjects the caller's client must subscribe to: the caller's
+    /// inbox (answers) and the service's channel (providers), in that order,
+    /// so the inbox is asked for before any provider can be heard of.
     pub fn subjects(&self) -> [&Subject; 2] {
-        [self.service.channel(), &self.inbox]
+        [&self.inbox, self.service.channel()]
     }
 
     /// The service called.
@@ -109,9 +115,10 @@ impl Caller {
         &self.service
     }
 
-    /// The providers believed alive, in the order calls go to them.
+    /// The providers new calls may go to, in the order they go to them (not
+    /// those that said they are leaving).
     pub fn providers(&self) -> impl Iterator<Item = Id> + '_ {
-        self.providers.iter().map(|p| p.id)
+        self.providers.iter().filter(|p| !p.left).map(|p| p.id)
     }
 
     /// Calls sent or waiting for a provider, not yet ended.
@@ -133,6 +140,10 @@ impl Caller {
         lines: &[&str],
         timeout: Duration,
     ) -> Result<Id, RpcError> {
+        let deadline = Some(timeout)
+            .filter(|t| !t.is_zero() && *t <= LONGEST_TIMEOUT)
+            .and_then(|t| now.checked_add(t))
+            .ok_or(RpcError::BadTimeout(timeout))?;
         let lines: Vec<String> = lines.iter().map(|l| (*l).to_owned()).collect();
         let id = Id(self.next_call);
         self.next_call = self.next_call.wrapping_add(1);
@@ -154,7 +165,7 @@ impl Caller {
             priority,
             lines,
             started: now,
-            deadline: now + timeout,
+            deadline,
             sent_to: None,
         });
         self.dispatch(now);
@@ -168,23 +179,12 @@ impl Caller {
         }
         if packet.has_subject(self.service.channel().as_str()) {
             match Notice::read(packet) {
-                Some(Notice::Provider { id, lease }) => {
-                    let lease = lease.clamp(Duration::from_millis(MIN_LEASE_MS), LONGEST_LEASE);
-                    match self.providers.iter_mut().find(|p| p.id == id) {
-                        Some(p) => {
-                            p.lease = lease;
-                            p.seen = now;
-                        }
-                        None => self.providers.push(Known {
-                            id,
-                            inbox: self.service.inbox(id),
-                            lease,
-                            seen: now,
-                        }),
+                Some(Notice::Provider { id, lease }) => self.note_provider(now, id, lease),
+                Some(Notice::Leaving { id }) => {
+                    if let Some(p) = self.providers.iter_mut().find(|p| p.id == id) {
+                        p.left = true;
                     }
-                    self.dispatch(now);
                 }
-                Some(Notice::Leaving { id }) => self.drop_provider(id, now, true),
                 Some(Notice::Who) | None => {}
             }
         } else if packet.has_subject(self.inbox.as_str()) {
@@ -203,6 +203,12 @@ impl Caller {
                 return;
             };
             let call = self.calls.swap_remove(i);
+            // An answer is as good a sign of life as an announcement: a
+            // provider busy answering must not lapse for want of time to announce.
+            if let Some(p) = self.providers.iter_mut().find(|p| p.id == answer.from) {
+                p.seen = now;
+                p.expires = p.expires.max(now + p.lease);
+            }
             let result = match answer.refused {
                 None => Ok(Answer {
                     id: call.id,
@@ -225,11 +231,11 @@ impl Caller {
         let lapsed: Vec<Id> = self
             .providers
             .iter()
-            .filter(|p| p.expires() <= now)
+            .filter(|p| p.expires <= now)
             .map(|p| p.id)
             .collect();
         for id in lapsed {
-            self.drop_provider(id, now, false);
+            self.drop_provider(id, now);
         }
         let (due, kept): (Vec<Call>, Vec<Call>) = std::mem::take(&mut self.calls)
             .into_iter()
@@ -249,7 +255,7 @@ impl Caller {
     /// When [`handle_timeout`](Caller::handle_timeout) next has work.
     pub fn poll_timeout(&self) -> Option<Instant> {
         let calls = self.calls.iter().map(|c| c.deadline);
-        let leases = self.providers.iter().map(Known::expires);
+        let leases = self.providers.iter().map(|p| p.expires);
         let ask = self
             .last_asked
             .filter(|_| self.waiting())
@@ -278,12 +284,48 @@ impl Caller {
         }
     }
 
+    /// Believes an announcement: a new provider (room permitting), or a
+    /// known one's lease extended, never shortened.
+    fn note_provider(&mut self, now: Instant, id: Id, lease: Duration) {
+        let lease = lease.clamp(Duration::from_millis(MIN_LEASE_MS), LONGEST_LEASE);
+        let until = now + lease;
+        if let Some(p) = self.providers.iter_mut().find(|p| p.id == id) {
+            p.lease = lease;
+            p.seen = now;
+            p.expires = p.expires.max(until);
+            p.left = false;
+        } else {
+            if self.providers.len() >= MOST_PROVIDERS {
+                // Room is made only by one that would lapse before this one.
+                let Some(i) = (0..self.providers.len())
+                    .min_by_key(|&i| self.providers[i].expires)
+                    .filter(|&i| self.providers[i].expires < until)
+                else {
+                    return;
+                };
+                let gone = self.providers[i].id;
+                self.drop_provider(gone, now);
+            }
+            self.providers.push(Known {
+                id,
+                inbox: self.service.inbox(id),
+                lease,
+                seen: now,
+                expires: until,
+                left: false,
+            });
+        }
+        if self.waiting() {
+            self.dispatch(now);
+        }
+    }
+
     /// Sends every waiting call to the next live provider in turn.
     fn dispatch(&mut self, now: Instant) {
         let live: Vec<(Id, Subject)> = self
             .providers
             .iter()
-            .filter(|p| p.expires() > now)
+            .filter(|p| p.expires > now && !p.left)
             .map(|p| (p.id, p.inbox.clone()))
             .collect();
         if !live.is_empty() {
@@ -313,7 +355,7 @@ impl Caller {
         self.ask_if_waiting(now);
     }
 
-    fn drop_provider(&mut self, id: Id, now: Instant, left: bool) {
+    fn drop_provider(&mut self, id: Id, now: Instant) {
         let Some(i) = self.providers.iter().position(|p| p.id == id) else {
             return;
         };
@@ -323,7 +365,7 @@ impl Caller {
             .partition(|c| c.sent_to == Some(id));
         self.calls = kept;
         for call in lost {
-            let error = if left {
+            let error = if gone.left {
                 CallError::ProviderLeft { provider: id }
             } else {
                 CallError::ProviderLapsed {

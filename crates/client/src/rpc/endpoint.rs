@@ -8,11 +8,14 @@ use std::time::{Duration, Instant};
 
 use colony_wire::Priority;
 
-use super::{Answer, Call, Caller, Id, Outcome, Provider, RpcError};
+use super::{Answer, Caller, Id, Outcome, Provider, RpcError, Ticket};
 use crate::UdpClient;
 
 /// How long a blocking loop sleeps at most, so a stop flag is seen promptly.
 const TICK: Duration = Duration::from_millis(100);
+/// The most datagrams one poll takes in: a flood must leave time for the
+/// timers (deadlines, leases, announcements).
+const MOST_PER_POLL: usize = 256;
 
 fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
     match (a, b) {
@@ -73,7 +76,10 @@ impl CallClient {
     /// Takes in what arrived and does what is due.
     pub fn poll(&mut self, now: Instant) -> io::Result<()> {
         self.client.poll(now)?;
-        while let Some(packet) = self.client.recv()? {
+        for _ in 0..MOST_PER_POLL {
+            let Some(packet) = self.client.recv()? else {
+                break;
+            };
             self.caller.handle_packet(now, &packet);
         }
         self.caller.handle_timeout(now);
@@ -122,6 +128,15 @@ impl CallClient {
     }
 }
 
+/// A call a [`ServeClient`] took: where its answer goes, and its lines as written.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Asked {
+    /// Where and how to answer.
+    pub ticket: Ticket,
+    /// The caller's lines (the `call` line left out).
+    pub lines: Vec<String>,
+}
+
 /// A [`Provider`] on its own hub client.
 ///
 /// It announces itself only once the hub has leased it its subscriptions:
@@ -158,30 +173,59 @@ impl ServeClient {
         &self.provider
     }
 
-    /// Takes in what arrived, serving each call with `handler` (its answer's
-    /// lines, or why it cannot be served), and does what is due.
-    pub fn poll(
-        &mut self,
-        now: Instant,
-        handler: &mut impl FnMut(&Call<'_>) -> Result<Vec<String>, String>,
-    ) -> io::Result<()> {
+    /// Takes in what arrived (a bounded batch), does what is due, and
+    /// returns the calls taken, to be answered now or later with
+    /// [`answer`](Self::answer) or [`refuse`](Self::refuse).
+    pub fn poll_calls(&mut self, now: Instant) -> io::Result<Vec<Asked>> {
         self.client.poll(now)?;
-        while let Some(packet) = self.client.recv()? {
-            let Some(call) = self.provider.handle_packet(now, &packet) else {
-                continue;
+        let mut asked = Vec::new();
+        for _ in 0..MOST_PER_POLL {
+            let Some(packet) = self.client.recv()? else {
+                break;
             };
-            let ticket = call.ticket();
-            match handler(&call) {
-                Ok(lines) => {
-                    if let Err(e) = self.provider.answer(&ticket, &lines) {
-                        let why = format!("the provider's answer is not a valid packet: {e}");
-                        self.provider.refuse(&ticket, &why);
-                    }
-                }
-                Err(why) => self.provider.refuse(&ticket, &why),
+            if let Some(call) = self.provider.handle_packet(now, &packet) {
+                asked.push(Asked {
+                    ticket: call.ticket(),
+                    lines: call.lines().map(|l| l.as_str().to_owned()).collect(),
+                });
             }
         }
         self.provider.handle_timeout(now);
+        self.flush()?;
+        Ok(asked)
+    }
+
+    /// Answers a call with these lines; lines that make no valid packet
+    /// refuse it instead, saying why.
+    pub fn answer(&mut self, ticket: &Ticket, lines: &[String]) -> io::Result<()> {
+        if let Err(e) = self.provider.answer(ticket, lines) {
+            let why = format!("the provider's answer is not a valid packet: {e}");
+            self.provider.refuse(ticket, &why);
+        }
+        self.flush()
+    }
+
+    /// Tells the caller a call cannot be served, and why.
+    pub fn refuse(&mut self, ticket: &Ticket, why: &str) -> io::Result<()> {
+        self.provider.refuse(ticket, why);
+        self.flush()
+    }
+
+    /// Takes in what arrived and serves each call with `handler` (its
+    /// answer's lines, or why it cannot be served), announcing between calls
+    /// when due, so a slow handler does not make callers think it dead.
+    pub fn poll(
+        &mut self,
+        now: Instant,
+        handler: &mut impl FnMut(&Asked) -> Result<Vec<String>, String>,
+    ) -> io::Result<()> {
+        for asked in self.poll_calls(now)? {
+            match handler(&asked) {
+                Ok(lines) => self.answer(&asked.ticket, &lines)?,
+                Err(why) => self.refuse(&asked.ticket, &why)?,
+            }
+            self.provider.handle_timeout(Instant::now());
+        }
         self.flush()
     }
 
@@ -207,7 +251,7 @@ impl ServeClient {
     pub fn serve(
         &mut self,
         stop: &AtomicBool,
-        mut handler: impl FnMut(&Call<'_>) -> Result<Vec<String>, String>,
+        mut handler: impl FnMut(&Asked) -> Result<Vec<String>, String>,
     ) -> io::Result<()> {
         while !stop.load(Ordering::Relaxed) {
             let wake = earliest(self.next_deadline(), Some(Instant::now() + TICK));

@@ -26,7 +26,9 @@
 use std::fmt;
 use std::time::Duration;
 
-use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority, Subject, MAX_SUBJECT_LEN};
+use colony_wire::{
+    Line, Packet, PacketBuilder, ParseError, Priority, Subject, Value, MAX_SUBJECT_LEN,
+};
 
 use super::RpcError;
 
@@ -81,10 +83,16 @@ pub struct Service {
 }
 
 impl Service {
-    /// A service called `name`: subject characters only, 1 to [`MAX_SERVICE_LEN`] bytes.
+    /// A service called `name`: subject characters only, 1 to [`MAX_SERVICE_LEN`]
+    /// bytes, and not ending in `.` and 16 hex digits (a provider inbox's shape).
     pub fn new(name: &str) -> Result<Service, RpcError> {
         let bad = || RpcError::BadService(name.to_owned());
-        if name.is_empty() || name.len() > MAX_SERVICE_LEN {
+        // A name ending in `.` and an id would make this service's channel
+        // another service's provider inbox.
+        let looks_like_inbox = name
+            .rsplit_once('.')
+            .is_some_and(|(_, last)| Id::parse(last).is_some());
+        if name.is_empty() || name.len() > MAX_SERVICE_LEN || looks_like_inbox {
             return Err(bad());
         }
         let channel = Subject::new(&format!("{SERVICE_PREFIX}{name}")).map_err(|_| bad())?;
@@ -176,8 +184,17 @@ impl Notice {
     }
 }
 
+/// A bare token, as written: ids and inboxes are never quoted, so both
+/// clients read exactly the same packets as valid.
+fn bare<'a>(line: &Line<'a>, name: &str) -> Option<&'a str> {
+    match line.get(name)? {
+        Value::Bare(token) => Some(token),
+        _ => None,
+    }
+}
+
 fn id_field(line: &Line<'_>, name: &str) -> Option<Id> {
-    Id::parse(line.str(name).ok()?.as_ref())
+    Id::parse(bare(line, name)?)
 }
 
 /// The first line of a call: which call, and where its answer goes.
@@ -213,14 +230,11 @@ impl CallHeader {
         if line.label() != "call" {
             return None;
         }
-        let reply_to = Subject::new(&line.str("reply_to").ok()?).ok()?;
-        reply_to
-            .as_str()
-            .starts_with(REPLY_PREFIX)
-            .then_some(CallHeader {
-                id: id_field(&line, "id")?,
-                reply_to,
-            })
+        let inbox = bare(&line, "reply_to").filter(|t| t.starts_with(REPLY_PREFIX))?;
+        Some(CallHeader {
+            id: id_field(&line, "id")?,
+            reply_to: Subject::new(inbox).ok()?,
+        })
     }
 }
 
@@ -269,7 +283,12 @@ impl AnswerHeader {
         let line = packet.lines().next()?;
         let refused = match line.label() {
             "reply" => None,
-            "refused" => Some(line.str("text").ok()?.into_owned()),
+            // A bare reason as written, a quoted one unescaped; a group is no reason.
+            "refused" => Some(match line.get("text")? {
+                Value::Bare(token) => token.to_owned(),
+                Value::Quoted(q) => q.unescape().into_owned(),
+                Value::Group(_) => return None,
+            }),
             _ => return None,
         };
         Some(AnswerHeader {

@@ -23,12 +23,15 @@ use std::fmt;
 use std::time::Duration;
 
 pub use caller::{Answer, Caller, Outcome};
-pub use endpoint::{CallClient, ServeClient};
+pub use endpoint::{Asked, CallClient, ServeClient};
 pub use message::{Id, Service};
 pub use provider::{Call, Provider, Ticket};
 
-/// The longest provider lease a caller believes.
-const LONGEST_LEASE: Duration = Duration::from_secs(86_400);
+/// The longest provider lease a caller believes: a forged announcement
+/// holds a place among its providers for at most this long.
+const LONGEST_LEASE: Duration = Duration::from_secs(60);
+/// The longest a call may wait for its answer.
+pub const LONGEST_TIMEOUT: Duration = Duration::from_secs(86_400);
 
 /// Why a call ended without an answer.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -45,7 +48,7 @@ pub enum CallError {
         /// How long the call waited.
         waited: Duration,
     },
-    /// The provider said it was stopping before it answered.
+    /// The provider said it was stopping, and its lease lapsed before it answered.
     ProviderLeft {
         /// The provider.
         provider: Id,
@@ -115,6 +118,9 @@ pub enum RpcError {
         max = message::MAX_SERVICE_LEN
     )]
     BadService(String),
+    /// A call's timeout that is zero or longer than [`LONGEST_TIMEOUT`].
+    #[error("a call's timeout must be more than 0 and at most a day, not {0:?}")]
+    BadTimeout(Duration),
     /// Lines that do not make a valid packet (numbered from the call's first line).
     #[error("the call's lines are not a valid packet: {0}")]
     BadLines(colony_wire::ParseError),
@@ -134,7 +140,7 @@ pub enum RpcError {
 
 #[cfg(test)]
 mod tests {
-    use super::message::{AnswerHeader, Notice};
+    use super::message::{AnswerHeader, CallHeader, Notice};
     use super::*;
     use colony_wire::{Packet, Priority};
     use std::time::Instant;
@@ -329,9 +335,9 @@ mod tests {
     }
 
     #[test]
-    fn a_provider_that_leaves_ends_its_calls_at_once() {
+    fn a_provider_that_leaves_gets_no_new_calls_and_its_own_end_with_its_lease() {
         let t0 = Instant::now();
-        let mut net = Net::new(1, t0);
+        let mut net = Net::new(2, t0);
         net.run(t0);
         net.dead[0] = true;
         net.caller.call(t0, Priority(0), &["x"], TIMEOUT).unwrap();
@@ -339,12 +345,144 @@ mod tests {
         net.dead[0] = false;
         net.providers[0].leave();
         net.run(t0);
+        // A `leaving` anyone could forge ends nothing at once...
+        assert!(net.outcomes().is_empty());
+        // ...but new calls go elsewhere,
+        for _ in 0..4 {
+            net.caller.call(t0, Priority(0), &["y"], TIMEOUT).unwrap();
+        }
+        net.run(t0);
+        assert_eq!(net.taken[1].len(), 4);
+        assert!(net.outcomes().iter().all(|(_, r)| r.is_ok()));
+        // and the call it held ends when its lease does, saying it left.
+        let mut now = t0;
+        while now < t0 + LEASE {
+            now += Duration::from_millis(100);
+            net.caller.handle_timeout(now);
+            net.providers[1].handle_timeout(now);
+            net.run(now);
+        }
         let ended = net.outcomes();
-        assert!(matches!(
-            ended[0].1,
-            Err(CallError::ProviderLeft { provider: Id(100) })
-        ));
-        assert_eq!(net.caller.providers().count(), 0);
+        assert!(
+            matches!(
+                ended[..],
+                [(_, Err(CallError::ProviderLeft { provider: Id(100) }))]
+            ),
+            "{ended:?}"
+        );
+        assert_eq!(net.caller.providers().collect::<Vec<_>>(), [Id(101)]);
+    }
+
+    #[test]
+    fn a_forged_short_lease_does_not_end_a_providers_calls_sooner() {
+        let t0 = Instant::now();
+        let mut net = Net::new(1, t0);
+        net.run(t0);
+        net.dead[0] = true;
+        net.caller.call(t0, Priority(0), &["x"], TIMEOUT).unwrap();
+        net.run(t0);
+        let forged = Notice::Provider {
+            id: Id(100),
+            lease: Duration::ZERO,
+        }
+        .to_packet(&Service::new("echo").unwrap());
+        net.caller
+            .handle_packet(t0, &Packet::parse(&forged).unwrap());
+        net.caller.handle_timeout(t0 + Duration::from_secs(1));
+        assert!(net.outcomes().is_empty());
+        assert_eq!(net.caller.providers().count(), 1);
+    }
+
+    #[test]
+    fn an_answer_keeps_a_busy_provider_alive_though_it_has_no_time_to_announce() {
+        let t0 = Instant::now();
+        let mut caller = Caller::with_id("echo", Id(7)).unwrap();
+        let mut provider = Provider::with_id("echo", Id(100), LEASE, t0).unwrap();
+        let announce = provider.poll_transmit().unwrap();
+        caller.handle_packet(t0, &Packet::parse(&announce).unwrap());
+        // Answers every 0.5 s for 10 s, never announcing.
+        let mut now = t0;
+        for _ in 0..20 {
+            caller.call(now, Priority(0), &["x"], TIMEOUT).unwrap();
+            let call = caller.poll_transmit().unwrap();
+            let ticket = provider
+                .handle_packet(now, &Packet::parse(&call).unwrap())
+                .unwrap()
+                .ticket();
+            now += Duration::from_millis(500);
+            provider.answer(&ticket, &[]).unwrap();
+            let answer = provider.poll_transmit().unwrap();
+            caller.handle_timeout(now);
+            caller.handle_packet(now, &Packet::parse(&answer).unwrap());
+            assert!(caller.poll_outcome().unwrap().1.is_ok());
+        }
+        assert_eq!(caller.providers().count(), 1);
+    }
+
+    #[test]
+    fn forged_announcements_with_fresh_ids_hold_at_most_64_places() {
+        let t0 = Instant::now();
+        let mut caller = Caller::with_id("echo", Id(7)).unwrap();
+        let service = Service::new("echo").unwrap();
+        for i in 0..10_000u64 {
+            let p = Notice::Provider {
+                id: Id(i),
+                lease: Duration::from_secs(3600),
+            }
+            .to_packet(&service);
+            caller.handle_packet(t0, &Packet::parse(&p).unwrap());
+        }
+        assert_eq!(caller.providers().count(), 64);
+        // Believed for a minute at most, whatever they claim.
+        caller.handle_timeout(t0 + Duration::from_secs(61));
+        assert_eq!(caller.providers().count(), 0);
+    }
+
+    #[test]
+    fn a_timeout_of_zero_or_past_a_day_is_refused() {
+        let mut caller = Caller::with_id("echo", Id(7)).unwrap();
+        for t in [
+            Duration::ZERO,
+            Duration::MAX,
+            LONGEST_TIMEOUT + Duration::from_secs(1),
+        ] {
+            let e = caller
+                .call(Instant::now(), Priority(0), &["x"], t)
+                .unwrap_err();
+            assert!(matches!(e, RpcError::BadTimeout(_)), "{e}");
+        }
+        assert_eq!(caller.in_flight(), 0);
+    }
+
+    #[test]
+    fn ids_and_inboxes_are_bare_tokens_and_a_reason_is_no_group() {
+        let service = Service::new("echo").unwrap();
+        let read = |text: &str| {
+            Packet::parse(text.as_bytes())
+                .map(|p| Notice::read(&p))
+                .unwrap()
+        };
+        assert_eq!(
+            read("@ <svc.echo> 0\nprovider id \"00000000000000aa\" lease_ms 3000\n"),
+            None
+        );
+        let inbox = service.inbox(Id(1));
+        let call = |reply: &str| {
+            let text = format!("@ <{inbox}> 0\ncall id 0000000000000001 reply_to {reply}\n");
+            CallHeader::read(&Packet::parse(text.as_bytes()).unwrap())
+        };
+        assert!(call("reply.0000000000000007").is_some());
+        assert!(call("\"reply.0000000000000007\"").is_none());
+        let refused = |text: &str| {
+            let p = format!("@ <reply.0000000000000007> 0\nrefused id 0000000000000001 from 0000000000000064 text {text}\n");
+            AnswerHeader::read(&Packet::parse(p.as_bytes()).unwrap()).map(|a| a.refused)
+        };
+        assert_eq!(refused("007"), Some(Some("007".into())));
+        assert_eq!(
+            refused("\"disk \\\"full\\\"\""),
+            Some(Some("disk \"full\"".into()))
+        );
+        assert_eq!(refused("(a 1)"), None);
     }
 
     #[test]
@@ -394,7 +532,7 @@ mod tests {
     }
 
     #[test]
-    fn a_provider_answers_only_reply_inboxes_and_asks_for_who_at_most_every_100_ms() {
+    fn a_provider_answers_only_reply_inboxes_and_who_at_most_once_a_third_of_its_lease() {
         let t0 = Instant::now();
         let mut provider = Provider::with_id("echo", Id(100), LEASE, t0).unwrap();
         while provider.poll_transmit().is_some() {}
@@ -410,7 +548,7 @@ mod tests {
             provider.handle_packet(now, &Packet::parse(&who).unwrap());
         }
         let announced = std::iter::from_fn(|| provider.poll_transmit()).count();
-        assert_eq!(announced, 10, "1 s of `who` at 1 kHz");
+        assert_eq!(announced, 1, "1 s of `who` at 1 kHz, with a 3 s lease");
     }
 
     #[test]
@@ -439,6 +577,12 @@ mod tests {
             Err(RpcError::BadService(_))
         ));
         assert!(Caller::new(&"x".repeat(message::MAX_SERVICE_LEN)).is_ok());
+        // Service `a.P`'s channel would be provider P's inbox of service `a`.
+        assert!(matches!(
+            Caller::new("a.0123456789abcdef"),
+            Err(RpcError::BadService(_))
+        ));
+        assert!(Caller::new("a.v2").is_ok());
         let mut caller = Caller::new("echo").unwrap();
         let e = caller
             .call(Instant::now(), Priority(0), &["x (unclosed"], TIMEOUT)

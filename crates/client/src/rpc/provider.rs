@@ -9,9 +9,10 @@ use colony_wire::{Line, Packet, ParseError, Priority, Subject, MIN_LEASE_MS};
 use super::message::{AnswerHeader, CallHeader, Id, Notice, Service};
 use super::{RpcError, LONGEST_LEASE};
 
-/// A provider answers `who` at most this often, so forged questions cannot
-/// make it a loudspeaker.
-const ANSWER_WHO_EVERY: Duration = Duration::from_millis(100);
+/// A provider answers `who` at most once per third of its lease (when it
+/// would announce anyway), and at least this often, so that a new caller
+/// need not wait long; forged questions cannot make it a loudspeaker.
+const ANSWER_WHO_AT_LEAST_EVERY: Duration = Duration::from_secs(1);
 
 /// A call taken by a provider, borrowing the packet it came in.
 #[derive(Debug, Clone)]
@@ -64,8 +65,9 @@ pub struct Ticket {
 /// later. Publish what [`poll_transmit`](Provider::poll_transmit) gives.
 ///
 /// It announces itself when made, every third of its lease, and at once
-/// (at most every 100 ms) when a caller asks who provides; callers stop
-/// believing in it one lease after they last heard it.
+/// when a caller asks who provides (at most once per third of its lease, and
+/// per second); callers stop believing in it one lease after they last
+/// heard from it (an announcement or an answer).
 #[derive(Debug)]
 pub struct Provider {
     service: Service,
@@ -74,6 +76,9 @@ pub struct Provider {
     lease: Duration,
     last_announced: Instant,
     last_answered_who: Option<Instant>,
+    /// The announcement (or farewell) not yet sent: one at most, so a
+    /// provider that waits for its hub does not pile them up.
+    notice: Option<Vec<u8>>,
     outbox: VecDeque<Vec<u8>>,
     served: u64,
 }
@@ -99,6 +104,7 @@ impl Provider {
             lease: lease.clamp(Duration::from_millis(MIN_LEASE_MS), LONGEST_LEASE),
             last_announced: now,
             last_answered_who: None,
+            notice: None,
             outbox: VecDeque::new(),
             served: 0,
         };
@@ -133,7 +139,11 @@ impl Provider {
             id: self.id,
             lease: self.lease,
         };
-        self.outbox.push_back(notice.to_packet(&self.service));
+        self.notice = Some(notice.to_packet(&self.service));
+    }
+
+    fn who_every(&self) -> Duration {
+        (self.lease / 3).min(ANSWER_WHO_AT_LEAST_EVERY)
     }
 
     /// Notes a packet from one of [`subjects`](Provider::subjects); a call
@@ -146,7 +156,7 @@ impl Provider {
             let ask = Notice::read(packet) == Some(Notice::Who);
             let fresh = self
                 .last_answered_who
-                .is_some_and(|t| now.saturating_duration_since(t) < ANSWER_WHO_EVERY);
+                .is_some_and(|t| now.saturating_duration_since(t) < self.who_every());
             if ask && !fresh {
                 self.last_answered_who = Some(now);
                 self.announce(now);
@@ -209,12 +219,11 @@ impl Provider {
 
     /// Says the provider is stopping, so callers end what they sent it at once.
     pub fn leave(&mut self) {
-        self.outbox
-            .push_back(Notice::Leaving { id: self.id }.to_packet(&self.service));
+        self.notice = Some(Notice::Leaving { id: self.id }.to_packet(&self.service));
     }
 
     /// The next packet to publish.
     pub fn poll_transmit(&mut self) -> Option<Vec<u8>> {
-        self.outbox.pop_front()
+        self.notice.take().or_else(|| self.outbox.pop_front())
     }
 }

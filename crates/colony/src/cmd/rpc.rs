@@ -1,16 +1,25 @@
 //! `colony call` and `colony serve`: request and reply from a shell script.
 
 use std::io::{Read as _, Write as _};
+use std::os::unix::process::CommandExt as _;
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
 use std::thread;
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
-use colony_client::rpc::{Call, CallClient, ServeClient};
+use colony_client::rpc::{Asked, CallClient, Caller, Provider, ServeClient, Ticket};
 use colony_wire::{Priority, MAX_PACKET};
 
-use super::HubAddr;
+use super::{Bounds, HubAddr};
+
+/// A provider's lease: long enough not to flood the hub with announcements,
+/// no longer than callers believe one (a minute).
+const LEASE: Bounds = Bounds::new(0.1, 60.0, "seconds");
+/// Calls waiting for the command beyond the one it runs; more are refused
+/// at once, so a flood of calls costs a refusal each, not a queue.
+const QUEUE: usize = 64;
 
 #[derive(clap::Args, Debug)]
 pub struct CallArgs {
@@ -22,6 +31,9 @@ pub struct CallArgs {
     /// The call's priority (its answer keeps it).
     #[arg(long, short, default_value_t = 0, allow_negative_numbers = true)]
     pub priority: i32,
+    /// Sign every packet with this shared key (a hub started with `--auth-all` asks for it).
+    #[arg(long, value_name = "FILE")]
+    pub key: Option<std::path::PathBuf>,
     /// The service to call.
     pub service: String,
     /// The call's lines, such as `'text value "hi"'`; with none, they are
@@ -34,13 +46,16 @@ pub struct CallArgs {
 pub struct ServeArgs {
     #[command(flatten)]
     pub hub: HubAddr,
-    /// Seconds callers believe in this provider after each announcement
-    /// (it announces every third of this): how soon they notice it died.
-    #[arg(long, default_value_t = 3.0, value_parser = super::TIMEOUT)]
+    /// Seconds callers believe in this provider after they last heard from
+    /// it (it announces every third of this): how soon they notice it died.
+    #[arg(long, default_value_t = 3.0, value_parser = LEASE)]
     pub lease: f64,
     /// Seconds a command may run for one call before it is killed and the call refused.
     #[arg(long, default_value_t = 10.0, value_parser = super::TIMEOUT)]
     pub command_timeout: f64,
+    /// Sign every packet with this shared key (a hub started with `--auth-all` asks for it).
+    #[arg(long, value_name = "FILE")]
+    pub key: Option<std::path::PathBuf>,
     /// Answer every call with its own lines instead of running a command.
     #[arg(long, conflicts_with = "command")]
     pub echo: bool,
@@ -49,19 +64,39 @@ pub struct ServeArgs {
     /// The command run for each call: the call's lines on its standard input,
     /// its standard output's lines the answer; a non-zero exit refuses the
     /// call with the last line of its standard error. Calls are served one
-    /// at a time, in the order they arrive.
+    /// at a time, in the order they arrive; the provider keeps announcing
+    /// itself while a command runs. What the command leaves running in the
+    /// background is killed when it ends.
     #[arg(last = true, value_name = "COMMAND", required_unless_present = "echo")]
     pub command: Vec<String>,
+}
+
+fn client(
+    hub: &HubAddr,
+    key: Option<&std::path::Path>,
+) -> anyhow::Result<colony_client::UdpClient> {
+    let mut client = hub.connect()?;
+    if let Some(path) = key {
+        client.set_key(super::read_key(path)?);
+    }
+    Ok(client)
 }
 
 pub fn call(args: CallArgs) -> anyhow::Result<()> {
     let timeout = super::seconds("--timeout", args.timeout)?;
     let lines = if args.lines.is_empty() {
-        let mut text = String::new();
+        // A call is one datagram: reading more could only fill memory.
+        let mut bytes = Vec::new();
         std::io::stdin()
-            .read_to_string(&mut text)
+            .take(MAX_PACKET as u64 + 1)
+            .read_to_end(&mut bytes)
             .context("cannot read the call's lines from standard input")?;
-        text.lines()
+        if bytes.len() > MAX_PACKET {
+            anyhow::bail!("the call's lines on standard input pass {MAX_PACKET} bytes, more than one packet holds");
+        }
+        String::from_utf8(bytes)
+            .context("the call's lines on standard input are not UTF-8")?
+            .lines()
             .filter(|l| !l.trim().is_empty())
             .map(str::to_owned)
             .collect()
@@ -69,7 +104,8 @@ pub fn call(args: CallArgs) -> anyhow::Result<()> {
         args.lines
     };
     let lines: Vec<&str> = lines.iter().map(String::as_str).collect();
-    let mut client = CallClient::connect(&args.hub.addr, &args.service)?;
+    let caller = Caller::new(&args.service)?;
+    let mut client = CallClient::with(client(&args.hub, args.key.as_deref())?, caller)?;
     let answer = client
         .call(Priority(args.priority), &lines, timeout)
         .with_context(|| format!("calling `{}` on {}", args.service, args.hub.addr))?;
@@ -84,7 +120,8 @@ pub fn serve(args: ServeArgs) -> anyhow::Result<()> {
     let lease = super::seconds("--lease", args.lease)?;
     let limit = super::seconds("--command-timeout", args.command_timeout)?;
     let stop = super::stop_flag()?;
-    let mut server = ServeClient::connect(&args.hub.addr, &args.service, lease)?;
+    let provider = Provider::new(&args.service, lease, Instant::now())?;
+    let mut server = ServeClient::with(client(&args.hub, args.key.as_deref())?, provider)?;
     // On standard output, for the script that started it: which provider this is.
     println!(
         "provider {} serves `{}` through {}",
@@ -92,23 +129,65 @@ pub fn serve(args: ServeArgs) -> anyhow::Result<()> {
         args.service,
         args.hub.addr
     );
-    let command = args.command;
-    let handler = |call: &Call<'_>| -> Result<Vec<String>, String> {
-        let lines: Vec<String> = call.lines().map(|l| l.as_str().to_owned()).collect();
-        if command.is_empty() {
-            return Ok(lines);
-        }
-        run_command(&command, &lines, call.id().to_string(), limit, &stop)
+    let _ = std::io::stdout().flush();
+    if args.command.is_empty() {
+        server.serve(&stop, |asked| Ok(asked.lines.clone()))?;
+        return Ok(());
+    }
+
+    // Commands run on a worker thread, one at a time, while this loop keeps
+    // the hub's lease and the provider's announcements going: a long command
+    // must not make callers think the provider died.
+    let (jobs, queue) = mpsc::sync_channel::<Asked>(QUEUE);
+    let (done_tx, done) = mpsc::channel::<(Ticket, Result<Vec<String>, String>)>();
+    let worker = {
+        let (command, stop) = (args.command, stop.clone());
+        thread::spawn(move || {
+            for asked in queue {
+                let result = run_command(&command, &asked, limit, &stop);
+                if done_tx.send((asked.ticket, result)).is_err() {
+                    return;
+                }
+            }
+        })
     };
-    server.serve(&stop, handler)?;
+    let finish = |server: &mut ServeClient,
+                  (ticket, result): (Ticket, Result<Vec<String>, String>)| {
+        match result {
+            Ok(lines) => server.answer(&ticket, &lines),
+            Err(why) => server.refuse(&ticket, &why),
+        }
+    };
+    while !stop.load(Ordering::Relaxed) {
+        let wake = Instant::now() + Duration::from_millis(20);
+        server
+            .client()
+            .wait(Some(server.next_deadline().map_or(wake, |d| d.min(wake))))?;
+        for asked in server.poll_calls(Instant::now())? {
+            if let Err(mpsc::TrySendError::Full(asked)) = jobs.try_send(asked) {
+                let why = format!("busy: {QUEUE} calls already wait for the command");
+                server.refuse(&asked.ticket, &why)?;
+            }
+        }
+        while let Ok(result) = done.try_recv() {
+            finish(&mut server, result)?;
+        }
+    }
+    // The worker refuses what is left at once (the stop flag is set); every
+    // taken call gets its refusal before the provider says it is leaving.
+    drop(jobs);
+    for result in done.iter() {
+        finish(&mut server, result)?;
+    }
+    let _ = worker.join();
+    server.leave()?;
     Ok(())
 }
 
 /// Runs `command` for one call: what it prints is the answer, a failure the refusal.
 fn run_command(
     command: &[String],
-    lines: &[String],
-    call_id: String,
+    asked: &Asked,
     limit: Duration,
     stop: &AtomicBool,
 ) -> Result<Vec<String>, String> {
@@ -119,13 +198,16 @@ fn run_command(
     let (program, rest) = command.split_first().ok_or("no command to run")?;
     let mut child = Command::new(program)
         .args(rest)
-        .env("COLONY_CALL_ID", call_id)
+        .env("COLONY_CALL_ID", asked.ticket.id.to_string())
+        // A group of its own, so what it starts in the background is killed with it.
+        .process_group(0)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .map_err(|e| format!("cannot run `{program}`: {e}"))?;
-    let mut input = lines.join("\n");
+    let group = child.id();
+    let mut input = asked.lines.join("\n");
     input.push('\n');
     let stdin = child.stdin.take();
     // Written from a thread of its own: a command that prints before it
@@ -135,49 +217,60 @@ fn run_command(
             let _ = stdin.write_all(input.as_bytes());
         }
     });
-    // An answer is one datagram; more is read and dropped, never kept.
+    // An answer is one datagram: the first bytes are kept, the rest read and
+    // dropped, so the command is never stopped by a full pipe.
     let read = |pipe: Option<Box<dyn std::io::Read + Send>>| {
         thread::spawn(move || {
-            let mut bytes = Vec::new();
-            if let Some(pipe) = pipe {
-                let _ = pipe.take(MAX_PACKET as u64 + 1).read_to_end(&mut bytes);
+            let mut kept = Vec::new();
+            let mut all = 0usize;
+            if let Some(mut pipe) = pipe {
+                let mut buf = [0u8; 8192];
+                while let Ok(n @ 1..) = pipe.read(&mut buf) {
+                    all += n;
+                    let room = (MAX_PACKET + 1).saturating_sub(kept.len());
+                    kept.extend_from_slice(&buf[..n.min(room)]);
+                }
             }
-            String::from_utf8_lossy(&bytes).into_owned()
+            (String::from_utf8_lossy(&kept).into_owned(), all)
         })
     };
     let stdout = read(child.stdout.take().map(|p| Box::new(p) as _));
     let stderr = read(child.stderr.take().map(|p| Box::new(p) as _));
     let started = Instant::now();
-    let status = loop {
+    let ended = loop {
         match child.try_wait() {
-            Ok(Some(status)) => break status,
+            Ok(Some(status)) => break Ok(status),
             // Stopping is not waited out: the caller hears at once.
-            Ok(None) if stop.load(Ordering::Relaxed) => {
-                let _ = child.kill();
-                let _ = child.wait();
-                return Err(STOPPING.into());
-            }
+            Ok(None) if stop.load(Ordering::Relaxed) => break Err(STOPPING.to_string()),
             Ok(None) if started.elapsed() > limit => {
-                let _ = child.kill();
-                let _ = child.wait();
-                return Err(format!(
+                break Err(format!(
                     "`{program}` ran past --command-timeout ({:.1} s) and was stopped",
                     limit.as_secs_f64()
-                ));
+                ))
             }
             Ok(None) => thread::sleep(Duration::from_millis(2)),
-            Err(e) => return Err(format!("cannot wait for `{program}`: {e}")),
+            Err(e) => break Err(format!("cannot wait for `{program}`: {e}")),
         }
     };
+    // Whatever the command left behind goes with it; that also closes the
+    // pipes a background child held open, so the readers end.
+    colony_sys::process::kill_group(group);
+    let _ = child.wait();
     let _ = writer.join();
-    let out = stdout.join().unwrap_or_default();
-    let err = stderr.join().unwrap_or_default();
+    let (out, out_len) = stdout.join().unwrap_or_default();
+    let (err, _) = stderr.join().unwrap_or_default();
+    let status = ended?;
     if !status.success() {
         let last = err.lines().rev().find(|l| !l.trim().is_empty());
         return Err(match last {
             Some(line) => format!("`{program}` failed ({status}): {}", line.trim()),
             None => format!("`{program}` failed ({status})"),
         });
+    }
+    if out_len > MAX_PACKET {
+        return Err(format!(
+            "`{program}` printed {out_len} bytes, more than one packet holds"
+        ));
     }
     Ok(out
         .lines()
