@@ -13,7 +13,11 @@ pub fn wait_readable(sock: &impl AsFd, timeout: Option<Duration>) -> io::Result<
         events: libc::POLLIN,
         revents: 0,
     };
-    let ms = timeout.map_or(-1, |t| t.as_millis().min(i32::MAX as u128) as libc::c_int);
+    // Rounded up: a deadline 0.4 ms away must sleep, not return at once and
+    // have the caller spin until it passes.
+    let ms = timeout.map_or(-1, |t| {
+        t.as_nanos().div_ceil(1_000_000).min(i32::MAX as u128) as libc::c_int
+    });
     // SAFETY: `pfd` is one valid, initialised pollfd that outlives the call,
     // and the count passed is 1, matching it; its descriptor is borrowed, so
     // it stays open while poll runs.
@@ -122,6 +126,14 @@ mod tests {
         assert!(!wait_readable(&a, Some(Duration::from_millis(1))).unwrap());
         b.send_to(b"x", a.local_addr().unwrap()).unwrap();
         assert!(wait_readable(&a, Some(Duration::from_secs(5))).unwrap());
+    }
+
+    #[test]
+    fn a_wait_shorter_than_a_millisecond_still_waits() {
+        let a = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let t = std::time::Instant::now();
+        assert!(!wait_readable(&a, Some(Duration::from_micros(300))).unwrap());
+        assert!(t.elapsed() >= Duration::from_micros(300), "{:?}", t.elapsed());
     }
 
     #[cfg(target_os = "linux")]
