@@ -133,7 +133,11 @@ mod tests {
         let a = UdpSocket::bind("127.0.0.1:0").unwrap();
         let t = std::time::Instant::now();
         assert!(!wait_readable(&a, Some(Duration::from_micros(300))).unwrap());
-        assert!(t.elapsed() >= Duration::from_micros(300), "{:?}", t.elapsed());
+        assert!(
+            t.elapsed() >= Duration::from_micros(300),
+            "{:?}",
+            t.elapsed()
+        );
     }
 
     #[cfg(target_os = "linux")]
