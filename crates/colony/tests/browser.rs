@@ -2,7 +2,9 @@
 //! runner with playwright-core driving Debian's headless Chromium) against
 //! this build of `colony`: a real hub, a real simulator, a real monitor, and
 //! (`game.test.mjs`) a real match of `colony game ctf` played from the game
-//! page. Screenshots land in `test-artifacts/browser/`.
+//! page; `foxglove.test.mjs` drives the Foxglove endpoint of a live `colony
+//! demo` with Foxglove's own client (npm `@foxglove/ws-protocol`). Screenshots
+//! land in `test-artifacts/browser/`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -26,7 +28,11 @@ fn the_monitor_page_passes_its_browser_tests_in_headless_chromium() {
         "node is missing: the browser tests run under node; run `scripts/test`, which installs it \
          (or: apt-get install nodejs npm)"
     );
-    if !dir.join("node_modules/playwright-core").exists() {
+    // Each package the tests import: a node_modules from before one was added lacks it.
+    if ["playwright-core", "@foxglove/ws-protocol", "ws"]
+        .iter()
+        .any(|p| !dir.join("node_modules").join(p).exists())
+    {
         let npm = Command::new("npm")
             .args(["ci", "--no-audit", "--no-fund"])
             .current_dir(&dir)
@@ -74,6 +80,10 @@ fn the_monitor_page_passes_its_browser_tests_in_headless_chromium() {
             "game-orders.test.mjs",
         ),
         ("the game's pre-match screen", "game-prematch.test.mjs"),
+        (
+            "the Foxglove WebSocket, against a live colony demo",
+            "foxglove.test.mjs",
+        ),
     ] {
         assert!(
             stdout

@@ -29,6 +29,7 @@ use colony_client::UdpClient;
 use colony_wire::{Packet, Reply, Request, HUB_SUBJECT};
 use tokio::sync::{oneshot, watch};
 
+use crate::foxglove::{self, Feed};
 use crate::game::{Chats, GameView, GAME_CHANNELS};
 use crate::state::{Command, CommandError, MonitorState, PageId, CORE_CHANNELS};
 use crate::tasks::TaskBoard;
@@ -78,6 +79,8 @@ pub struct Bridge {
     chat_tx: watch::Sender<Arc<Chats>>,
     map_tx: watch::Sender<Arc<str>>,
     tasks_tx: watch::Sender<Arc<str>>,
+    /// Every packet and the scenes, for Foxglove viewers.
+    feed: Feed,
 }
 
 /// The web side's ends of the bridge.
@@ -97,6 +100,7 @@ impl Bridge {
     pub fn connect(
         hub: SocketAddr,
         key: Option<colony_wire::auth::Key>,
+        feed: Feed,
     ) -> Result<(Bridge, Handles), colony_client::ClientError> {
         let mut data = UdpClient::connect(hub)?;
         // Kept with every refresh; a hub that refuses it counts `too_many_taps`.
@@ -132,6 +136,7 @@ impl Bridge {
                 map_tx,
                 chat_tx,
                 tasks_tx,
+                feed,
             },
             Handles {
                 world,
@@ -282,6 +287,18 @@ impl Bridge {
             if (self.state.frame_version() != world_version && since >= WORLD_EVERY)
                 || since >= WORLD_AT_LEAST
             {
+                if self.state.frame_version() != world_version && self.feed.has_viewers() {
+                    let world = self.state.world();
+                    let caches = world.caches().iter().map(|((r, k), p)| (*r, k.0, p.x, p.y));
+                    let scene = foxglove::scene::arena_scene(
+                        world.frame(),
+                        world.arena(),
+                        world.sizes(),
+                        caches,
+                        foxglove::now_ns(),
+                    );
+                    self.feed.on_arena(scene, foxglove::now_ns());
+                }
                 world_version = self.state.frame_version();
                 last_world = now;
                 self.world_tx
@@ -291,6 +308,13 @@ impl Bridge {
             if (self.game.version() != game_version && since >= GAME_EVERY)
                 || since >= GAME_AT_LEAST
             {
+                if self.game.version() != game_version && self.feed.has_viewers() {
+                    if let Some(state) = self.game.state() {
+                        let ns = foxglove::now_ns();
+                        self.feed
+                            .on_battlefield(foxglove::scene::battlefield_scene(state, ns), ns);
+                    }
+                }
                 game_version = self.game.version();
                 last_game = now;
                 self.game_tx
@@ -312,6 +336,11 @@ impl Bridge {
             // gets the newest on connecting anyway.
             if self.game.map_version() != map_version {
                 map_version = self.game.map_version();
+                if let Some(map) = self.game.map() {
+                    let ns = foxglove::now_ns();
+                    self.feed
+                        .on_terrain(foxglove::scene::terrain_scene(map, ns), ns);
+                }
                 self.map_tx.send_replace(Arc::from(self.game.map_json()));
             }
             if now >= next_hub_view || new_status {
@@ -332,10 +361,12 @@ impl Bridge {
         for _ in 0..50_000 {
             match self.data.recv() {
                 Ok(Some(packet)) => {
-                    // The tap brings every subject anyone publishes on; the hub view keeps
-                    // to the channels it chose, so a forger's new subjects cannot crowd it.
+                    // The tap brings every subject anyone publishes on; the hub view (and the
+                    // Foxglove feed) keep to the channels it chose, so a forger's new subjects
+                    // cannot crowd them.
                     if packet.subjects().all(|s| self.subscribed.contains(s)) {
                         self.state.on_packet(now, &packet);
+                        self.feed.on_packet(&packet, foxglove::now_ns());
                     }
                     self.game.on_packet(now, &packet);
                     self.tasks.on_packet(now, &packet);

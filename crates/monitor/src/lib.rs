@@ -35,6 +35,11 @@
 //! packet); a hub that already has its most taps leaves it with its
 //! subscriptions, and the board then sees only what those carry.
 //!
+//! Foxglove and Lichtblick connect to `ws://HOST:PORT/foxglove?token=...`
+//! ([`Monitor::foxglove_url`]): every channel the monitor receives, as colony-schema's JSON,
+//! the arena and the battlefield as scene entities, and the override for a viewer to publish
+//! (see [`foxglove`]).
+//!
 //! [`state`], [`game`] and [`tasks`] are the logic without sockets or clocks; the bridge
 //! thread feeds them from the hub; the web server (axum) hands snapshots to
 //! each browser tab.
@@ -55,6 +60,7 @@
 #![warn(missing_docs)]
 
 mod bridge;
+pub mod foxglove;
 pub mod game;
 pub mod gate;
 pub mod protocol;

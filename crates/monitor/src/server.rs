@@ -130,6 +130,7 @@ struct App {
     map: watch::Receiver<Arc<str>>,
     tasks: watch::Receiver<Arc<str>>,
     shutdown: watch::Receiver<bool>,
+    viewers: crate::foxglove::Viewers,
 }
 
 /// A running monitor: the web server and the hub bridge, each on its own
@@ -142,6 +143,7 @@ pub struct Monitor {
     shutdown_tx: watch::Sender<bool>,
     server: Option<JoinHandle<std::io::Result<()>>>,
     bridge: Option<JoinHandle<()>>,
+    viewers: crate::foxglove::Viewers,
 }
 
 impl Monitor {
@@ -162,7 +164,8 @@ impl Monitor {
             .thread_name("monitor-web")
             .enable_all()
             .build()?;
-        let (bridge, handles) = Bridge::connect(hub, config.key.clone())?;
+        let (feed, viewers) = crate::foxglove::feed();
+        let (bridge, handles) = Bridge::connect(hub, config.key.clone(), feed)?;
         let stop = Arc::new(AtomicBool::new(false));
         let (requests, requests_rx) = sync_channel(REQUEST_QUEUE);
         let (closed, closed_rx) = channel();
@@ -187,6 +190,7 @@ impl Monitor {
             map: handles.map,
             tasks: handles.tasks,
             shutdown: shutdown.clone(),
+            viewers: viewers.clone(),
         };
         let server_guard = guard.clone();
         let server = std::thread::Builder::new()
@@ -211,6 +215,7 @@ impl Monitor {
             shutdown_tx,
             server: Some(server),
             bridge: Some(bridge),
+            viewers,
         })
     }
 
@@ -254,6 +259,18 @@ impl Monitor {
             });
         }
         format!("http://{addr}{path}{q}")
+    }
+
+    /// The Foxglove WebSocket's address (`ws://.../foxglove?token=...`), for Foxglove or
+    /// Lichtblick's "open connection" (see [`crate::foxglove`]).
+    pub fn foxglove_url(&self) -> String {
+        let page = self.page_url(crate::foxglove::PATH, "");
+        format!("ws://{}", page.trim_start_matches("http://"))
+    }
+
+    /// Foxglove viewers connected now, and messages dropped for slow ones so far.
+    pub fn foxglove_viewers(&self) -> (u64, u64) {
+        (self.viewers.connected(), self.viewers.dropped())
     }
 
     /// The token the pages need, if one is.
@@ -350,7 +367,9 @@ async fn guarded(
         query: uri.query(),
         host,
         origin: header_str(header::ORIGIN),
-        upgrade: headers.contains_key(header::UPGRADE) || uri.path() == "/ws",
+        upgrade: headers.contains_key(header::UPGRADE)
+            || uri.path() == "/ws"
+            || uri.path() == crate::foxglove::PATH,
     };
     let verdict = if authority_ok {
         guard.gate.check(&checked)
@@ -437,6 +456,7 @@ async fn serve(
         .route("/tasks.js", get(|| asset("text/javascript", TASKS_JS)))
         .route("/common.js", get(|| asset("text/javascript", COMMON_JS)))
         .route("/ws", get(ws))
+        .route(crate::foxglove::PATH, get(foxglove_ws))
         .with_state(app)
         .layer(axum::middleware::from_fn_with_state(guard, guarded));
     axum::serve(
@@ -533,6 +553,24 @@ async fn ws(
         .max_message_size(MAX_MESSAGE)
         .max_frame_size(MAX_MESSAGE)
         .on_upgrade(move |socket| session(socket, app, view))
+}
+
+/// The Foxglove WebSocket: `foxglove.websocket.v1` (see [`crate::foxglove`]).
+async fn foxglove_ws(upgrade: WebSocketUpgrade, State(app): State<App>) -> Response {
+    use crate::foxglove::{protocol::SUBPROTOCOL, Link, MAX_VIEWER_MESSAGE};
+    upgrade
+        .protocols([SUBPROTOCOL])
+        .max_message_size(MAX_VIEWER_MESSAGE)
+        .max_frame_size(MAX_VIEWER_MESSAGE)
+        .on_upgrade(move |socket| {
+            let link = Link {
+                requests: app.requests.clone(),
+                closed: app.closed.clone(),
+                page: PageId(app.pages.fetch_add(1, Ordering::Relaxed)),
+                shutdown: app.shutdown.clone(),
+            };
+            crate::foxglove::run(socket, app.viewers.clone(), link)
+        })
 }
 
 fn reply(to: Option<&str>, result: &Result<String, crate::protocol::Refusal>) -> String {

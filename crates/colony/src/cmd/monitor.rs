@@ -45,6 +45,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         monitor.url(),
         monitor.hub_addr()
     );
+    println!(
+        "colony monitor: Foxglove or Lichtblick: open a Foxglove WebSocket connection to {}",
+        monitor.foxglove_url()
+    );
     while !stop.load(Ordering::Relaxed) && monitor.is_running() {
         std::thread::sleep(Duration::from_millis(100));
     }

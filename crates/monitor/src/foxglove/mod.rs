@@ -1,0 +1,459 @@
+//! The Foxglove WebSocket endpoint (`/foxglove` on the monitor's own server): the hub's
+//! channels for Foxglove, Lichtblick and any other `foxglove.websocket.v1` viewer.
+//!
+//! - **Channels as they appear.** The bridge thread writes every packet the monitor receives
+//!   into a [`Feed`]: each topic (a channel, or a subject set joined by `+`, as
+//!   [`colony_schema::topic`] names it) becomes a channel the first time it is seen (at most
+//!   [`MAX_CHANNELS`]), advertised at once to every viewer, with encoding `json` and
+//!   colony-schema's JSON Schema. Besides the hub's channels, three scene topics: the arena
+//!   ([`ARENA_TOPIC`]) and the battlefield ([`BATTLEFIELD_TOPIC`], [`TERRAIN_TOPIC`]) as
+//!   `foxglove.SceneUpdate` (see [`scene`]); a new subscriber gets each scene's newest at once.
+//! - **Receive timestamps.** Each message carries the wall-clock time the monitor received it.
+//! - **Nothing waits for a viewer.** The feed is a `tokio` broadcast: the bridge never blocks
+//!   on it, and does nothing for it beyond noting a topic while no viewer is connected. A viewer
+//!   that falls behind the broadcast misses messages, and each connection keeps at most the
+//!   newest message per channel waiting ([`session`]); both are counted and told to the viewer.
+//!   JSON is written on the web server's threads, for the channels a viewer subscribed to.
+//! - **Publishing is the override.** A viewer may publish only the operator's override
+//!   ([`session::OVERRIDE_TOPIC`] or `radio`), which becomes the monitor page's own commands,
+//!   carried out by the bridge for this connection exactly as for a page (and let go when it
+//!   closes). The endpoint passes the same [`crate::gate`] as the page's WebSocket: the
+//!   monitor's host names, a same-site `Origin` if there is one, and the token.
+
+pub mod protocol;
+pub mod scene;
+pub mod session;
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{Sender, SyncSender, TrySendError};
+use std::sync::{Arc, RwLock};
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use axum::extract::ws::{Message, WebSocket};
+use colony_wire::Packet;
+use tokio::sync::{broadcast, oneshot, watch};
+
+use crate::bridge::Envelope;
+use crate::state::PageId;
+use protocol::{Channel, Level};
+use session::{Out, Session};
+
+/// The path the endpoint is served at.
+pub const PATH: &str = "/foxglove";
+/// The arena's scene topic.
+pub const ARENA_TOPIC: &str = "/colony/arena";
+/// The battlefield's robots and flags.
+pub const BATTLEFIELD_TOPIC: &str = "/colony/battlefield";
+/// The battlefield's terrain (sent when the map changes).
+pub const TERRAIN_TOPIC: &str = "/colony/battlefield/terrain";
+/// Channels advertised at most (the hub counts at most 1,024 channels of its own).
+pub const MAX_CHANNELS: usize = 1024;
+/// Messages the broadcast holds for a viewer that is behind, at most.
+const FEED_CAPACITY: usize = 512;
+/// A viewer's own message is read up to this size (an override request is a few dozen bytes).
+pub const MAX_VIEWER_MESSAGE: usize = 64 * 1024;
+
+/// A message for viewers: a hub packet's text (written as JSON for each viewer that wants it)
+/// or a message already in JSON (a scene).
+#[derive(Debug, Clone)]
+pub enum Payload {
+    /// A packet as received.
+    Packet(Arc<[u8]>),
+    /// JSON, as it goes out.
+    Json(Arc<[u8]>),
+}
+
+impl Payload {
+    /// The message as a viewer gets it.
+    fn to_json(&self) -> Vec<u8> {
+        match self {
+            Payload::Json(j) => j.to_vec(),
+            Payload::Packet(p) => match Packet::parse(p) {
+                Ok(p) => colony_schema::to_json(&p, None),
+                Err(_) => Vec::new(),
+            },
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+enum Event {
+    /// New channels are in the registry.
+    Channels,
+    Message {
+        channel: u32,
+        receive_ns: u64,
+        payload: Payload,
+    },
+}
+
+#[derive(Debug, Default)]
+struct Registry {
+    by_topic: HashMap<String, u32>,
+    channels: Vec<Channel>,
+    /// The newest message of each scene channel, for new subscribers.
+    latched: HashMap<u32, (u64, Payload)>,
+    /// Topics seen beyond [`MAX_CHANNELS`].
+    not_advertised: u64,
+}
+
+/// Counters shared by the feed and the connections.
+#[derive(Debug, Default)]
+struct Counters {
+    viewers: AtomicU64,
+    dropped: AtomicU64,
+}
+
+/// The bridge's end: where received packets and scenes are written.
+#[derive(Debug)]
+pub struct Feed {
+    tx: broadcast::Sender<Event>,
+    registry: Arc<RwLock<Registry>>,
+    /// The scene channels' ids.
+    arena: u32,
+    battlefield: u32,
+    terrain: u32,
+}
+
+/// The web server's end: what each connection reads.
+#[derive(Debug, Clone)]
+pub struct Viewers {
+    tx: broadcast::Sender<Event>,
+    registry: Arc<RwLock<Registry>>,
+    counters: Arc<Counters>,
+    session_id: Arc<str>,
+}
+
+/// The wall clock now, nanoseconds since the Unix epoch.
+pub fn now_ns() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as u64)
+}
+
+/// A new feed, with its scene channels, and the web server's end of it.
+pub fn feed() -> (Feed, Viewers) {
+    let (tx, _) = broadcast::channel(FEED_CAPACITY);
+    let registry = Arc::new(RwLock::new(Registry::default()));
+    let counters = Arc::new(Counters::default());
+    let mut feed = Feed {
+        tx: tx.clone(),
+        registry: registry.clone(),
+        arena: 0,
+        battlefield: 0,
+        terrain: 0,
+    };
+    let schema = scene::scene_update_schema();
+    for (i, topic) in [ARENA_TOPIC, BATTLEFIELD_TOPIC, TERRAIN_TOPIC]
+        .into_iter()
+        .enumerate()
+    {
+        let id = feed.register(topic, scene::SCENE_UPDATE.into(), schema.clone());
+        match i {
+            0 => feed.arena = id.unwrap_or(0),
+            1 => feed.battlefield = id.unwrap_or(0),
+            _ => feed.terrain = id.unwrap_or(0),
+        }
+    }
+    let session_id: Arc<str> = Arc::from(now_ns().to_string());
+    (
+        feed,
+        Viewers {
+            tx,
+            registry,
+            counters,
+            session_id,
+        },
+    )
+}
+
+impl Feed {
+    /// Whether any viewer is connected (else scenes need not be built).
+    pub fn has_viewers(&self) -> bool {
+        self.tx.receiver_count() > 0
+    }
+
+    /// Adds a channel, or finds it; `None` past [`MAX_CHANNELS`].
+    fn register(&mut self, topic: &str, schema_name: String, schema: String) -> Option<u32> {
+        let Ok(mut r) = self.registry.write() else {
+            return None;
+        };
+        if let Some(id) = r.by_topic.get(topic) {
+            return Some(*id);
+        }
+        if r.channels.len() >= MAX_CHANNELS {
+            r.not_advertised += 1;
+            return None;
+        }
+        let id = r.channels.len() as u32 + 1;
+        r.by_topic.insert(topic.to_owned(), id);
+        r.channels.push(Channel {
+            id,
+            topic: topic.to_owned(),
+            encoding: colony_schema::MESSAGE_ENCODING.into(),
+            schema_name,
+            schema,
+            schema_encoding: colony_schema::SCHEMA_ENCODING.into(),
+        });
+        drop(r);
+        let _ = self.tx.send(Event::Channels);
+        Some(id)
+    }
+
+    fn channel_of(&mut self, packet: &Packet<'_>) -> Option<u32> {
+        let single;
+        let topic = if packet.subject_count() == 1 {
+            single = packet.subjects().next().unwrap_or_default().to_owned();
+            if let Ok(r) = self.registry.read() {
+                if let Some(id) = r.by_topic.get(packet.subjects_text()) {
+                    return Some(*id);
+                }
+            }
+            single
+        } else {
+            let topic = colony_schema::topic(packet);
+            if let Ok(r) = self.registry.read() {
+                if let Some(id) = r.by_topic.get(&topic) {
+                    return Some(*id);
+                }
+            }
+            topic
+        };
+        let schema = colony_schema::schema_for(&topic);
+        let text = String::from_utf8_lossy(&schema.data).into_owned();
+        self.register(&topic, schema.name, text)
+    }
+
+    /// A packet the monitor received at `receive_ns`.
+    pub fn on_packet(&mut self, packet: &Packet<'_>, receive_ns: u64) {
+        let Some(channel) = self.channel_of(packet) else {
+            return;
+        };
+        if self.has_viewers() {
+            let payload = Payload::Packet(Arc::from(packet.as_str().as_bytes()));
+            let _ = self.tx.send(Event::Message {
+                channel,
+                receive_ns,
+                payload,
+            });
+        }
+    }
+
+    fn send_scene(&mut self, channel: u32, receive_ns: u64, json: Vec<u8>) {
+        let payload = Payload::Json(Arc::from(json));
+        if let Ok(mut r) = self.registry.write() {
+            r.latched.insert(channel, (receive_ns, payload.clone()));
+        }
+        let _ = self.tx.send(Event::Message {
+            channel,
+            receive_ns,
+            payload,
+        });
+    }
+
+    /// The arena's newest scene (see [`scene::arena_scene`]).
+    pub fn on_arena(&mut self, json: Vec<u8>, receive_ns: u64) {
+        self.send_scene(self.arena, receive_ns, json);
+    }
+
+    /// The battlefield's robots and flags.
+    pub fn on_battlefield(&mut self, json: Vec<u8>, receive_ns: u64) {
+        self.send_scene(self.battlefield, receive_ns, json);
+    }
+
+    /// The battlefield's terrain.
+    pub fn on_terrain(&mut self, json: Vec<u8>, receive_ns: u64) {
+        self.send_scene(self.terrain, receive_ns, json);
+    }
+}
+
+impl Viewers {
+    /// Viewers connected now.
+    pub fn connected(&self) -> u64 {
+        self.counters.viewers.load(Ordering::Relaxed)
+    }
+
+    /// Messages dropped for slow viewers so far, all connections together.
+    pub fn dropped(&self) -> u64 {
+        self.counters.dropped.load(Ordering::Relaxed)
+    }
+
+    fn channels(&self) -> Vec<Channel> {
+        self.registry
+            .read()
+            .map(|r| r.channels.clone())
+            .unwrap_or_default()
+    }
+
+    fn latched(&self) -> Vec<(u32, u64, Payload)> {
+        self.registry
+            .read()
+            .map(|r| {
+                r.latched
+                    .iter()
+                    .map(|(c, (ns, p))| (*c, *ns, p.clone()))
+                    .collect()
+            })
+            .unwrap_or_default()
+    }
+}
+
+/// What a connection needs from the web server: where the override's commands go, and where
+/// to say that it closed (so what it held is let go).
+pub struct Link {
+    /// The bridge's request queue.
+    pub requests: SyncSender<Envelope>,
+    /// Where a closed connection's page id goes.
+    pub closed: Sender<PageId>,
+    /// This connection's page id.
+    pub page: PageId,
+    /// Whether the monitor is stopping.
+    pub shutdown: watch::Receiver<bool>,
+}
+
+/// Tells the bridge the connection has gone, however it ends.
+struct Gone {
+    page: PageId,
+    closed: Sender<PageId>,
+    counters: Arc<Counters>,
+}
+
+impl Drop for Gone {
+    fn drop(&mut self) {
+        let _ = self.closed.send(self.page);
+        self.counters.viewers.fetch_sub(1, Ordering::Relaxed);
+    }
+}
+
+/// Hands one override command to the bridge and waits for its answer.
+async fn carry_out(link: &Link, command: crate::state::Command) -> Result<String, String> {
+    let (tx, rx) = oneshot::channel();
+    match link.requests.try_send((link.page, command, tx)) {
+        Ok(()) => {}
+        Err(TrySendError::Full(_)) => return Err("the monitor is busy; try again".into()),
+        Err(TrySendError::Disconnected(_)) => return Err("the monitor is stopping".into()),
+    }
+    match tokio::time::timeout(Duration::from_secs(2), rx).await {
+        Ok(Ok(Ok(msg))) => Ok(msg),
+        Ok(Ok(Err(e))) => Err(e.to_string()),
+        Ok(Err(_)) => Err("the monitor is stopping".into()),
+        Err(_) => Err("no answer from the hub bridge within 2 s".into()),
+    }
+}
+
+/// Runs one viewer's connection until it closes or the monitor stops.
+pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
+    viewers.counters.viewers.fetch_add(1, Ordering::Relaxed);
+    let _gone = Gone {
+        page: link.page,
+        closed: link.closed.clone(),
+        counters: viewers.counters.clone(),
+    };
+    let mut rx = viewers.tx.subscribe();
+    let mut s: Session<Payload> = Session::new("colony monitor", &viewers.session_id);
+    s.on_channels(&viewers.channels());
+    let mut tick = tokio::time::interval(Duration::from_millis(500));
+    let mut reported = 0;
+    'conn: loop {
+        // Take in what the feed has, then send what waits, newest first per channel.
+        loop {
+            drain(&mut rx, &mut s, &viewers);
+            let Some(out) = s.poll_transmit() else { break };
+            let msg = match out {
+                Out::Text(t) => Message::Text(t.into()),
+                Out::Message {
+                    subscription,
+                    receive_ns,
+                    payload,
+                } => Message::Binary(
+                    protocol::message_data(subscription, receive_ns, &payload.to_json()).into(),
+                ),
+            };
+            if socket.send(msg).await.is_err() {
+                break 'conn;
+            }
+        }
+        if s.dropped() > reported {
+            viewers
+                .counters
+                .dropped
+                .fetch_add(s.dropped() - reported, Ordering::Relaxed);
+            reported = s.dropped();
+        }
+        tokio::select! {
+            incoming = socket.recv() => {
+                let commands = match incoming {
+                    None | Some(Err(_)) | Some(Ok(Message::Close(_))) => break,
+                    Some(Ok(Message::Text(t))) => {
+                        let before = subscribed_latched(&s, &viewers);
+                        let commands = s.handle_text(t.as_str());
+                        for (channel, ns, payload) in viewers.latched() {
+                            if s.is_subscribed(channel) && !before.contains(&channel) {
+                                s.on_message(channel, ns, payload);
+                            }
+                        }
+                        commands
+                    }
+                    Some(Ok(Message::Binary(b))) => s.handle_binary(&b),
+                    Some(Ok(_)) => continue,
+                };
+                for c in commands {
+                    if let Err(e) = carry_out(&link, c).await {
+                        s.status(Level::Error, &e);
+                    }
+                }
+            }
+            event = rx.recv() => match event {
+                Ok(e) => on_event(e, &mut s, &viewers),
+                Err(broadcast::error::RecvError::Lagged(n)) => s.on_missed(n),
+                Err(broadcast::error::RecvError::Closed) => break,
+            },
+            _ = tick.tick() => s.poll_timeout(std::time::Instant::now()),
+            changed = link.shutdown.changed() => {
+                if changed.is_err() || *link.shutdown.borrow_and_update() {
+                    let _ = socket.send(Message::Close(None)).await;
+                    break;
+                }
+            }
+        }
+    }
+    if s.dropped() > 0 {
+        tracing::info!(
+            page = link.page.0,
+            dropped = s.dropped(),
+            "a Foxglove viewer left; it was sent the newest of each channel and missed the rest"
+        );
+    }
+}
+
+fn subscribed_latched(s: &Session<Payload>, viewers: &Viewers) -> Vec<u32> {
+    viewers
+        .latched()
+        .into_iter()
+        .map(|(c, _, _)| c)
+        .filter(|c| s.is_subscribed(*c))
+        .collect()
+}
+
+fn drain(rx: &mut broadcast::Receiver<Event>, s: &mut Session<Payload>, viewers: &Viewers) {
+    // Bounded: at most what the broadcast holds.
+    for _ in 0..FEED_CAPACITY {
+        match rx.try_recv() {
+            Ok(e) => on_event(e, s, viewers),
+            Err(broadcast::error::TryRecvError::Lagged(n)) => s.on_missed(n),
+            Err(_) => return,
+        }
+    }
+}
+
+fn on_event(e: Event, s: &mut Session<Payload>, viewers: &Viewers) {
+    match e {
+        Event::Channels => s.on_channels(&viewers.channels()),
+        Event::Message {
+            channel,
+            receive_ns,
+            payload,
+        } => s.on_message(channel, receive_ns, payload),
+    }
+}

@@ -1,0 +1,213 @@
+// The monitor's Foxglove WebSocket (`/foxglove`, foxglove.websocket.v1) against a live
+// `colony demo`, through Foxglove's own client (`FoxgloveClient` from the npm package
+// @foxglove/ws-protocol, over the `ws` package): serverInfo and the advertised channels,
+// `vision` at the world's rate with receive timestamps, the arena as scene entities, an
+// override published by the viewer that holds and drives a robot in the simulator, and
+// unsubscribing. Then what a hostile client sends: the gate's refusals and status errors.
+// Every wait is for an event, with room for a loaded machine; rates are compared with the
+// world's configured rate with a wide tolerance.
+import assert from 'node:assert/strict';
+import { after, before, describe, test } from 'node:test';
+import foxglove from '@foxglove/ws-protocol';
+import WebSocket from 'ws';
+import { ColonyProcess, freeUdpPort, sleep } from './lib.mjs';
+
+const { FoxgloveClient } = foxglove;
+const SPEED = 2;
+// configs/scene.toml: a control step is 3 physics steps of 1/14 s; vision comes once a step.
+const WORLD_HZ = SPEED / (3 / 14);
+
+const decoder = new TextDecoder();
+
+/** A vision message's robots, { id: [x, y, theta] }, from colony-schema's JSON. */
+function robotsOf(json) {
+  const out = {};
+  for (const r of json.lines.robot || []) out[r.id] = [r.x, r.y, r.theta];
+  return out;
+}
+
+async function until(fn, timeoutMs, what) {
+  const end = Date.now() + timeoutMs;
+  for (;;) {
+    const v = await fn();
+    if (v) return v;
+    if (Date.now() > end) throw new Error(`timed out: ${what}`);
+    await sleep(50);
+  }
+}
+
+describe('the Foxglove WebSocket, against a live colony demo', { concurrency: false, timeout: 180000 }, () => {
+  let demo;
+  let wsUrl;
+  let client;
+  let serverInfo;
+  const channels = new Map(); // topic -> channel
+  const statuses = [];
+  const bySub = new Map(); // subscription id -> [{ ts, json }]
+
+  before(async () => {
+    const hubPort = await freeUdpPort();
+    demo = new ColonyProcess('foxglove-demo', [
+      'demo', '--hub-bind', `127.0.0.1:${hubPort}`, '--monitor-bind', '127.0.0.1:0', '--speed', String(SPEED),
+    ]);
+    const [, host, token] = await demo.waitFor(/http:\/\/(127\.0\.0\.1:\d+)\/\?token=([0-9a-f]{32})\s/);
+    wsUrl = `ws://${host}/foxglove?token=${token}`;
+    client = new FoxgloveClient({ ws: new WebSocket(wsUrl, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]) });
+    client.on('serverInfo', (info) => { serverInfo = info; });
+    client.on('advertise', (list) => { for (const c of list) channels.set(c.topic, c); });
+    client.on('status', (s) => statuses.push(s));
+    client.on('message', ({ subscriptionId, timestamp, data }) => {
+      const list = bySub.get(subscriptionId) || [];
+      const json = JSON.parse(decoder.decode(data));
+      list.push({ ts: timestamp, json, at: Date.now() });
+      if (list.length > 5000) list.shift();
+      bySub.set(subscriptionId, list);
+    });
+    client.on('error', (e) => statuses.push({ level: 2, message: `client error: ${e}` }));
+  });
+
+  after(async () => {
+    if (client) client.close();
+    if (demo) await demo.stop();
+  });
+
+  test('serverInfo comes first, then the hub\'s channels as they appear, with their JSON Schemas', async () => {
+    await until(() => serverInfo, 20000, 'no serverInfo');
+    assert.ok(serverInfo.capabilities.includes('clientPublish'), JSON.stringify(serverInfo));
+    assert.deepEqual(serverInfo.supportedEncodings, ['json']);
+    await until(() => ['vision', 'radio', 'debug', '/colony/arena'].every((t) => channels.has(t)),
+      30000, `channels advertised: ${[...channels.keys()]}`);
+    const vision = channels.get('vision');
+    assert.equal(vision.encoding, 'json');
+    assert.equal(vision.schemaEncoding, 'jsonschema');
+    assert.equal(typeof JSON.parse(vision.schema), 'object');
+    assert.equal(channels.get('/colony/arena').schemaName, 'foxglove.SceneUpdate');
+  });
+
+  test('vision comes at the world\'s rate, each with its receive timestamp', async () => {
+    const sub = client.subscribe(channels.get('vision').id);
+    await until(() => (bySub.get(sub) || []).length > 0, 20000, 'no vision message');
+    const start = Date.now();
+    const n0 = bySub.get(sub).length;
+    await sleep(6000);
+    const got = bySub.get(sub).length - n0;
+    const seconds = (Date.now() - start) / 1000;
+    const rate = got / seconds;
+    // The world's configured rate, with a wide tolerance for a loaded machine.
+    assert.ok(rate > WORLD_HZ * 0.4 && rate < WORLD_HZ * 1.6,
+      `vision at ${rate.toFixed(1)}/s; the world steps at ${WORLD_HZ.toFixed(1)}/s`);
+    const last = bySub.get(sub).at(-1);
+    assert.match(last.json.packet, /^@ <vision> /);
+    assert.deepEqual(last.json.subjects, ['vision']);
+    assert.equal(Object.keys(robotsOf(last.json)).length, 4);
+    // Receive timestamps: nanoseconds of the wall clock, increasing.
+    const now = BigInt(Date.now()) * 1000000n;
+    assert.ok(last.ts > now - 60n * 1000000000n && last.ts <= now + 1000000000n, `timestamp ${last.ts}`);
+    const list = bySub.get(sub);
+    assert.ok(list.at(-1).ts >= list.at(-2).ts);
+    client.unsubscribe(sub);
+  });
+
+  test('the arena comes as scene entities: walls, 4 robots with their heading, 40 pucks', async () => {
+    const sub = client.subscribe(channels.get('/colony/arena').id);
+    const msg = await until(() => (bySub.get(sub) || []).at(-1), 20000, 'no arena scene');
+    client.unsubscribe(sub);
+    const byId = Object.fromEntries(msg.json.entities.map((e) => [e.id, e]));
+    assert.equal(byId.walls.frame_id, 'arena');
+    assert.ok(byId.walls.lines[0].points.length > 4);
+    assert.equal(byId.robots.cubes.length, 4);
+    assert.equal(byId.robots.arrows.length, 4);
+    assert.ok('w' in byId.robots.cubes[0].pose.orientation);
+    assert.equal(byId.pucks.cylinders.length, 40);
+  });
+
+  test('an override the viewer publishes holds a robot and drives it in the simulator', async () => {
+    const vision = client.subscribe(channels.get('vision').id);
+    const radio = client.subscribe(channels.get('radio').id);
+    await until(() => (bySub.get(vision) || []).length > 0, 20000, 'no vision');
+    const override = client.advertise({ topic: '/colony/override', encoding: 'json', schemaName: 'colony.Override' });
+    const send = (msg) => client.sendMessage(override, new TextEncoder().encode(JSON.stringify(msg)));
+    const pose = () => robotsOf(bySub.get(vision).at(-1).json);
+    const errorsBefore = statuses.filter((s) => s.level === 2).length;
+    send({ t: 'take', ids: [0] });
+    // Held and stopped: robot 0 stays put while the others sort (the world obeys priority 10).
+    await sleep(1500);
+    const held = pose();
+    await sleep(2500);
+    const still = pose();
+    const moved = (a, b, id) => Math.hypot(a[id][0] - b[id][0], a[id][1] - b[id][1]);
+    assert.ok(moved(held, still, 0) < 3, `robot 0 held still moved ${moved(held, still, 0).toFixed(1)} cm`);
+    // Driven forward (repeated, as the page's keys are): it moves.
+    for (let i = 0; i < 30; i++) {
+      send({ t: 'drive', ids: [0], forward: 1, turn: 0 });
+      await sleep(100);
+    }
+    const driven = pose();
+    assert.ok(moved(still, driven, 0) > 5, `robot 0 driven moved only ${moved(still, driven, 0).toFixed(1)} cm`);
+    // The monitor published it on radio at the override's priority, for robot 0.
+    const cmds = (bySub.get(radio) || []).filter((m) => m.json.priority === 10
+      && (m.json.lines.cmd || []).some((c) => c.id === 0 && c.forward === 1));
+    assert.ok(cmds.length > 0, 'no priority-10 radio command for robot 0');
+    assert.equal(statuses.filter((s) => s.level === 2).length, errorsBefore,
+      JSON.stringify(statuses.slice(errorsBefore)));
+    send({ t: 'release', ids: [0] });
+    client.unadvertise(override);
+    client.unsubscribe(radio);
+    client.unsubscribe(vision);
+  });
+
+  test('after unsubscribing, no more messages come for the subscription', async () => {
+    const sub = client.subscribe(channels.get('vision').id);
+    await until(() => (bySub.get(sub) || []).length > 2, 20000, 'no vision');
+    client.unsubscribe(sub);
+    await sleep(500);
+    const n = bySub.get(sub).length;
+    await sleep(2000);
+    assert.equal(bySub.get(sub).length, n, 'vision kept coming after unsubscribe');
+  });
+
+  /** A raw client (no Foxglove library) with the given headers; resolves with its frames. */
+  function raw(url, headers = {}) {
+    return new Promise((resolve) => {
+      const ws = new WebSocket(url, ['foxglove.websocket.v1'], { headers });
+      const frames = [];
+      ws.on('message', (d, binary) => frames.push(binary ? d : JSON.parse(d.toString())));
+      ws.on('open', () => resolve({ ws, frames, opened: true }));
+      ws.on('unexpected-response', (_req, res) => resolve({ opened: false, status: res.statusCode }));
+      ws.on('error', () => resolve({ opened: false }));
+    });
+  }
+
+  test('the gate refuses another site\'s page and a missing token', async () => {
+    const foreign = await raw(wsUrl, { Origin: 'http://evil.example' });
+    assert.equal(foreign.opened, false);
+    assert.equal(foreign.status, 403);
+    const noToken = await raw(wsUrl.replace(/\?token=.*/, ''));
+    assert.equal(noToken.status, 403);
+  });
+
+  test('hostile input gets status errors, never a crash; publishing elsewhere is refused', async () => {
+    const c = await raw(wsUrl);
+    assert.ok(c.opened);
+    await until(() => c.frames.some((f) => f.op === 'advertise'), 10000, 'no advertise');
+    c.ws.send('{not json');
+    c.ws.send(JSON.stringify({ op: 'getParameters', parameterNames: [] }));
+    c.ws.send(JSON.stringify({ op: 'subscribe', subscriptions: [{ id: 1, channelId: 99999 }] }));
+    c.ws.send(JSON.stringify({ op: 'advertise', channels: [{ id: 1, topic: 'vision', encoding: 'json', schemaName: 'x' }] }));
+    c.ws.send(Buffer.from([1, 1, 0, 0, 0, 0x7b, 0x7d]));
+    c.ws.send(Buffer.from([0xff, 0, 1]));
+    c.ws.send(JSON.stringify({ op: 'advertise', channels: [{ id: 2, topic: '/colony/override', encoding: 'json', schemaName: 'x' }] }));
+    c.ws.send(Buffer.concat([Buffer.from([1, 2, 0, 0, 0]), Buffer.from('{"t":"publish","text":"@ <radio> 99\\ncmd id 0 forward 1 turn 0\\n"}')]));
+    const errors = () => c.frames.filter((f) => f.op === 'status' && f.level === 2);
+    await until(() => errors().length >= 7, 10000, `status errors: ${JSON.stringify(errors())}`);
+    assert.ok(errors().some((e) => /only the operator's override/.test(e.message)));
+    // A frame larger than the endpoint reads closes that connection alone.
+    const closed = new Promise((r) => c.ws.on('close', r));
+    c.ws.send('x'.repeat(200000));
+    await Promise.race([closed, sleep(10000).then(() => { throw new Error('a huge frame did not close the connection'); })]);
+    // The endpoint and the demo carry on: the library client still gets vision.
+    const sub = client.subscribe(channels.get('vision').id);
+    await until(() => (bySub.get(sub) || []).length > 0, 20000, 'no vision after the hostile client');
+    assert.equal(demo.child.exitCode, null);
+  });
+});
