@@ -177,6 +177,7 @@ impl Monitor {
         let guard = Arc::new(Guard {
             gate: Gate::new(addr, &config.allow_hosts, token),
             log: Mutex::new(RefusalLog::default()),
+            foxglove_origins: std::sync::RwLock::new(Vec::new()),
         });
         let (shutdown_tx, shutdown) = watch::channel(false);
         let app = App {
@@ -268,6 +269,15 @@ impl Monitor {
         format!("ws://{}", page.trim_start_matches("http://"))
     }
 
+    /// Lets pages of `origin` (`https://app.foxglove.dev`: scheme, host and any port, as a
+    /// browser writes `Origin`) open the Foxglove endpoint, as a hosted viewer needs; the host
+    /// names and the token are still checked, and no other path is opened to them.
+    pub fn allow_foxglove_origin(&self, origin: &str) {
+        if let Ok(mut list) = self.guard.foxglove_origins.write() {
+            list.push(origin.trim().trim_end_matches('/').to_ascii_lowercase());
+        }
+    }
+
     /// Foxglove viewers connected now, and messages dropped for slow ones so far.
     pub fn foxglove_viewers(&self) -> (u64, u64) {
         (self.viewers.connected(), self.viewers.dropped())
@@ -339,6 +349,8 @@ fn resolve(addr: &str) -> Result<SocketAddr, MonitorError> {
 struct Guard {
     gate: Gate,
     log: Mutex<RefusalLog>,
+    /// Other sites' origins the operator let open the Foxglove endpoint (a hosted viewer).
+    foxglove_origins: std::sync::RwLock<Vec<String>>,
 }
 
 /// Lets a request through [`Gate`] or answers 403, and adds the security headers to every
@@ -362,11 +374,19 @@ async fn guarded(
     let authority_ok = uri
         .authority()
         .is_none_or(|a| guard.gate.check_host(a.as_str()));
+    // A viewer's origin the operator allowed passes for the Foxglove endpoint alone.
+    let origin = header_str(header::ORIGIN).filter(|o| {
+        uri.path() != crate::foxglove::PATH
+            || !guard
+                .foxglove_origins
+                .read()
+                .is_ok_and(|list| list.iter().any(|a| a.eq_ignore_ascii_case(o.trim())))
+    });
     let checked = crate::gate::Request {
         path: uri.path(),
         query: uri.query(),
         host,
-        origin: header_str(header::ORIGIN),
+        origin,
         upgrade: headers.contains_key(header::UPGRADE)
             || uri.path() == "/ws"
             || uri.path() == crate::foxglove::PATH,

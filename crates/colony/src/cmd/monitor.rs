@@ -21,6 +21,11 @@ pub struct Args {
     /// a web page cannot reach the monitor by DNS rebinding. Repeatable.
     #[arg(long = "allow-host", value_name = "NAME")]
     pub allow_host: Vec<String>,
+    /// A web page origin allowed to open the Foxglove endpoint (`/foxglove`)
+    /// besides the monitor's own, as a hosted viewer needs: for example
+    /// `https://app.foxglove.dev`. The token is still needed. Repeatable.
+    #[arg(long = "foxglove-origin", value_name = "ORIGIN")]
+    pub foxglove_origin: Vec<String>,
     /// Serve the pages without the random token the printed address carries:
     /// then anyone who can reach the port may drive the robots.
     #[arg(long)]
@@ -40,6 +45,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         token: !args.no_token,
         key: args.key.as_deref().map(super::read_key).transpose()?,
     })?;
+    for origin in &args.foxglove_origin {
+        monitor.allow_foxglove_origin(origin);
+    }
     println!(
         "colony monitor: {} (hub {}); Ctrl-C stops",
         monitor.url(),
