@@ -89,8 +89,29 @@ typedef struct colony_packet {
     size_t body;               /* offset of the second line */
 } colony_packet;
 
-/* Checks a datagram; COLONY_OK and *p filled, or the first error with its place. */
+/* Checks a datagram; COLONY_OK and *p filled, or the first error with its place.
+ * A packet with a line or group of more than 16 names needs a table of names:
+ * colony_parse() then takes about 110 KB of stack (under 4 KB otherwise); on
+ * a thread with a small stack, use colony_parse_ws() (colony_recv() does). */
 colony_status colony_parse(colony_packet *p, const void *data, size_t len, colony_error *err);
+
+/* The most names a packet can hold: each takes at least 3 bytes (`A()`). */
+#define COLONY_MAX_NAMES (COLONY_MAX_PACKET / 3 + 1)
+#define COLONY_TABLE_SLOTS 32768 /* > COLONY_MAX_NAMES * 3 / 2: a probe always ends */
+
+/* The parser's table of names, somewhere other than the stack. Zero it once
+ * before its first use (declare it static, or memset it); every parse leaves
+ * it empty again. One workspace serves one parse at a time. */
+typedef struct colony_workspace {
+    uint16_t table[COLONY_TABLE_SLOTS];
+    uint16_t undo[COLONY_MAX_NAMES];
+    uint64_t seed;   /* the table's hash key; 0: one made from the stack's place and the clocks */
+    uint64_t probes; /* table slots the last parse looked at: a bound on its work, for tests */
+} colony_workspace;
+
+/* colony_parse() with the table in *ws, so it needs under 4 KB of stack. */
+colony_status colony_parse_ws(colony_packet *p, const void *data, size_t len, colony_error *err,
+                              colony_workspace *ws);
 
 /* Walks the header's subjects: start with *at = 0; 1 while there is another. */
 int colony_next_subject(const colony_packet *p, size_t *at, colony_span *subject);
@@ -184,8 +205,9 @@ colony_status colony_sign(char *buf, size_t *len, size_t cap, const void *key, s
 #define COLONY_MAX_KEY 512
 
 /* A client of one hub. Declare it where you like (it holds two datagram
- * buffers, about 130 KB); it is filled by colony_connect(). Read its fields,
- * but change them only through the functions below. */
+ * buffers and the parser's workspace, about 240 KB); it is filled by
+ * colony_connect(). Read its fields, but change them only through the
+ * functions below. */
 typedef struct colony_client {
     int fd;
     struct {
@@ -208,6 +230,7 @@ typedef struct colony_client {
     uint64_t last_n;
     uint64_t malformed;      /* datagrams from the hub's address that did not parse */
     uint64_t leases, cookies;
+    colony_workspace ws;     /* the parser's table, seeded from /dev/urandom */
     char in[COLONY_MAX_PACKET + 1];
     char out[COLONY_MAX_PACKET + 1];
 } colony_client;

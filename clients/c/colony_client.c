@@ -291,7 +291,7 @@ colony_status colony_recv(colony_client *c, colony_packet *p, colony_error *err,
             return COLONY_SYSTEM;
         }
         c->last_from_hub = now;
-        colony_status st = colony_parse(p, c->in, (size_t)n, err);
+        colony_status st = colony_parse_ws(p, c->in, (size_t)n, err, &c->ws);
         if (st != COLONY_OK) {
             c->malformed++;
             return st;
@@ -310,6 +310,22 @@ colony_status colony_recv(colony_client *c, colony_packet *p, colony_error *err,
 int colony_hub_alive(const colony_client *c, int64_t now, int64_t within_ms)
 {
     return c->last_from_hub >= 0 && now - c->last_from_hub < within_ms;
+}
+
+/* The parser's hash key: from /dev/urandom, or where this client lies and
+ * the clocks when it cannot be read (then as plain colony_parse() does). */
+static uint64_t random_seed(const colony_client *c)
+{
+    uint64_t seed = 0;
+    int fd = open("/dev/urandom", O_RDONLY | O_CLOEXEC);
+    if (fd >= 0) {
+        if (read(fd, &seed, sizeof seed) != (ssize_t)sizeof seed) seed = 0;
+        close(fd);
+    }
+    if (seed == 0)
+        seed = (uint64_t)(uintptr_t)c * 0x9e3779b97f4a7c15u ^ (uint64_t)time(NULL) ^
+               (uint64_t)clock() << 32 ^ unix_micros();
+    return seed ? seed : 1;
 }
 
 colony_status colony_connect(colony_client *c, const char *hub, int64_t now)
@@ -349,6 +365,7 @@ colony_status colony_connect(colony_client *c, const char *hub, int64_t now)
     c->last_from_hub = c->last_asked = c->last_cookie = c->lease_ms = -1;
     for (int i = 0; i < COLONY_RECENT; i++) c->recent[i].at = INT64_MIN / 2;
     memcpy(c->cookie, "0000000000000000", 17);
+    c->ws.seed = random_seed(c);
     return COLONY_OK;
 }
 

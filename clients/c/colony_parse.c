@@ -283,17 +283,22 @@ static colony_status header(scanner *s, colony_packet *p)
 /* A name may appear once per line or group. A frame of up to LINEAR names is
  * searched linearly (the common case, and the fastest). A hostile line with
  * thousands of names would make that quadratic, so a frame that grows past
- * LINEAR moves to a hash table of name offsets, kept on the stack of a
- * function entered only for such packets (64 KB; packets < 64 KB, so a
- * uint16_t offset names any byte). */
+ * LINEAR moves to a hash table of name offsets (packets < 64 KB, so a
+ * uint16_t offset names any byte). Every name takes at least three bytes
+ * (`A()`), so a packet holds fewer than COLONY_MAX_NAMES, the table is never
+ * two-thirds full, and every probe ends at an empty slot. Frames close in
+ * strict nesting order, so each inserted slot is logged and a closing frame
+ * empties its own slots again: the table is exactly as it was before the
+ * frame opened, and a name repeated in frame after frame costs no more than
+ * the first time. */
 #define LINEAR 16
-#define TABLE (1u << 15) /* > 65507 / 4, the most names a packet can hold */
+#define TABLE COLONY_TABLE_SLOTS
 #define EMPTY 0
-#define GONE 0xffffu
 
 typedef struct frame {
     size_t start;      /* first name of the frame (after the label, or after `(`) */
     unsigned first, n; /* its names in the linear list */
+    unsigned mark;     /* the undo log's length when it moved to the table */
     int big;           /* its names are in the table */
 } frame;
 
@@ -302,8 +307,9 @@ typedef struct body_state {
     unsigned depth;
     uint16_t at[(COLONY_MAX_DEPTH + 1) * LINEAR]; /* packets < 64 KB */
     uint16_t len[(COLONY_MAX_DEPTH + 1) * LINEAR];
-    uint16_t *table; /* NULL until a frame needs it */
-    uint64_t seed;   /* of the table's hash */
+    colony_workspace *ws; /* NULL until a frame needs the table */
+    unsigned logged;      /* slots in ws->undo */
+    uint64_t seed;        /* of the table's hash */
 } body_state;
 
 /* What body() returns to ask for the table: never a parse verdict. */
@@ -333,52 +339,28 @@ static uint32_t hash_name(uint64_t seed, const unsigned char *p, size_t n)
 /* Adds a name to the innermost frame; 0 when the frame holds it already. */
 static int table_insert(body_state *bs, const scanner *s, size_t at, size_t n)
 {
+    uint16_t *table = bs->ws->table;
     size_t frame_start = bs->frames[bs->depth].start;
     uint32_t i = hash_name(bs->seed, s->b + at, n) & (TABLE - 1);
     for (;; i = (i + 1) & (TABLE - 1)) {
-        uint16_t v = bs->table[i];
+        uint16_t v = table[i];
+        bs->ws->probes++;
         if (v == EMPTY) break;
-        if (v == GONE) continue;
         size_t o = (size_t)v - 1;
         /* Names of outer frames stand before this frame's start; inner frames'
          * names were removed when they closed. */
         if (o >= frame_start && bare_len(s, o) == n && memcmp(s->b + o, s->b + at, n) == 0)
             return 0;
     }
-    bs->table[i] = (uint16_t)(at + 1);
+    table[i] = (uint16_t)(at + 1);
+    bs->ws->undo[bs->logged++] = (uint16_t)i;
     return 1;
 }
 
-/* Removes a closing frame's names from the table, walking its (valid) text again. */
-static void forget_frame(body_state *bs, const scanner *s0, const frame *f)
+/* Empties the slots filled since the log was `mark` long. */
+static void undo_to(body_state *bs, unsigned mark)
 {
-    scanner s = *s0;
-    s.err = NULL;
-    s.pos = f->start;
-    for (;;) {
-        enum tok t;
-        size_t at;
-        if (next_tok(&s, &t, &at) != COLONY_OK || t != TOK_BARE) return;
-        size_t n = s.pos - at;
-        uint32_t i = hash_name(bs->seed, s.b + at, n) & (TABLE - 1);
-        for (;; i = (i + 1) & (TABLE - 1)) {
-            uint16_t v = bs->table[i];
-            if (v == EMPTY) break;
-            if (v == (uint16_t)(at + 1)) {
-                bs->table[i] = GONE;
-                break;
-            }
-        }
-        if (next_tok(&s, &t, &at) != COLONY_OK) return;
-        if (t == TOK_OPEN) {
-            unsigned d = 1;
-            while (d > 0) {
-                if (next_tok(&s, &t, &at) != COLONY_OK || t == TOK_EOL) return;
-                d += t == TOK_OPEN;
-                d -= t == TOK_CLOSE;
-            }
-        }
-    }
+    while (bs->logged > mark) bs->ws->table[bs->ws->undo[--bs->logged]] = EMPTY;
 }
 
 static int insert_name(body_state *bs, const scanner *s, size_t at, size_t n, colony_status *st)
@@ -386,18 +368,20 @@ static int insert_name(body_state *bs, const scanner *s, size_t at, size_t n, co
     frame *f = &bs->frames[bs->depth];
     if (f->big) return table_insert(bs, s, at, n);
     for (unsigned k = f->first; k < f->first + f->n; k++)
-        if (bs->len[k] == n && memcmp(s->b + bs->at[k], s->b + at, n) == 0) return 0;
+        if (bs->len[k] == n && s->b[bs->at[k]] == s->b[at] && memcmp(s->b + bs->at[k], s->b + at, n) == 0)
+            return 0;
     if (f->n < LINEAR) {
         bs->at[f->first + f->n] = (uint16_t)at;
         bs->len[f->first + f->n] = (uint16_t)n;
         f->n++;
         return 1;
     }
-    if (!bs->table) {
+    if (!bs->ws) {
         *st = NEED_TABLE;
         return -1;
     }
     f->big = 1;
+    f->mark = bs->logged;
     for (unsigned k = f->first; k < f->first + f->n; k++) table_insert(bs, s, bs->at[k], bs->len[k]);
     return table_insert(bs, s, at, n);
 }
@@ -412,11 +396,11 @@ static void open_frame(body_state *bs, size_t start)
     f->big = 0;
 }
 
-static void close_frame(body_state *bs, const scanner *s)
+static void close_frame(body_state *bs)
 {
     frame *f = &bs->frames[bs->depth];
-    if (f->big) forget_frame(bs, s, f);
-    bs->depth--;
+    if (f->big) undo_to(bs, f->mark);
+    if (bs->depth > 0) bs->depth--;
 }
 
 static colony_status body(scanner *s, body_state *bs)
@@ -438,12 +422,12 @@ static colony_status body(scanner *s, body_state *bs)
             if ((st = next_tok(s, &t, &at)) != COLONY_OK) return st;
             if (t == TOK_EOL) {
                 if (bs->depth > 0) return fail(s, at, COLONY_UNCLOSED_GROUP);
-                if (bs->frames[0].big) forget_frame(bs, &line_start, &bs->frames[0]);
+                close_frame(bs);
                 break;
             }
             if (t == TOK_CLOSE) {
                 if (bs->depth == 0) return fail(s, at, COLONY_UNMATCHED_CLOSE);
-                close_frame(bs, s);
+                close_frame(bs);
                 continue;
             }
             if (t != TOK_BARE) return fail(s, at, COLONY_EXPECTED_NAME);
@@ -466,29 +450,45 @@ static colony_status body(scanner *s, body_state *bs)
     return COLONY_OK;
 }
 
-/* The rest of a packet that has a frame of more than LINEAR names. Kept apart
- * so that only such packets pay for the table's stack and its clearing. */
-static colony_status body_with_table(scanner *s, body_state *bs)
+/* The body with the table: whatever the verdict, every slot filled is emptied
+ * again, so the workspace is left as it was found (all empty). */
+static colony_status body_in(scanner *s, body_state *bs, colony_workspace *ws)
 {
-    uint16_t table[TABLE];
-    memset(table, 0, sizeof table);
-    bs->table = table;
+    bs->ws = ws;
+    bs->logged = 0;
     /* A secret in C99 alone, and no shared state: where this thread's stack
-     * lies (randomised by the loader) and the clocks. */
-    bs->seed = (uint64_t)(uintptr_t)table * 0x9e3779b97f4a7c15u ^ (uint64_t)time(NULL) ^
-               (uint64_t)clock() << 32;
+     * lies (randomised by the loader) and the clocks; or the workspace's own
+     * seed (colony_connect reads one from /dev/urandom). */
+    bs->seed = ws->seed ? ws->seed
+                        : (uint64_t)(uintptr_t)&bs * 0x9e3779b97f4a7c15u ^ (uint64_t)time(NULL) ^
+                              (uint64_t)clock() << 32;
     colony_status st = body(s, bs);
-    bs->table = NULL;
+    undo_to(bs, 0);
+    bs->ws = NULL;
     return st;
 }
 
-colony_status colony_parse(colony_packet *p, const void *data, size_t len, colony_error *err)
+/* Plain colony_parse's table, on the stack of a function entered only for a
+ * packet with a frame of more than LINEAR names: such packets alone pay for
+ * the stack and for clearing it. */
+static colony_status body_with_stack_table(scanner *s, body_state *bs)
+{
+    colony_workspace ws;
+    memset(ws.table, 0, sizeof ws.table);
+    ws.seed = 0;
+    ws.probes = 0;
+    return body_in(s, bs, &ws);
+}
+
+colony_status colony_parse_ws(colony_packet *p, const void *data, size_t len, colony_error *err,
+                              colony_workspace *ws)
 {
     colony_error ignored;
     if (!err) err = &ignored;
     err->status = COLONY_OK;
     err->line = 1;
     err->column = 1;
+    if (ws) ws->probes = 0;
     if (len > COLONY_MAX_PACKET) return err->status = COLONY_TOO_LARGE;
     if (len == 0) return err->status = COLONY_EMPTY;
     const unsigned char *b = data;
@@ -508,14 +508,23 @@ colony_status colony_parse(colony_packet *p, const void *data, size_t len, colon
     colony_status st = header(&s, &out);
     if (st != COLONY_OK) return st;
     body_state bs;
-    bs.table = NULL;
-    st = body(&s, &bs);
-    if (st == NEED_TABLE) st = body_with_table(&s, &bs);
+    bs.ws = NULL;
+    if (ws) {
+        st = body_in(&s, &bs, ws);
+    } else {
+        st = body(&s, &bs);
+        if (st == NEED_TABLE) st = body_with_stack_table(&s, &bs);
+    }
     if (st != COLONY_OK) return st;
     out.text = data;
     out.len = len;
     *p = out;
     return COLONY_OK;
+}
+
+colony_status colony_parse(colony_packet *p, const void *data, size_t len, colony_error *err)
+{
+    return colony_parse_ws(p, data, len, err, NULL);
 }
 
 /* ---------------------------------------------------------------- walking a valid packet */

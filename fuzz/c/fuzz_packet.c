@@ -1,7 +1,8 @@
 /* The C client's parser under a fuzzer: parses arbitrary bytes, then reads
  * everything out of whatever parses (subjects, lines, fields, nested groups,
  * every getter) and writes it back in canonical form, which must parse to the
- * same header and lines. Beyond not crashing (AddressSanitizer and
+ * same header and lines; colony_parse() and colony_parse_ws() must give one
+ * verdict. Beyond not crashing (AddressSanitizer and
  * UndefinedBehaviorSanitizer watch every read), a failed check aborts.
  *
  * libFuzzer:  clang -fsanitize=fuzzer,address,undefined (make -C clients/c fuzz)
@@ -69,9 +70,13 @@ static void write_fields(colony_builder *b, colony_span fields, unsigned depth)
 int LLVMFuzzerTestOneInput(const unsigned char *data, size_t size);
 int LLVMFuzzerTestOneInput(const unsigned char *data, size_t size)
 {
+    static colony_workspace ws; /* the client's way: the table in a workspace */
     colony_packet p;
-    colony_error e;
+    colony_error e, e_ws;
     colony_status st = colony_parse(&p, data, size, &e);
+    /* Both ways give one verdict; a table left dirty would show here later. */
+    CHECK(colony_parse_ws(&p, data, size, &e_ws, &ws) == st);
+    CHECK(st == COLONY_OK || (e_ws.line == e.line && e_ws.column == e.column));
     if (st != COLONY_OK) {
         CHECK(st >= COLONY_TOO_LARGE && st <= COLONY_TOO_DEEP && e.status == st);
         CHECK(e.line >= 1 && e.column >= 1);

@@ -1,12 +1,20 @@
 /* What the C client does without a hub: SHA-256 and HMAC against published
  * vectors, the parser's verdicts and positions, walking a packet, and the
  * builder's round trips. Built with AddressSanitizer and UBSan. */
+#define _POSIX_C_SOURCE 200809L
 #include "colony.h"
 
+#include <arpa/inet.h>
+#include <locale.h>
 #include <math.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 static int failures;
 
@@ -142,6 +150,89 @@ static void a_line_of_thousands_of_names_is_checked_for_repeats(void)
     CHECK(colony_parse(&p, big, n, &e) == COLONY_DUPLICATE_NAME && e.line == 2);
 }
 
+/* The shapes a hostile review found quadratic: the same 17 names in group
+ * after group of one line, or on line after line, filling a packet. */
+static size_t repeated_names_in_groups(char *buf)
+{
+    size_t n = (size_t)sprintf(buf, "@ <a> 0\nl");
+    for (int g = 0; n < COLONY_MAX_PACKET - 80; g++) {
+        n += (size_t)sprintf(buf + n, " g%d(", g);
+        for (char c = 'A'; c <= 'Q'; c++) n += (size_t)sprintf(buf + n, "%c()", c);
+        n += (size_t)sprintf(buf + n, ")");
+    }
+    return n + (size_t)sprintf(buf + n, "\n");
+}
+
+static size_t repeated_names_on_lines(char *buf)
+{
+    size_t n = (size_t)sprintf(buf, "@ <a> 0\n");
+    while (n < COLONY_MAX_PACKET - 60) n += (size_t)sprintf(buf + n, "l A()B()C()D()E()F()G()H()I()J()K()L()M()N()O()P()Q()\n");
+    return n;
+}
+
+/* The most names a packet holds, all in one line: the table's fullest. */
+static size_t most_names_in_one_line(char *buf)
+{
+    size_t n = (size_t)sprintf(buf, "@ <a> 0\nl");
+    for (int i = 0; n < COLONY_MAX_PACKET - 8; i++) n += (size_t)sprintf(buf + n, " %x()", i);
+    return n + (size_t)sprintf(buf + n, "\n");
+}
+
+static void repeated_names_cost_linear_work(void)
+{
+    static char buf[COLONY_MAX_PACKET + 64];
+    static colony_workspace ws; /* zeroed, as it must be before its first use */
+    size_t (*shapes[])(char *) = {repeated_names_in_groups, repeated_names_on_lines,
+                                  most_names_in_one_line};
+    for (unsigned k = 0; k < 3; k++) {
+        size_t n = shapes[k](buf);
+        colony_packet p;
+        colony_error e;
+        CHECK(n <= COLONY_MAX_PACKET);
+        CHECK(colony_parse_ws(&p, buf, n, &e, &ws) == COLONY_OK);
+        /* Each name is looked up once; a few probes each on average, whatever
+         * the packet. With tombstones the first two shapes took thousands. */
+        uint64_t names = 0;
+        for (size_t i = 0; i < n; i++) names += buf[i] == '(';
+        if (ws.probes > 4 * names) {
+            fprintf(stderr, "shape %u: %llu probes for %llu names\n", k,
+                    (unsigned long long)ws.probes, (unsigned long long)names);
+            failures++;
+        }
+        CHECK(colony_parse(&p, buf, n, &e) == COLONY_OK); /* the stack's table agrees */
+        /* A repeat at the end is still found, and the table is left empty. */
+        n += (size_t)sprintf(buf + n - 1, " %s()\n", k == 0 ? "g0" : k == 1 ? "Q" : "0") - 1;
+        CHECK(colony_parse_ws(&p, buf, n, &e, &ws) == COLONY_DUPLICATE_NAME);
+        CHECK(colony_parse(&p, buf, n, &e) == COLONY_DUPLICATE_NAME);
+    }
+    unsigned used = 0;
+    for (unsigned i = 0; i < COLONY_TABLE_SLOTS; i++) used += ws.table[i] != 0;
+    CHECK(used == 0);
+}
+
+/* 17 names in 80 bytes need the table; with a workspace, a thread with a
+ * small stack parses them (the table on the stack was 64 KB). */
+static void *parse_on_a_small_stack(void *arg)
+{
+    static colony_workspace ws;
+    const char *text = "@ <a> 0\nl a 1 b 1 c 1 d 1 e 1 f 1 g 1 h 1 i 1 j 1 k 1 l 1 m 1 n 1 o 1 p 1 q 1\n";
+    colony_packet p;
+    *(colony_status *)arg = colony_parse_ws(&p, text, strlen(text), NULL, &ws);
+    return NULL;
+}
+
+static void a_workspace_parses_on_a_small_stack(void)
+{
+    pthread_attr_t attr;
+    pthread_t t;
+    colony_status st = COLONY_SYSTEM;
+    pthread_attr_init(&attr);
+    pthread_attr_setstacksize(&attr, 64 * 1024);
+    CHECK(pthread_create(&t, &attr, parse_on_a_small_stack, &st) == 0 && pthread_join(t, NULL) == 0);
+    CHECK(st == COLONY_OK);
+    pthread_attr_destroy(&attr);
+}
+
 static void fields_are_read_in_place(void)
 {
     const char *text = "@ <vision_out> <b> -3\r\n\nball x 5.3 y -2.5\n"
@@ -274,6 +365,8 @@ int main(void)
     a_signed_packet_matches_an_independent_hmac();
     malformed_packets_are_refused_with_their_place();
     a_line_of_thousands_of_names_is_checked_for_repeats();
+    repeated_names_cost_linear_work();
+    a_workspace_parses_on_a_small_stack();
     fields_are_read_in_place();
     numbers_follow_rusts_grammar();
     decimals_read_as_strtod_reads_them();

@@ -197,9 +197,14 @@ fn rust_verdict(data: &[u8]) -> String {
     }
 }
 
-/// Small, deterministic mutations of the seeds: the bytes the grammar turns on,
-/// put where they were not.
+/// Small, deterministic mutations of the seeds under 8 KB: the bytes the
+/// grammar turns on, put where they were not.
 fn mutations(seeds: &[Vec<u8>], per_seed: usize) -> Vec<Vec<u8>> {
+    let small: Vec<Vec<u8>> = seeds.iter().filter(|s| s.len() < 8192).cloned().collect();
+    mutations_of_any_size(&small, per_seed)
+}
+
+fn mutations_of_any_size(seeds: &[Vec<u8>], per_seed: usize) -> Vec<Vec<u8>> {
     const SPECIAL: &[u8] = b" \t\n\r()\"\\<>@#0-+.e\x00\x7f\x80\xc3\xe2\xed\xf0\xf4\xff";
     let mut state = 0x9e37_79b9_7f4a_7c15u64;
     let mut next = move |n: usize| {
@@ -209,7 +214,7 @@ fn mutations(seeds: &[Vec<u8>], per_seed: usize) -> Vec<Vec<u8>> {
         (state % n.max(1) as u64) as usize
     };
     let mut out = Vec::new();
-    for seed in seeds.iter().filter(|s| !s.is_empty() && s.len() < 8192) {
+    for seed in seeds.iter().filter(|s| !s.is_empty()) {
         for _ in 0..per_seed {
             let mut m = seed.clone();
             for _ in 0..1 + next(3) {
@@ -236,6 +241,54 @@ fn mutations(seeds: &[Vec<u8>], per_seed: usize) -> Vec<Vec<u8>> {
     out
 }
 
+/// Packets near the 64 KB limit in the shapes that once made the C parser
+/// quadratic (the same names in frame after frame), the fullest name table a
+/// packet can make, and each with a repeat, a stray byte or an unclosed
+/// group at its end.
+fn large_shapes() -> Vec<(String, Vec<u8>)> {
+    let limit = colony_wire::MAX_PACKET;
+    let seventeen: String = ('A'..='Q').map(|c| format!("{c}()")).collect();
+    let mut groups = String::from("@ <a> 0\nl");
+    for g in 0.. {
+        if groups.len() >= limit - 80 {
+            break;
+        }
+        groups.push_str(&format!(" g{g}({seventeen})"));
+    }
+    let mut lines = String::from("@ <a> 0\n");
+    while lines.len() < limit - 60 {
+        lines.push_str(&format!("l {seventeen}\n"));
+    }
+    let mut most = String::from("@ <a> 0\nl");
+    for i in 0.. {
+        if most.len() >= limit - 8 {
+            break;
+        }
+        most.push_str(&format!(" {i:x}()"));
+    }
+    let mut out = Vec::new();
+    for (name, body, repeat) in [
+        ("groups", groups, " g0()"),
+        ("lines", lines.trim_end().to_string(), " Q()"),
+        ("most", most, " 0()"),
+    ] {
+        out.push((format!("large-{name}"), format!("{body}\n").into_bytes()));
+        out.push((
+            format!("large-{name}-repeat"),
+            format!("{body}{repeat}\n").into_bytes(),
+        ));
+        out.push((
+            format!("large-{name}-stray"),
+            format!("{body} )\n").into_bytes(),
+        ));
+        out.push((
+            format!("large-{name}-unclosed"),
+            format!("{body} z(\n").into_bytes(),
+        ));
+    }
+    out
+}
+
 #[test]
 fn the_c_parser_gives_the_rust_parsers_verdict_on_the_corpora_and_their_mutations() {
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
@@ -250,6 +303,16 @@ fn the_c_parser_gives_the_rust_parsers_verdict_on_the_corpora_and_their_mutation
     let scratch = tempfile::tempdir().unwrap();
     for (i, m) in mutations(&seeds, 60).into_iter().enumerate() {
         files.push((format!("mutant-{i:05}"), m));
+    }
+    // The large shapes and mutations of them (the seeds above are all under 8 KB).
+    let large = large_shapes();
+    let large_seeds: Vec<Vec<u8>> = large.iter().map(|(_, d)| d.clone()).collect();
+    files.extend(large);
+    for (i, m) in mutations_of_any_size(&large_seeds, 10)
+        .into_iter()
+        .enumerate()
+    {
+        files.push((format!("large-mutant-{i:03}"), m));
     }
     for (name, data) in &files {
         std::fs::write(scratch.path().join(name), data).unwrap();
