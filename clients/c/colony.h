@@ -146,9 +146,8 @@ typedef struct colony_field {
 int colony_next_field(colony_span *fields, colony_field *field);
 
 /* A field's bare value as a number (Rust's f64 grammar: 1e5, .5, inf, NaN;
- * no hex) or a 64-bit integer; COLONY_WRONG_TYPE otherwise. strtod reads the
- * digits, so a program that calls setlocale(LC_NUMERIC) must keep "." as the
- * decimal point. */
+ * no hex; any length; "." whatever the locale) or a 64-bit integer;
+ * COLONY_WRONG_TYPE otherwise. */
 colony_status colony_field_f64(const colony_field *f, double *out);
 colony_status colony_field_i64(const colony_field *f, int64_t *out);
 
@@ -175,7 +174,8 @@ typedef struct colony_builder {
 void colony_begin(colony_builder *b, char *buf, size_t cap, const char *subjects, int32_t priority);
 void colony_put_line(colony_builder *b, const char *label);
 void colony_put_int(colony_builder *b, const char *name, int64_t value);
-/* Written so that it reads back to the same double (NaN, inf and -inf included). */
+/* Written so that it reads back to the same double (NaN, inf and -inf
+ * included), with "." whatever the locale. */
 void colony_put_f64(colony_builder *b, const char *name, double value);
 void colony_put_text(colony_builder *b, const char *name, const char *text); /* quoted */
 void colony_put_bare(colony_builder *b, const char *name, const char *token);

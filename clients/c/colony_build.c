@@ -3,6 +3,7 @@
 #include "colony.h"
 
 #include <inttypes.h>
+#include <locale.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -74,6 +75,17 @@ static void name(colony_builder *b, const char *n)
     puts_(b, " ");
 }
 
+/* The locale's decimal point in printf's output becomes ".". */
+static void c_decimal_point(char *text)
+{
+    const char *dp = localeconv()->decimal_point;
+    size_t n = dp ? strlen(dp) : 0;
+    char *at;
+    if (n == 0 || (n == 1 && dp[0] == '.') || !(at = strstr(text, dp))) return;
+    *at = '.';
+    memmove(at + 1, at + n, strlen(at + n) + 1);
+}
+
 void colony_put_int(colony_builder *b, const char *n, int64_t value)
 {
     name(b, n);
@@ -93,9 +105,11 @@ void colony_put_f64(colony_builder *b, const char *n, double v)
         puts_(b, v > 0 ? "inf" : "-inf");
         return;
     }
-    /* The shortest of 15 or 17 digits that reads back to the same double. */
+    /* The shortest of 15 or 17 digits that reads back to the same double
+     * (checked in the locale's own spelling, then spelt with "."). */
     snprintf(text, sizeof text, "%.15g", v);
     if (strtod(text, NULL) != v) snprintf(text, sizeof text, "%.17g", v);
+    c_decimal_point(text);
     /* A whole number keeps a `.0`, as Rust writes it, so readers that tell
      * integers from numbers (the Python client) read a number. */
     if (!strpbrk(text, ".eEn")) strcat(text, ".0");

@@ -2,6 +2,8 @@
  * crates/wire/src/scan.rs, walking the bytes in place with no allocation. */
 #include "colony.h"
 
+#include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -697,15 +699,53 @@ static int fast_f64(const char *p, size_t n, double *out)
     return 1;
 }
 
+/* Rust's f64 from text of any length, read the same in every locale: the
+ * digits are rewritten as an integer and an exponent (`12.5e3` as `125e2`),
+ * which strtod reads with no decimal point to misread. Past SIGNIFICANT
+ * digits, the rest only matter as nonzero or not (no halfway point between
+ * two doubles has more than 767 significant digits), so one `1` stands for
+ * them; exponents are clamped far beyond where the value is 0 or infinite. */
+#define SIGNIFICANT 780
+static double slow_f64(const char *p, size_t n)
+{
+    char text[SIGNIFICANT + 32];
+    size_t i = 0, kept = 0;
+    int neg = p[0] == '-', sticky = 0;
+    long exp10 = 0, e = 0;
+    if (p[0] == '-' || p[0] == '+') i++;
+    if (p[i] == 'i' || p[i] == 'I') return neg ? -INFINITY : INFINITY;
+    if (p[i] == 'n' || p[i] == 'N') return NAN;
+    text[kept++] = neg ? '-' : '+';
+    for (int point = 0; i < n && p[i] != 'e' && p[i] != 'E'; i++) {
+        if (p[i] == '.') {
+            point = 1;
+        } else if (kept == 1 && p[i] == '0') {
+            exp10 -= point; /* a leading zero */
+        } else if (kept <= SIGNIFICANT) {
+            text[kept++] = p[i];
+            exp10 -= point;
+        } else {
+            sticky |= p[i] != '0';
+            exp10 += !point;
+        }
+    }
+    if (kept == 1) return neg ? -0.0 : 0.0;
+    if (sticky) text[kept++] = '1', exp10--;
+    if (i < n) {
+        int eneg = p[++i] == '-';
+        if (p[i] == '-' || p[i] == '+') i++;
+        for (; i < n; i++)
+            if (e < 1000000) e = e * 10 + (p[i] - '0');
+        exp10 += eneg ? -e : e;
+    }
+    snprintf(text + kept, sizeof text - kept, "e%ld", exp10);
+    return strtod(text, NULL); /* overflow gives ±inf and underflow 0, as Rust's does */
+}
+
 colony_status colony_field_f64(const colony_field *f, double *out)
 {
-    char tmp[512];
-    if (f->kind != COLONY_BARE || f->value.len >= sizeof tmp || !is_rust_float(f->value.ptr, f->value.len))
-        return COLONY_WRONG_TYPE;
-    if (fast_f64(f->value.ptr, f->value.len, out)) return COLONY_OK;
-    memcpy(tmp, f->value.ptr, f->value.len);
-    tmp[f->value.len] = 0;
-    *out = strtod(tmp, NULL); /* overflow gives ±inf and underflow 0, as Rust's does */
+    if (f->kind != COLONY_BARE || !is_rust_float(f->value.ptr, f->value.len)) return COLONY_WRONG_TYPE;
+    if (!fast_f64(f->value.ptr, f->value.len, out)) *out = slow_f64(f->value.ptr, f->value.len);
     return COLONY_OK;
 }
 

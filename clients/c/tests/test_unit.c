@@ -312,6 +312,56 @@ static void decimals_read_as_strtod_reads_them(void)
     CHECK(differ == 0);
 }
 
+/* Past 15 digits strtod reads the rewritten text; past 780, only whether the
+ * rest is zero counts. Checked against strtod on the whole text (correctly
+ * rounded in glibc), in the C locale, at lengths Rust reads and the old
+ * 511-byte buffer refused. */
+static void long_numbers_read_as_strtod_reads_them(void)
+{
+    static char text[4096];
+    const char *cases[] = {"9007199254740993", "0.000000000000000000000000000001234567890123456789",
+                           "123456789012345678901234567890e-40", "1e400", "-1e-400", "2.5E+2",
+                           "0.0", "-0e5", "4.9406564584124654e-324", "1.7976931348623157e308"};
+    for (unsigned k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        double got = 0;
+        colony_field f = {{"v", 1}, COLONY_BARE, {cases[k], strlen(cases[k])}};
+        CHECK(colony_field_f64(&f, &got) == COLONY_OK && got == strtod(cases[k], NULL));
+    }
+    /* 2^53 + 1 is halfway between two doubles: a 1 far beyond the 780th digit
+     * decides it upward, zeros leave it to round to even. */
+    for (int tail = 0; tail < 2; tail++) {
+        size_t n = (size_t)sprintf(text, "9007199254740993.");
+        while (n < 3000) text[n++] = '0';
+        text[n++] = tail ? '1' : '0';
+        text[n] = 0;
+        double got = 0;
+        colony_field f = {{"v", 1}, COLONY_BARE, {text, n}};
+        CHECK(colony_field_f64(&f, &got) == COLONY_OK && got == strtod(text, NULL));
+        CHECK(got == (tail ? 9007199254740994.0 : 9007199254740992.0));
+    }
+    unsigned long long x = 2463534242ull;
+    int differ = 0;
+    for (int i = 0; i < 2000; i++) {
+        x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+        size_t digits = 1 + (size_t)(x % 2500), point = (size_t)((x >> 12) % (digits + 1)), n = 0;
+        if (x & 1) text[n++] = '-';
+        for (size_t d = 0; d < digits; d++) {
+            x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+            if (d == point) text[n++] = '.';
+            text[n++] = (char)('0' + (d > 20 && (x >> 3) % 4 ? 0 : x % 10));
+        }
+        if ((x >> 20) % 3 == 0) n += (size_t)sprintf(text + n, "e%d", (int)((x >> 24) % 700) - 350);
+        text[n] = 0;
+        double got = 0;
+        colony_field f = {{"v", 1}, COLONY_BARE, {text, n}};
+        double want = strtod(text, NULL);
+        if (colony_field_f64(&f, &got) != COLONY_OK || memcmp(&got, &want, sizeof got) != 0) {
+            if (differ++ < 3) fprintf(stderr, "long number read wrong: %.80s...\n", text);
+        }
+    }
+    CHECK(differ == 0);
+}
+
 static void built_packets_read_back_exactly(void)
 {
     char buf[512];
@@ -359,18 +409,69 @@ static void built_packets_read_back_exactly(void)
     CHECK(colony_finish(&b, &e) == 0 && e.status == COLONY_DUPLICATE_NAME && e.line == 2);
 }
 
-int main(void)
+/* Under a locale whose decimal point is a comma, numbers are still written
+ * and read with ".". The locale comes from the system, or from the one the
+ * Makefile builds with localedef beside this program. */
+static void numbers_ignore_a_comma_locale(const char *argv0)
 {
+    const char *names[] = {"de_DE.UTF-8", "de_DE.utf8", "fr_FR.UTF-8", "de_DE", "fr_FR"};
+    const char *got = NULL;
+    for (unsigned k = 0; !got && k < sizeof names / sizeof names[0]; k++)
+        got = setlocale(LC_NUMERIC, names[k]);
+    if (!got) {
+        char dir[4096];
+        const char *slash = strrchr(argv0, '/');
+        snprintf(dir, sizeof dir, "%.*s/locale", slash ? (int)(slash - argv0) : 1,
+                 slash ? argv0 : ".");
+        setenv("LOCPATH", dir, 1);
+        got = setlocale(LC_NUMERIC, "de_DE.UTF-8");
+    }
+    if (!got || strcmp(localeconv()->decimal_point, ",") != 0) {
+        fprintf(stderr, "test_unit: no comma locale (localedef found none to build): "
+                        "numbers checked in the C locale only\n");
+        setlocale(LC_NUMERIC, "C");
+        return;
+    }
+    char buf[256], text[8];
+    colony_builder b;
+    colony_begin(&b, buf, sizeof buf, "radio", 0);
+    colony_put_line(&b, "cmd");
+    colony_put_f64(&b, "forward", 0.7);
+    colony_put_f64(&b, "odd", 0.1 + 0.2);
+    colony_put_f64(&b, "tiny", 1.5e-300);
+    colony_put_f64(&b, "whole", 3);
+    size_t n = colony_finish(&b, NULL);
+    CHECK(n > 0 && strcmp(buf, "@ <radio> 0\ncmd forward 0.7 odd 0.30000000000000004 tiny 1.5e-300 "
+                                "whole 3.0\n") == 0);
+    snprintf(text, sizeof text, "%.1f", 1.5);
+    CHECK(strcmp(text, "1,5") == 0); /* the locale is in force */
+    const char *packet = "@ <a> 0\nl a 1.5e0 b 0.30000000000000004 c 1.5\n";
+    colony_packet p;
+    colony_line l;
+    memset(&l, 0, sizeof l);
+    double v = 0;
+    CHECK(colony_parse(&p, packet, strlen(packet), NULL) == COLONY_OK && colony_next_line(&p, &l));
+    CHECK(colony_get_f64(l.fields, "a", &v) == COLONY_OK && v == 1.5);
+    CHECK(colony_get_f64(l.fields, "b", &v) == COLONY_OK && v == 0.1 + 0.2);
+    CHECK(colony_get_f64(l.fields, "c", &v) == COLONY_OK && v == 1.5);
+    setlocale(LC_NUMERIC, "C");
+}
+
+int main(int argc, char **argv)
+{
+    (void)argc;
     sha256_and_hmac_match_published_vectors();
     a_signed_packet_matches_an_independent_hmac();
     malformed_packets_are_refused_with_their_place();
     a_line_of_thousands_of_names_is_checked_for_repeats();
     repeated_names_cost_linear_work();
     a_workspace_parses_on_a_small_stack();
+    long_numbers_read_as_strtod_reads_them();
     fields_are_read_in_place();
     numbers_follow_rusts_grammar();
     decimals_read_as_strtod_reads_them();
     built_packets_read_back_exactly();
+    numbers_ignore_a_comma_locale(argv[0]);
     if (failures) {
         fprintf(stderr, "test_unit: %d checks failed\n", failures);
         return 1;
