@@ -156,13 +156,19 @@ colony_status colony_get(colony_span fields, const char *name, colony_field *out
 colony_status colony_get_f64(colony_span fields, const char *name, double *out);
 colony_status colony_get_i64(colony_span fields, const char *name, int64_t *out);
 colony_status colony_get_group(colony_span fields, const char *name, colony_span *out);
-/* The text of a bare or quoted value, unescaped and NUL-terminated, into buf. */
+/* The text of a bare or quoted value, unescaped, into buf. When cap > 0, buf
+ * is always NUL-terminated: "" on an error, and with COLONY_NO_SPACE as much
+ * of the text as fits (cut before a character that does not fit whole). */
 colony_status colony_get_str(colony_span fields, const char *name, char *buf, size_t cap);
-/* A value's text, unescaped, into buf (NUL-terminated); COLONY_NO_SPACE if it does not fit. */
+/* A value's text, unescaped, into buf, as colony_get_str() writes it. */
 colony_status colony_unescape(const colony_field *f, char *buf, size_t cap);
 
-/* Builds a packet in buf. Every colony_put_* call on a builder that failed
- * (a full buffer) does nothing; colony_finish() reports it. */
+/* Builds a packet in buf. Labels, names and bare tokens must be non-empty runs
+ * of bare bytes (no blank, control, quote or parenthesis): anything else
+ * fails the builder with COLONY_BAD_ARGUMENT, so user data cannot start a line
+ * of its own (pass text with colony_put_text(), which quotes it). On any
+ * failure (that, or a full buffer) buf is emptied (len 0, buf[0] = 0), every
+ * later colony_put_* call does nothing, and colony_finish() reports it. */
 typedef struct colony_builder {
     char *buf;
     size_t cap, len;

@@ -778,8 +778,12 @@ colony_status colony_get_group(colony_span fields, const char *name, colony_span
     return COLONY_OK;
 }
 
+/* Whenever there is room for it, buf ends up NUL-terminated: the whole value,
+ * as much of it as fits (cut at a character's start) with COLONY_NO_SPACE,
+ * or "" on any other error. */
 colony_status colony_unescape(const colony_field *f, char *buf, size_t cap)
 {
+    if (cap > 0) buf[0] = 0;
     if (f->kind == COLONY_GROUP) return COLONY_WRONG_TYPE;
     size_t o = 0;
     for (size_t i = 0; i < f->value.len; i++) {
@@ -788,10 +792,14 @@ colony_status colony_unescape(const colony_field *f, char *buf, size_t cap)
             c = f->value.ptr[++i];
             c = c == 'n' ? '\n' : c == 'r' ? '\r' : c == 't' ? '\t' : c;
         }
-        if (o + 1 >= cap) return COLONY_NO_SPACE;
+        if (o + 1 >= cap) {
+            /* c did not fit: a continuation byte means a character was cut. */
+            while (o > 0 && ((unsigned char)c & 0xc0) == 0x80) c = buf[--o];
+            if (cap > 0) buf[o] = 0;
+            return COLONY_NO_SPACE;
+        }
         buf[o++] = c;
     }
-    if (cap == 0) return COLONY_NO_SPACE;
     buf[o] = 0;
     return COLONY_OK;
 }
@@ -799,6 +807,7 @@ colony_status colony_unescape(const colony_field *f, char *buf, size_t cap)
 colony_status colony_get_str(colony_span fields, const char *name, char *buf, size_t cap)
 {
     colony_field f;
+    if (cap > 0) buf[0] = 0;
     if (colony_get(fields, name, &f) != COLONY_OK) return COLONY_MISSING;
     return colony_unescape(&f, buf, cap);
 }

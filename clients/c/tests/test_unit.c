@@ -260,10 +260,33 @@ static void fields_are_read_in_place(void)
     CHECK(colony_find_line(&p, "note", &l));
     CHECK(colony_get_str(l.fields, "text", s, sizeof s) == COLONY_OK);
     CHECK(strcmp(s, "kick \"off\"\n") == 0);
-    CHECK(colony_get_str(l.fields, "text", s, 5) == COLONY_NO_SPACE);
+    CHECK(colony_get_str(l.fields, "text", s, 5) == COLONY_NO_SPACE && strcmp(s, "kick") == 0);
     CHECK(colony_get_i64(l.fields, "n", &z) == COLONY_OK && z == INT64_MAX);
     CHECK(colony_get_f64(l.fields, "text", &x) == COLONY_WRONG_TYPE);
     CHECK(!colony_find_line(&p, "note", &l));
+}
+
+static void strings_handed_back_are_always_terminated(void)
+{
+    const char *text = "@ <a> 0\nl t \"\xc3\xa9t\xc3\xa9\" g (x 1) b bare\n";
+    colony_packet p;
+    colony_line l;
+    memset(&l, 0, sizeof l);
+    char s[8];
+    CHECK(colony_parse(&p, text, strlen(text), NULL) == COLONY_OK && colony_next_line(&p, &l));
+    memset(s, 'x', sizeof s);
+    CHECK(colony_get_str(l.fields, "t", s, 5) == COLONY_NO_SPACE && strcmp(s, "\xc3\xa9t") == 0);
+    memset(s, 'x', sizeof s); /* "é" cut in half would not be UTF-8: cut before it */
+    CHECK(colony_get_str(l.fields, "t", s, 2) == COLONY_NO_SPACE && s[0] == 0);
+    memset(s, 'x', sizeof s);
+    CHECK(colony_get_str(l.fields, "t", s, 1) == COLONY_NO_SPACE && s[0] == 0);
+    memset(s, 'x', sizeof s);
+    CHECK(colony_get_str(l.fields, "g", s, sizeof s) == COLONY_WRONG_TYPE && s[0] == 0);
+    memset(s, 'x', sizeof s);
+    CHECK(colony_get_str(l.fields, "none", s, sizeof s) == COLONY_MISSING && s[0] == 0);
+    memset(s, 'x', sizeof s);
+    CHECK(colony_get_str(l.fields, "b", s, 4) == COLONY_NO_SPACE && strcmp(s, "bar") == 0);
+    CHECK(colony_get_str(l.fields, "b", s, 0) == COLONY_NO_SPACE && s[0] == 'b');
 }
 
 static void numbers_follow_rusts_grammar(void)
@@ -466,6 +489,7 @@ int main(int argc, char **argv)
     a_line_of_thousands_of_names_is_checked_for_repeats();
     repeated_names_cost_linear_work();
     a_workspace_parses_on_a_small_stack();
+    strings_handed_back_are_always_terminated();
     long_numbers_read_as_strtod_reads_them();
     fields_are_read_in_place();
     numbers_follow_rusts_grammar();
