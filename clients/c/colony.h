@@ -176,7 +176,8 @@ typedef struct colony_builder {
     colony_status failed;
 } colony_builder;
 
-/* Starts `@ <a> <b> priority`; subjects are names separated by blanks ("vision", "a b"). */
+/* Starts `@ <a> <b> priority`; subjects are names separated by blanks ("vision", "a b"),
+ * each 1 to 64 of a-z A-Z 0-9 _ - . : / (COLONY_BAD_ARGUMENT otherwise). */
 void colony_begin(colony_builder *b, char *buf, size_t cap, const char *subjects, int32_t priority);
 void colony_put_line(colony_builder *b, const char *label);
 void colony_put_int(colony_builder *b, const char *name, int64_t value);
@@ -187,12 +188,16 @@ void colony_put_text(colony_builder *b, const char *name, const char *text); /* 
 void colony_put_bare(colony_builder *b, const char *name, const char *token);
 void colony_put_open(colony_builder *b, const char *name);                  /* name ( */
 void colony_put_close(colony_builder *b);                                   /* ) */
-/* Appends printf's output as is: colony_putf(&b, "ball x %.2f y %.2f", x, y). */
+/* Appends printf's output as is: colony_putf(&b, "ball x %.2f y %.2f", x, y).
+ * Nothing is checked until colony_finish() (which checks the whole packet),
+ * so never give it untrusted text: a newline in it starts a line. Its numbers
+ * follow the program's locale (printf's %f writes "0,5" under de_DE). */
 #if defined(__GNUC__)
 __attribute__((format(printf, 2, 3)))
 #endif
 void colony_putf(colony_builder *b, const char *fmt, ...);
-/* Ends the packet, checks it with colony_parse(), and returns its length (0 on error). */
+/* Ends the packet, checks it with colony_parse(), and returns its length; on
+ * an error, 0 with *err (line and column 0 for a builder error), and buf emptied. */
 size_t colony_finish(colony_builder *b, colony_error *err);
 
 /* HMAC-SHA256 (colony_sha256.c), as `auth n N mac M` lines need. */

@@ -10,12 +10,20 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* A failed builder holds nothing that could be sent by mistake. */
+static void fail(colony_builder *b, colony_status st)
+{
+    if (!b->failed) b->failed = st;
+    b->len = 0;
+    if (b->cap > 0) b->buf[0] = 0;
+}
+
 /* Appends n bytes, keeping a NUL after them so the text can be printed. */
 static void put(colony_builder *b, const char *s, size_t n)
 {
     if (b->failed) return;
     if (b->len + n + 1 > b->cap) {
-        b->failed = COLONY_NO_SPACE;
+        fail(b, COLONY_NO_SPACE);
         return;
     }
     memcpy(b->buf + b->len, s, n);
@@ -33,8 +41,7 @@ void colony_putf(colony_builder *b, const char *fmt, ...)
     int n = vsnprintf(b->buf + b->len, b->cap - b->len, fmt, ap);
     va_end(ap);
     if (n < 0 || (size_t)n + 1 > b->cap - b->len) {
-        b->failed = COLONY_NO_SPACE;
-        b->buf[b->len] = 0;
+        fail(b, COLONY_NO_SPACE);
         return;
     }
     b->len += (size_t)n;
@@ -52,6 +59,9 @@ void colony_begin(colony_builder *b, char *buf, size_t cap, const char *subjects
         while (*s == ' ') s++;
         size_t n = strcspn(s, " ");
         if (n == 0) break;
+        if (n > COLONY_MAX_SUBJECT_LEN ||
+            strspn(s, "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-.:/") < n)
+            fail(b, COLONY_BAD_ARGUMENT);
         puts_(b, " <");
         put(b, s, n);
         puts_(b, ">");
@@ -60,10 +70,22 @@ void colony_begin(colony_builder *b, char *buf, size_t cap, const char *subjects
     colony_putf(b, " %" PRId32 "\n", priority);
 }
 
+/* A label, name or bare value as the grammar reads one: a non-empty run of
+ * bytes that are not blank, control, quote or parenthesis. Anything else
+ * could end the token early, or start a line of the caller's choosing. */
+static void token(colony_builder *b, const char *t)
+{
+    size_t n = 0;
+    for (unsigned char c; (c = (unsigned char)t[n]) != 0; n++)
+        if (c <= ' ' || c == 0x7f || c == '"' || c == '(' || c == ')') break;
+    if (n == 0 || t[n] != 0) fail(b, COLONY_BAD_ARGUMENT);
+    put(b, t, n);
+}
+
 void colony_put_line(colony_builder *b, const char *label)
 {
     if (b->len > 0 && b->buf[b->len - 1] != '\n') puts_(b, "\n");
-    puts_(b, label);
+    token(b, label);
     b->depth = 0;
 }
 
@@ -71,7 +93,7 @@ void colony_put_line(colony_builder *b, const char *label)
 static void name(colony_builder *b, const char *n)
 {
     if (b->len == 0 || b->buf[b->len - 1] != '(') puts_(b, " ");
-    puts_(b, n);
+    token(b, n);
     puts_(b, " ");
 }
 
@@ -133,10 +155,10 @@ void colony_put_text(colony_builder *b, const char *n, const char *s)
     puts_(b, "\"");
 }
 
-void colony_put_bare(colony_builder *b, const char *n, const char *token)
+void colony_put_bare(colony_builder *b, const char *n, const char *value)
 {
     name(b, n);
-    puts_(b, token);
+    token(b, value);
 }
 
 void colony_put_open(colony_builder *b, const char *n)
@@ -163,7 +185,10 @@ size_t colony_finish(colony_builder *b, colony_error *err)
         err->line = err->column = 0;
         return 0;
     }
-    if (colony_parse(&p, b->buf, b->len, err) != COLONY_OK) return 0;
+    if (colony_parse(&p, b->buf, b->len, err) != COLONY_OK) {
+        fail(b, err->status);
+        return 0;
+    }
     return b->len;
 }
 
@@ -172,6 +197,9 @@ colony_status colony_sign(char *buf, size_t *len, size_t cap, const void *key, s
 {
     colony_builder b = {buf, cap, *len, 0, COLONY_OK};
     unsigned char mac[32];
+    /* Room checked first (`\nauth n <20 digits> mac <64 hex>\n` and a NUL),
+     * so the builder cannot fail and empty the caller's packet. */
+    if (cap < 100 || *len > cap - 100) return COLONY_NO_SPACE;
     if (b.len > 0 && buf[b.len - 1] != '\n') puts_(&b, "\n");
     colony_putf(&b, "auth n %" PRIu64 " mac ", n);
     if (b.failed) return b.failed;

@@ -105,10 +105,7 @@ static int pub(const char *hub, const char *subjects, int prio, int count, int e
     if (!key_from_env(&c)) return 1;
     colony_builder b;
     colony_begin(&b, buf, sizeof buf, subjects, prio);
-    for (int i = 0; i < n; i++) {
-        colony_put_line(&b, "");
-        colony_putf(&b, "%s", lines[i]);
-    }
+    for (int i = 0; i < n; i++) colony_putf(&b, "%s\n", lines[i]);
     colony_error e;
     size_t len = colony_finish(&b, &e);
     if (len == 0) {

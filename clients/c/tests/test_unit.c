@@ -430,6 +430,49 @@ static void built_packets_read_back_exactly(void)
     colony_begin(&b, buf, sizeof buf, "radio", 0);
     colony_putf(&b, "cmd id 1 id 2");
     CHECK(colony_finish(&b, &e) == 0 && e.status == COLONY_DUPLICATE_NAME && e.line == 2);
+    CHECK(b.len == 0 && buf[0] == 0);
+}
+
+/* What a full buffer leaves behind must not parse: `cmd id 1 ` would. */
+static void a_failed_builder_leaves_nothing_to_send(void)
+{
+    char buf[24];
+    colony_builder b;
+    colony_error e;
+    colony_packet p;
+    colony_begin(&b, buf, sizeof buf, "radio", 0);
+    colony_put_line(&b, "cmd");
+    colony_put_int(&b, "id", 1);
+    colony_put_int(&b, "speed", 12345);
+    CHECK(b.failed == COLONY_NO_SPACE && b.len == 0 && buf[0] == 0);
+    CHECK(colony_parse(&p, buf, strlen(buf), NULL) != COLONY_OK);
+    colony_put_int(&b, "x", 1); /* does nothing */
+    CHECK(b.len == 0 && colony_finish(&b, &e) == 0 && e.status == COLONY_NO_SPACE);
+}
+
+/* Labels, names and bare values are single tokens: user data cannot add a line. */
+static void the_builder_refuses_tokens_that_would_inject(void)
+{
+    const char *bad[] = {"fast\nstop all 1", "id 9 x", "", "a\tb", "(", "x)", "\"q\"", "a\x7f", "a\rb"};
+    char buf[256];
+    colony_builder b;
+    colony_error e;
+    for (unsigned k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        for (int where = 0; where < 3; where++) {
+            colony_begin(&b, buf, sizeof buf, "radio", 0);
+            colony_put_line(&b, where == 0 ? bad[k] : "cmd");
+            if (where == 1) colony_put_int(&b, bad[k], 2);
+            if (where == 2) colony_put_bare(&b, "mode", bad[k]);
+            CHECK(b.failed == COLONY_BAD_ARGUMENT && b.len == 0);
+            CHECK(colony_finish(&b, &e) == 0 && e.status == COLONY_BAD_ARGUMENT);
+        }
+    }
+    colony_begin(&b, buf, sizeof buf, "radio\n", 0);
+    CHECK(b.failed == COLONY_BAD_ARGUMENT);
+    colony_begin(&b, buf, sizeof buf, "radio", 0);
+    colony_put_line(&b, "cmd");
+    colony_put_bare(&b, "mode", "fast-#1/\xc3\xa9");
+    CHECK(colony_finish(&b, &e) > 0);
 }
 
 /* Under a locale whose decimal point is a comma, numbers are still written
@@ -495,6 +538,8 @@ int main(int argc, char **argv)
     numbers_follow_rusts_grammar();
     decimals_read_as_strtod_reads_them();
     built_packets_read_back_exactly();
+    a_failed_builder_leaves_nothing_to_send();
+    the_builder_refuses_tokens_that_would_inject();
     numbers_ignore_a_comma_locale(argv[0]);
     if (failures) {
         fprintf(stderr, "test_unit: %d checks failed\n", failures);
