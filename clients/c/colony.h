@@ -214,6 +214,7 @@ colony_status colony_sign(char *buf, size_t *len, size_t cap, const void *key, s
 #define COLONY_RECENT 8
 #define COLONY_MAX_REQUEST 256
 #define COLONY_MAX_KEY 512
+#define COLONY_RECV_BUDGET 64 /* datagrams taken between two colony_poll() calls */
 
 /* A client of one hub. Declare it where you like (it holds two datagram
  * buffers and the parser's workspace, about 240 KB); it is filled by
@@ -241,6 +242,8 @@ typedef struct colony_client {
     uint64_t last_n;
     uint64_t malformed;      /* datagrams from the hub's address that did not parse */
     uint64_t leases, cookies;
+    uint64_t refused;        /* receive calls failed with ECONNREFUSED or EINTR */
+    int since_poll;          /* datagrams taken (and receive calls retried) since colony_poll() */
     colony_workspace ws;     /* the parser's table, seeded from /dev/urandom */
     char in[COLONY_MAX_PACKET + 1];
     char out[COLONY_MAX_PACKET + 1];
@@ -254,9 +257,11 @@ colony_status colony_connect(colony_client *c, const char *hub, int64_t now);
 void colony_close(colony_client *c);
 /* The socket to wait on for reading (poll, select, epoll, your GUI's loop). */
 int colony_fd(const colony_client *c);
-/* When colony_poll() next has work to do (ms, colony_now_ms()'s clock), or -1 for never. */
+/* When colony_poll() next has work to do (ms, colony_now_ms()'s clock), or -1
+ * for never; the client's latest `now` once colony_recv() has spent its budget. */
 int64_t colony_deadline(const colony_client *c);
-/* Does what is due by now: lease refreshes, resubscribing silent channels. */
+/* Does what is due by now: lease refreshes, resubscribing silent channels.
+ * It also renews colony_recv()'s budget, so call it on every turn of the loop. */
 colony_status colony_poll(colony_client *c, int64_t now);
 
 colony_status colony_subscribe(colony_client *c, const char *subject, int64_t now);
@@ -275,11 +280,16 @@ colony_status colony_set_key(colony_client *c, const void *key, size_t len);
 colony_status colony_publish(colony_client *c, const void *data, size_t len, colony_error *err);
 
 /* The next packet the hub forwarded: COLONY_OK with *p pointing into the
- * client's buffer (valid until the next colony_recv), COLONY_AGAIN when
- * nothing is waiting (or after 64 hub replies in one call: a flood of them
- * cannot hold your loop, and the socket stays readable), a parse error (with *err) for a datagram that did not
- * parse (it is counted and dropped; call again), or COLONY_SYSTEM. Leases and
- * cookies are taken in along the way; status reports are returned as packets. */
+ * client's buffer (valid until the next colony_recv), a parse error (with
+ * *err) for a datagram that did not parse (it is counted and dropped; call
+ * again), COLONY_SYSTEM, or COLONY_AGAIN: nothing is waiting, or
+ * COLONY_RECV_BUDGET datagrams (of any kind) have been taken since the last
+ * colony_poll(). So a flood cannot hold your loop away from colony_poll()
+ * and its lease refreshes; what is left stays in the socket, which stays
+ * readable: wait on it level-triggered (poll, select, epoll without
+ * EPOLLET), or call colony_poll() and colony_recv() again at once. Leases
+ * and cookies are taken in along the way; status reports are returned as
+ * packets. */
 colony_status colony_recv(colony_client *c, colony_packet *p, colony_error *err, int64_t now);
 
 /* Whether anything was heard from the hub within `within_ms`. */

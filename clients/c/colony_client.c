@@ -115,6 +115,7 @@ static int64_t min_priority_due(const colony_client *c)
 int64_t colony_deadline(const colony_client *c)
 {
     int64_t next = -1;
+    if (c->since_poll >= COLONY_RECV_BUDGET) return c->clock;
     for (int i = 0; i < c->sub_count; i++)
         if (next < 0 || due(c, i) < next) next = due(c, i);
     if (c->has_min_priority && (next < 0 || min_priority_due(c) < next)) next = min_priority_due(c);
@@ -132,6 +133,7 @@ colony_status colony_poll(colony_client *c, int64_t now)
         len += (size_t)sprintf(lines + len, "subscribe ch %s\n", c->subs[i].name);
     }
     colony_status st = COLONY_OK;
+    c->since_poll = 0; /* colony_recv() may take another budget's worth */
     if (len > 0) st = send_control(c, lines);
     if (st == COLONY_OK && c->has_min_priority && min_priority_due(c) <= now) {
         c->min_priority_asked = now;
@@ -243,7 +245,9 @@ static void take_cookie(colony_client *c, int64_t now, colony_span v)
         send_control(c, c->recent[order[i]].lines);
     }
     for (int i = 0; i < c->sub_count; i++) c->subs[i].last_request = -1;
+    int spent = c->since_poll; /* called from colony_recv(): its budget stays spent */
     colony_poll(c, now);
+    c->since_poll = spent;
 }
 
 /* Takes in the hub's lease and cookie replies; 1 when the packet was one. */
@@ -278,16 +282,24 @@ colony_status colony_recv(colony_client *c, colony_packet *p, colony_error *err,
     colony_error ignored;
     if (!err) err = &ignored;
     tick(c, now);
-    /* Replies are taken in here without returning; a bounded number per call,
-     * so a flood of them (forged from the hub's address) cannot hold the
-     * application's loop. The socket stays readable for the next call. */
-    for (int replies = 0; replies < 64;) {
+    /* Replies are taken in here without returning. Every datagram (and every
+     * retried call) spends the budget colony_poll() renews, so no flood, of
+     * replies, data or garbage, can keep the application's loop from
+     * colony_poll() and its lease refreshes. The socket stays readable. */
+    while (c->since_poll < COLONY_RECV_BUDGET) {
+        c->since_poll++;
         ssize_t n = recv(c->fd, c->in, sizeof c->in, 0);
         if (n < 0) {
-            if (errno == EAGAIN || errno == EWOULDBLOCK) return COLONY_AGAIN;
+            if (errno == EAGAIN || errno == EWOULDBLOCK) {
+                c->since_poll--; /* nothing was taken */
+                return COLONY_AGAIN;
+            }
             /* Refused: the hub's port was closed when we last sent. It is down,
              * and the silent channels will be asked for again once it is back. */
-            if (errno == ECONNREFUSED || errno == EINTR) continue;
+            if (errno == ECONNREFUSED || errno == EINTR) {
+                c->refused++;
+                continue;
+            }
             return COLONY_SYSTEM;
         }
         c->last_from_hub = now;
@@ -296,10 +308,7 @@ colony_status colony_recv(colony_client *c, colony_packet *p, colony_error *err,
             c->malformed++;
             return st;
         }
-        if (hub_reply(c, p, now)) {
-            replies++;
-            continue;
-        }
+        if (hub_reply(c, p, now)) continue;
         for (int i = 0; i < c->sub_count; i++)
             if (colony_has_subject(p, c->subs[i].name)) c->subs[i].last_data = now;
         return COLONY_OK;

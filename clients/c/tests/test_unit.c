@@ -523,6 +523,65 @@ static void numbers_ignore_a_comma_locale(const char *argv0)
     setlocale(LC_NUMERIC, "C");
 }
 
+/* A socket on loopback stands in for the hub: the client is connected to it,
+ * so what it sends reaches the client as if from the hub. */
+static int fake_hub(colony_client *c, struct sockaddr_in *client)
+{
+    struct sockaddr_in a;
+    socklen_t len = sizeof a;
+    char addr[64];
+    int fd = socket(AF_INET, SOCK_DGRAM, 0);
+    memset(&a, 0, sizeof a);
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (fd < 0 || bind(fd, (struct sockaddr *)&a, sizeof a) != 0 ||
+        getsockname(fd, (struct sockaddr *)&a, &len) != 0)
+        return -1;
+    snprintf(addr, sizeof addr, "127.0.0.1:%u", (unsigned)ntohs(a.sin_port));
+    if (colony_connect(c, addr, 1000) != COLONY_OK) return -1;
+    len = sizeof *client;
+    if (getsockname(colony_fd(c), (struct sockaddr *)client, &len) != 0) return -1;
+    return fd;
+}
+
+static void hub_says(int fd, const struct sockaddr_in *to, const char *text)
+{
+    sendto(fd, text, strlen(text), 0, (const struct sockaddr *)to, sizeof *to);
+}
+
+/* Waits (up to 5 s) until the client's socket has something to read. */
+static void settle(const colony_client *c)
+{
+    struct pollfd pfd = {colony_fd(c), POLLIN, 0};
+    poll(&pfd, 1, 5000);
+}
+
+static void a_flood_cannot_keep_the_loop_from_colony_poll(void)
+{
+    static colony_client c;
+    struct sockaddr_in to;
+    int fd = fake_hub(&c, &to);
+    CHECK(fd >= 0);
+    if (fd < 0) return;
+    for (int i = 0; i < 150; i++) hub_says(fd, &to, i % 3 ? "not a packet" : "@ <hub> 0\nlease ms 5000\n");
+    settle(&c);
+    colony_packet p;
+    colony_error e;
+    int taken = 0, turns = 0;
+    colony_status st;
+    while ((st = colony_recv(&c, &p, &e, 1000)) != COLONY_AGAIN) taken++;
+    CHECK(taken > 0 && taken <= COLONY_RECV_BUDGET);
+    CHECK(colony_deadline(&c) == 1000); /* poll now */
+    for (int all = taken; all < 100 && turns < 20; turns++) {
+        colony_poll(&c, 1000);
+        while (colony_recv(&c, &p, &e, 1000) != COLONY_AGAIN) all++;
+        if (all == 100) break;
+    }
+    CHECK(c.malformed == 100 && c.leases == 50);
+    colony_close(&c);
+    close(fd);
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
@@ -541,6 +600,7 @@ int main(int argc, char **argv)
     a_failed_builder_leaves_nothing_to_send();
     the_builder_refuses_tokens_that_would_inject();
     numbers_ignore_a_comma_locale(argv[0]);
+    a_flood_cannot_keep_the_loop_from_colony_poll();
     if (failures) {
         fprintf(stderr, "test_unit: %d checks failed\n", failures);
         return 1;
