@@ -213,8 +213,8 @@ colony_status colony_sign(char *buf, size_t *len, size_t cap, const void *key, s
 #define COLONY_MAX_SUBS 64
 #define COLONY_RECENT 8
 #define COLONY_MAX_REQUEST 256
-#define COLONY_MAX_KEY 512
 #define COLONY_RECV_BUDGET 64 /* datagrams taken between two colony_poll() calls */
+#define COLONY_KEY_BLOCK 64   /* HMAC-SHA256's block: longer keys are kept hashed */
 
 /* A client of one hub. Declare it where you like (it holds two datagram
  * buffers and the parser's workspace, about 240 KB); it is filled by
@@ -237,7 +237,7 @@ typedef struct colony_client {
     int has_min_priority;    /* a console's standing minimum priority, refreshed as a lease */
     int32_t min_priority;
     int64_t min_priority_asked;
-    unsigned char key[COLONY_MAX_KEY];
+    unsigned char key[COLONY_KEY_BLOCK]; /* the key, or SHA-256 of a longer one (same MACs) */
     size_t key_len;          /* 0: nothing is signed */
     uint64_t last_n;
     uint64_t malformed;      /* datagrams from the hub's address that did not parse */
@@ -252,8 +252,11 @@ typedef struct colony_client {
 /* The monotonic clock the client's `now` arguments are read from, in ms. */
 int64_t colony_now_ms(void);
 
-/* Opens a socket to the hub at "host:port" ("127.0.0.1:7400", "[::1]:7400"). */
+/* Opens a socket to the hub at "host:port" ("127.0.0.1:7400", "[::1]:7400").
+ * A host name is looked up with getaddrinfo(), which may block (DNS); a
+ * numeric address never does. The socket is close-on-exec. */
 colony_status colony_connect(colony_client *c, const char *hub, int64_t now);
+/* Closes the socket and wipes the key. */
 void colony_close(colony_client *c);
 /* The socket to wait on for reading (poll, select, epoll, your GUI's loop). */
 int colony_fd(const colony_client *c);

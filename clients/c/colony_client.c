@@ -201,9 +201,16 @@ colony_status colony_set_key(colony_client *c, const void *key, size_t len)
     while (len > 0 && (k[len - 1] == ' ' || k[len - 1] == '\t' || k[len - 1] == '\n' ||
                        k[len - 1] == '\r' || k[len - 1] == '\f'))
         len--;
-    if (len < COLONY_MIN_KEY_LEN || len > sizeof c->key) return COLONY_BAD_ARGUMENT;
-    memcpy(c->key, k, len);
-    c->key_len = len;
+    if (len < COLONY_MIN_KEY_LEN) return COLONY_BAD_ARGUMENT;
+    /* HMAC hashes a key longer than its block first, so keeping the hash
+     * signs exactly as the whole key would, whatever its length. */
+    if (len > sizeof c->key) {
+        colony_sha256(k, len, c->key);
+        c->key_len = 32;
+    } else {
+        memcpy(c->key, k, len);
+        c->key_len = len;
+    }
     return COLONY_OK;
 }
 
@@ -216,18 +223,15 @@ colony_status colony_publish(colony_client *c, const void *data, size_t len, col
 
 /* The hub did not know us (a new client, or a restarted hub): ask again, now
  * with its cookie, for everything it may not have acted on. */
-static void take_cookie(colony_client *c, int64_t now, colony_span v)
+static void take_cookie(colony_client *c, int64_t now, const char *v)
 {
-    if (v.len != 16) return;
-    for (size_t i = 0; i < 16; i++)
-        if (!((v.ptr[i] >= '0' && v.ptr[i] <= '9') || (v.ptr[i] >= 'a' && v.ptr[i] <= 'f'))) return;
     /* The same cookie again means the hub refused it for a reason of its own:
      * asking again at once could only loop. */
-    if (memcmp(v.ptr, c->cookie, 16) == 0 || memcmp(v.ptr, "0000000000000000", 16) == 0) return;
+    if (memcmp(v, c->cookie, 16) == 0 || memcmp(v, "0000000000000000", 16) == 0) return;
     int asked = c->last_asked >= 0 && now - c->last_asked < RESEND_WITHIN_MS;
     int too_soon = c->last_cookie >= 0 && now - c->last_cookie < COOKIE_EVERY_MS;
     if (!asked || too_soon) return;
-    memcpy(c->cookie, v.ptr, 16);
+    memcpy(c->cookie, v, 16);
     c->last_cookie = now;
     /* One-off requests first: an unsubscribe then a subscribe to the same
      * channel must end subscribed. Oldest first, as they were sent. */
@@ -250,14 +254,23 @@ static void take_cookie(colony_client *c, int64_t now, colony_span v)
     c->since_poll = spent;
 }
 
-/* Takes in the hub's lease and cookie replies; 1 when the packet was one. */
+/* A cookie as control.rs reads one: 16 lowercase hex digits, bare or quoted. */
+static int read_cookie(colony_span fields, char out[17])
+{
+    if (colony_get_str(fields, "v", out, 17) != COLONY_OK || strlen(out) != 16) return 0;
+    return strspn(out, "0123456789abcdef") == 16;
+}
+
+/* Takes in the hub's lease and cookie replies; 1 when the packet was one.
+ * A status report is returned as a packet, and changes nothing here: its
+ * lease_ms is the hub's setting, not a grant (session.rs ignores it too). */
 static int hub_reply(colony_client *c, const colony_packet *p, int64_t now)
 {
     colony_line line = {{0, 0}, {0, 0}, 0, 0};
     if (p->subject_count != 1 || !colony_has_subject(p, "hub") || !colony_next_line(p, &line))
         return 0;
     int64_t ms;
-    colony_field v;
+    char cookie[17];
     if (colony_span_is(line.label, "lease")) {
         if (colony_get_i64(line.fields, "ms", &ms) != COLONY_OK) return 0;
         /* A forged `lease ms 0` must not set the client chattering. */
@@ -266,14 +279,11 @@ static int hub_reply(colony_client *c, const colony_packet *p, int64_t now)
         return 1;
     }
     if (colony_span_is(line.label, "cookie")) {
-        if (colony_get(line.fields, "v", &v) != COLONY_OK || v.kind != COLONY_BARE) return 0;
+        if (!read_cookie(line.fields, cookie)) return 0;
         c->cookies++;
-        take_cookie(c, now, v.value);
+        take_cookie(c, now, cookie);
         return 1;
     }
-    if (colony_span_is(line.label, "status") &&
-        colony_get_i64(line.fields, "lease_ms", &ms) == COLONY_OK && ms > 0)
-        c->lease_ms = ms < MIN_LEASE_MS ? MIN_LEASE_MS : ms > MAX_LEASE_MS ? MAX_LEASE_MS : ms;
     return 0;
 }
 
@@ -356,7 +366,12 @@ colony_status colony_connect(colony_client *c, const char *hub, int64_t now)
     memset(&hints, 0, sizeof hints);
     hints.ai_socktype = SOCK_DGRAM;
     if (getaddrinfo(host, colon + 1, &hints, &ai) != 0) return COLONY_BAD_ARGUMENT;
+#ifdef SOCK_CLOEXEC
+    c->fd = socket(ai->ai_family, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+#else
     c->fd = socket(ai->ai_family, SOCK_DGRAM, 0);
+    if (c->fd >= 0) fcntl(c->fd, F_SETFD, FD_CLOEXEC);
+#endif
     /* Connected: the kernel passes us datagrams from the hub's address only.
      * The kernel binds us to loopback when the hub is local, so nothing else
      * can reach us. */
@@ -382,6 +397,10 @@ void colony_close(colony_client *c)
 {
     if (c->fd >= 0) close(c->fd);
     c->fd = -1;
+    /* Through a volatile pointer, so the compiler cannot drop the stores. */
+    volatile unsigned char *k = c->key;
+    for (size_t i = 0; i < sizeof c->key; i++) k[i] = 0;
+    c->key_len = 0;
 }
 
 int colony_fd(const colony_client *c) { return c->fd; }

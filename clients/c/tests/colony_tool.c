@@ -46,25 +46,24 @@ static void print_packet(const colony_packet *p)
     printf("\n");
 }
 
-static int read_key(const char *path, unsigned char *key, size_t *len)
+/* A key file of any length (up to 64 KB here) handed to the client. */
+static int load_key(colony_client *c, const char *path)
 {
+    static unsigned char key[1 << 16];
     FILE *f = fopen(path, "rb");
     if (!f) return perror(path), 0;
-    *len = fread(key, 1, COLONY_MAX_KEY, f);
+    size_t len = fread(key, 1, sizeof key, f);
     fclose(f);
-    return 1;
+    if (colony_set_key(c, key, len) == COLONY_OK) return 1;
+    fprintf(stderr, "bad key in %s\n", path);
+    return 0;
 }
 
 /* Signs everything the client sends when COLONY_KEY_FILE names the hub's key. */
 static int key_from_env(colony_client *c)
 {
-    unsigned char key[COLONY_MAX_KEY];
-    size_t len;
     const char *file = getenv("COLONY_KEY_FILE");
-    if (!file) return 1;
-    if (read_key(file, key, &len) && colony_set_key(c, key, len) == COLONY_OK) return 1;
-    fprintf(stderr, "bad key in %s\n", file);
-    return 0;
+    return !file || load_key(c, file);
 }
 
 static int sub(const char *hub, double seconds, char **subjects, int n)
@@ -127,12 +126,9 @@ static int pub(const char *hub, const char *subjects, int prio, int count, int e
 static int console(const char *hub, const char *key_file, int value, double seconds)
 {
     static colony_client c;
-    unsigned char key[COLONY_MAX_KEY];
-    size_t key_len;
     int64_t now = colony_now_ms(), end = now + (int64_t)(seconds * 1000), asked = 0;
     if (colony_connect(&c, hub, now) != COLONY_OK) return perror("connect"), 1;
-    if (!read_key(key_file, key, &key_len) || colony_set_key(&c, key, key_len) != COLONY_OK)
-        return fprintf(stderr, "bad key in %s\n", key_file), 1;
+    if (!load_key(&c, key_file)) return 1;
     colony_subscribe(&c, "c-console", now);
     colony_set_min_priority(&c, value, now);
     while ((now = colony_now_ms()) < end) {
@@ -162,11 +158,9 @@ static int console(const char *hub, const char *key_file, int value, double seco
 static int sign(const char *key_file, const char *n)
 {
     static char buf[COLONY_MAX_PACKET + 1];
-    unsigned char key[COLONY_MAX_KEY];
-    size_t key_len, len = fread(buf, 1, sizeof buf - 128, stdin);
-    static colony_client c; /* for the key's trimming rule */
-    if (!read_key(key_file, key, &key_len) || colony_set_key(&c, key, key_len) != COLONY_OK)
-        return fprintf(stderr, "bad key in %s\n", key_file), 1;
+    size_t len = fread(buf, 1, sizeof buf - 128, stdin);
+    static colony_client c; /* for the key's trimming (and hashing) rule */
+    if (!load_key(&c, key_file)) return 1;
     if (colony_sign(buf, &len, sizeof buf, c.key, c.key_len, strtoull(n, NULL, 10)) != COLONY_OK)
         return 1;
     fwrite(buf, 1, len, stdout);

@@ -582,6 +582,39 @@ static void a_flood_cannot_keep_the_loop_from_colony_poll(void)
     close(fd);
 }
 
+static void hub_replies_are_read_as_the_rust_session_reads_them(void)
+{
+    static colony_client c;
+    struct sockaddr_in to;
+    int fd = fake_hub(&c, &to);
+    CHECK(fd >= 0);
+    if (fd < 0) return;
+    colony_packet p;
+    CHECK(colony_subscribe(&c, "t", 1000) == COLONY_OK); /* asks: a cookie may come */
+    hub_says(fd, &to, "@ <hub> 0\ncookie v \"00112233aabbccdd\"\n");
+    hub_says(fd, &to, "@ <hub> 0\nstatus lease_ms 5000 clients 1\n");
+    settle(&c);
+    CHECK(colony_recv(&c, &p, NULL, 1000) == COLONY_OK && colony_has_subject(&p, "hub"));
+    CHECK(c.cookies == 1 && strcmp(c.cookie, "00112233aabbccdd") == 0);
+    CHECK(c.lease_ms == -1); /* a status report's lease_ms is no grant */
+    /* Keys of any length: one longer than HMAC's block signs as the whole key. */
+    unsigned char key[1000], mac[32];
+    char buf[256] = "@ <a> 0\nx n 1\n", want[256];
+    size_t len = strlen(buf);
+    memset(key, 0xaa, sizeof key);
+    CHECK(colony_set_key(&c, key, sizeof key) == COLONY_OK);
+    CHECK(colony_sign(buf, &len, sizeof buf, c.key, c.key_len, 7) == COLONY_OK);
+    int n = sprintf(want, "@ <a> 0\nx n 1\nauth n 7 mac ");
+    colony_hmac_sha256(key, sizeof key, want, (size_t)n, mac);
+    for (int i = 0; i < 32; i++) n += sprintf(want + n, "%02x", mac[i]);
+    strcat(want, "\n");
+    CHECK(strcmp(buf, want) == 0);
+    colony_close(&c);
+    unsigned char zero[COLONY_KEY_BLOCK] = {0};
+    CHECK(c.key_len == 0 && memcmp(c.key, zero, sizeof zero) == 0);
+    close(fd);
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
@@ -601,6 +634,7 @@ int main(int argc, char **argv)
     the_builder_refuses_tokens_that_would_inject();
     numbers_ignore_a_comma_locale(argv[0]);
     a_flood_cannot_keep_the_loop_from_colony_poll();
+    hub_replies_are_read_as_the_rust_session_reads_them();
     if (failures) {
         fprintf(stderr, "test_unit: %d checks failed\n", failures);
         return 1;
