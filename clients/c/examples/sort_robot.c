@@ -33,7 +33,7 @@ typedef struct world {
 static void read_vision(const colony_packet *p, long id, world *w)
 {
     colony_line l;
-    double best = INFINITY, px, py;
+    double best = INFINITY, px, py, x, y, theta;
     int64_t rid;
     memset(&l, 0, sizeof l);
     if (colony_find_line(p, "arena", &l)) {
@@ -42,12 +42,17 @@ static void read_vision(const colony_packet *p, long id, world *w)
     }
     w->seen = 0;
     memset(&l, 0, sizeof l);
+    /* The pose is taken whole or not at all. */
     while (colony_find_line(p, "robot", &l))
         if (colony_get_i64(l.fields, "id", &rid) == COLONY_OK && rid == id &&
-            colony_get_f64(l.fields, "x", &w->x) == COLONY_OK &&
-            colony_get_f64(l.fields, "y", &w->y) == COLONY_OK &&
-            colony_get_f64(l.fields, "theta", &w->theta) == COLONY_OK)
+            colony_get_f64(l.fields, "x", &x) == COLONY_OK &&
+            colony_get_f64(l.fields, "y", &y) == COLONY_OK &&
+            colony_get_f64(l.fields, "theta", &theta) == COLONY_OK) {
+            w->x = x;
+            w->y = y;
+            w->theta = theta;
             w->seen = 1;
+        }
     if (!w->seen) return;
     w->target_x = w->target_y = 0;
     memset(&l, 0, sizeof l);
@@ -91,7 +96,12 @@ int main(int argc, char **argv)
         return 2;
     }
     long id = atol(argv[2]);
-    int64_t now = colony_now_ms(), end = argc > 3 ? now + (int64_t)(atof(argv[3]) * 1000) : -1;
+    double seconds = argc > 3 ? atof(argv[3]) : -1;
+    if (argc > 3 && !(seconds >= 0 && seconds <= 365.0 * 86400)) {
+        fprintf(stderr, "sort_robot: SECONDS is from 0 to a year\n");
+        return 2;
+    }
+    int64_t now = colony_now_ms(), end = seconds >= 0 ? now + (int64_t)(seconds * 1000) : -1;
     int64_t last_report = now;
     long frames = 0, commands = 0, skipped = 0;
     if (colony_connect(&c, argv[1], now) != COLONY_OK || colony_subscribe(&c, "vision", now) != COLONY_OK) {

@@ -66,10 +66,26 @@ static int key_from_env(colony_client *c)
     return !file || load_key(c, file);
 }
 
-static int sub(const char *hub, double seconds, char **subjects, int n)
+/* Seconds from the command line as a span of milliseconds: refused when not
+ * a number from 0 to a year (a cast of a huge or NaN double is undefined). */
+static int ms_from_seconds(const char *text, int64_t *ms)
+{
+    char *end;
+    double s = strtod(text, &end);
+    if (end == text || *end != 0 || !(s >= 0 && s <= 365.0 * 86400)) {
+        fprintf(stderr, "not a number of seconds: %s\n", text);
+        return 0;
+    }
+    *ms = (int64_t)(s * 1000);
+    return 1;
+}
+
+static int sub(const char *hub, const char *seconds, char **subjects, int n)
 {
     static colony_client c;
-    int64_t start = colony_now_ms(), end = start + (int64_t)(seconds * 1000);
+    int64_t start = colony_now_ms(), end;
+    if (!ms_from_seconds(seconds, &end)) return 2;
+    end += start;
     if (colony_connect(&c, hub, start) != COLONY_OK) return perror("connect"), 1;
     if (!key_from_env(&c)) return 1;
     for (int i = 0; i < n; i++)
@@ -123,10 +139,12 @@ static int pub(const char *hub, const char *subjects, int prio, int count, int e
 /* A console's override, signed: raises the hub's minimum priority, then asks
  * for status until the report shows it. Status is answered only to a client
  * holding a lease, so it subscribes to a channel of its own. */
-static int console(const char *hub, const char *key_file, int value, double seconds)
+static int console(const char *hub, const char *key_file, int value, const char *seconds)
 {
     static colony_client c;
-    int64_t now = colony_now_ms(), end = now + (int64_t)(seconds * 1000), asked = 0;
+    int64_t now = colony_now_ms(), end, asked = 0;
+    if (!ms_from_seconds(seconds, &end)) return 2;
+    end += now;
     if (colony_connect(&c, hub, now) != COLONY_OK) return perror("connect"), 1;
     if (!load_key(&c, key_file)) return 1;
     colony_subscribe(&c, "c-console", now);
@@ -170,11 +188,11 @@ static int sign(const char *key_file, const char *n)
 int main(int argc, char **argv)
 {
     if (argc >= 5 && strcmp(argv[1], "sub") == 0)
-        return sub(argv[2], atof(argv[3]), argv + 4, argc - 4);
+        return sub(argv[2], argv[3], argv + 4, argc - 4);
     if (argc >= 8 && strcmp(argv[1], "pub") == 0)
         return pub(argv[2], argv[3], atoi(argv[4]), atoi(argv[5]), atoi(argv[6]), argv + 7, argc - 7);
     if (argc == 6 && strcmp(argv[1], "console") == 0)
-        return console(argv[2], argv[3], atoi(argv[4]), atof(argv[5]));
+        return console(argv[2], argv[3], atoi(argv[4]), argv[5]);
     if (argc == 4 && strcmp(argv[1], "sign") == 0) return sign(argv[2], argv[3]);
     return usage();
 }
