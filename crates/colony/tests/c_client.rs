@@ -545,6 +545,14 @@ fn forged_datagrams_are_skipped_with_their_place_and_forged_replies_do_not_chatt
     // Empty datagrams and ones over a UDP payload cannot be sent.
     hostile.retain(|d| !d.is_empty() && d.len() <= colony_wire::MAX_PACKET);
     let mut want = Vec::new();
+    let errors_seen = |c: &CProc| {
+        c.lines
+            .lock()
+            .unwrap()
+            .iter()
+            .filter(|l| l.starts_with("error "))
+            .count()
+    };
     for d in &hostile {
         fake.send_to(d, client).unwrap();
         let e = Packet::parse(d).unwrap_err();
@@ -554,8 +562,12 @@ fn forged_datagrams_are_skipped_with_their_place_and_forged_replies_do_not_chatt
             e.line,
             e.column
         ));
-        // Paced, so the C client's socket buffer holds them all.
-        std::thread::sleep(Duration::from_millis(5));
+        // One at a time: the next is sent once this one's error is out, so no
+        // datagram is dropped from a full socket buffer on a busy machine.
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while errors_seen(&c) < want.len() && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(1));
+        }
     }
     fake.send_to(b"@ <t> 0\nafter n 1\n", client).unwrap();
     assert!(
