@@ -1,6 +1,8 @@
 /* What the C client does without a hub: SHA-256 and HMAC against published
- * vectors, the parser's verdicts and positions, walking a packet, and the
- * builder's round trips. Built with AddressSanitizer and UBSan. */
+ * vectors, the parser's verdicts and positions and its work on hostile
+ * packets, walking a packet, the builder's round trips (in a comma locale
+ * too), and the client's receive budget against a socket standing in for the
+ * hub. Built with AddressSanitizer and UBSan. */
 #define _POSIX_C_SOURCE 200809L
 #include "colony.h"
 
