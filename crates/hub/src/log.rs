@@ -36,7 +36,7 @@ use std::fs::{File, OpenOptions};
 use std::io::{self, BufReader, BufWriter, Read, Seek, SeekFrom, Write};
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
-use std::time::{SystemTime, UNIX_EPOCH};
+use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 const MAGIC: &[u8] = b"colony-log 1\n";
 /// Fixed part of a record: length, checksum, time, address length.
@@ -146,6 +146,40 @@ impl Rotation {
         let mut name = OsString::from(path.as_os_str());
         name.push(format!(".{n}"));
         PathBuf::from(name)
+    }
+}
+
+/// Where a hub records the packets it accepts: the `.clog` [`LogWriter`]
+/// here, or another format's writer (colony-mcap's MCAP log), so that the hub
+/// needs no dependency of any other format.
+///
+/// The hub calls [`append`](Self::append) for each accepted packet,
+/// [`end_round`](Self::end_round) once per round of its loop (at least every
+/// 100 ms), and [`finish`](Self::finish) once when it stops. An error from any
+/// of them makes the hub log it, drop the sink and serve on without it.
+pub trait LogSink: Send {
+    /// Records one accepted packet, received at `time` from `source` (it may be buffered).
+    fn append(&mut self, time: SystemTime, source: SocketAddr, payload: &[u8]) -> io::Result<()>;
+    /// The end of a round of the hub's loop at `now`: hands to the system
+    /// what a crash should not lose (the `.clog` writer flushes every round; an
+    /// MCAP writer closes its chunk when it is old or large enough).
+    fn end_round(&mut self, now: Instant) -> io::Result<()>;
+    /// The hub is stopping: completes the log (an MCAP writes its summary).
+    /// Nothing is appended after it.
+    fn finish(&mut self) -> io::Result<()>;
+}
+
+impl LogSink for LogWriter {
+    fn append(&mut self, time: SystemTime, source: SocketAddr, payload: &[u8]) -> io::Result<()> {
+        LogWriter::append(self, time, source, payload)
+    }
+
+    fn end_round(&mut self, _now: Instant) -> io::Result<()> {
+        self.flush()
+    }
+
+    fn finish(&mut self) -> io::Result<()> {
+        self.flush()
     }
 }
 

@@ -30,29 +30,37 @@ pub struct Pass {
 /// since the log's first record, until `each` returns false.
 pub fn for_each_timed<E: From<LogError>>(
     path: impl AsRef<Path>,
-    mut each: impl FnMut(Duration, &Record) -> Result<bool, E>,
+    each: impl FnMut(Duration, &Record) -> Result<bool, E>,
 ) -> Result<Pass, E> {
     let mut reader = LogReader::open(path)?;
-    let mut first: Option<u64> = None;
-    let mut records = 0;
-    for record in reader.by_ref() {
-        let record = record?;
-        let t0 = *first.get_or_insert(record.time_us);
-        records += 1;
-        if !each(
-            Duration::from_micros(record.time_us.saturating_sub(t0)),
-            &record,
-        )? {
-            return Ok(Pass {
-                records,
-                torn: None,
-            });
-        }
-    }
+    let records = for_each_timed_in(reader.by_ref().map(|r| r.map_err(E::from)), each)?;
     Ok(Pass {
         records,
         torn: reader.torn_tail().cloned(),
     })
+}
+
+/// [`for_each_timed`] over records from any reader (a `.clog` [`LogReader`],
+/// colony-mcap's reader): calls `each` with every record and its time since
+/// the first, until `each` returns false. Returns how many it handed over.
+pub fn for_each_timed_in<E>(
+    records: impl Iterator<Item = Result<Record, E>>,
+    mut each: impl FnMut(Duration, &Record) -> Result<bool, E>,
+) -> Result<u64, E> {
+    let mut first: Option<u64> = None;
+    let mut count = 0;
+    for record in records {
+        let record = record?;
+        let t0 = *first.get_or_insert(record.time_us);
+        count += 1;
+        if !each(
+            Duration::from_micros(record.time_us.saturating_sub(t0)),
+            &record,
+        )? {
+            break;
+        }
+    }
+    Ok(count)
 }
 
 /// When each packet of a replay is due: the first at once, every later one
@@ -122,11 +130,33 @@ pub fn replay<E: From<LogError>>(
     path: impl AsRef<Path>,
     options: &ReplayOptions,
     stop: &AtomicBool,
-    mut publish: impl FnMut(&[u8]) -> Result<(), E>,
+    publish: impl FnMut(&[u8]) -> Result<(), E>,
 ) -> Result<Replayed, E> {
+    let mut reader = LogReader::open(path)?;
+    let (sent, records) = replay_records(
+        reader.by_ref().map(|r| r.map_err(E::from)),
+        options,
+        stop,
+        publish,
+    )?;
+    Ok(Replayed {
+        sent,
+        records,
+        torn: reader.torn_tail().cloned(),
+    })
+}
+
+/// [`replay`] over records from any reader (a `.clog` [`LogReader`],
+/// colony-mcap's reader). Returns the packets published and the records read.
+pub fn replay_records<E>(
+    records: impl Iterator<Item = Result<Record, E>>,
+    options: &ReplayOptions,
+    stop: &AtomicBool,
+    mut publish: impl FnMut(&[u8]) -> Result<(), E>,
+) -> Result<(u64, u64), E> {
     let mut pacer = Pacer::new(Instant::now(), options.speed);
     let mut sent = 0;
-    let pass = for_each_timed::<E>(path, |since, record| {
+    let records = for_each_timed_in(records, |since, record| {
         if stop.load(Ordering::Relaxed) {
             return Ok(false);
         }
@@ -145,11 +175,7 @@ pub fn replay<E: From<LogError>>(
         sent += 1;
         Ok(true)
     })?;
-    Ok(Replayed {
-        sent,
-        records: pass.records,
-        torn: pass.torn,
-    })
+    Ok((sent, records))
 }
 
 #[cfg(test)]

@@ -5,7 +5,7 @@ use std::net::{SocketAddr, ToSocketAddrs, UdpSocket};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant, SystemTime};
 
-use crate::log::LogWriter;
+use crate::log::LogSink;
 use colony_sys::buffers::{self, Buffer};
 use colony_sys::udp::{self, RecvBatch, SendPlan, Sender};
 use colony_sys::wait::wait_readable;
@@ -17,7 +17,7 @@ use crate::{is_bad_source, DropReason, Hub, HubConfig, Outcome, Transmit};
 pub struct Server {
     socket: UdpSocket,
     hub: Hub,
-    log: Option<LogWriter>,
+    log: Option<Box<dyn LogSink>>,
     batch: RecvBatch<BATCH>,
     /// The address the socket is bound to: never a destination.
     local: SocketAddr,
@@ -88,9 +88,10 @@ impl Server {
         })
     }
 
-    /// Records every accepted packet in this log.
-    pub fn with_log(mut self, log: LogWriter) -> Server {
-        self.log = Some(log);
+    /// Records every accepted packet in this log (a `.clog`
+    /// [`LogWriter`](crate::log::LogWriter), or any other [`LogSink`]).
+    pub fn with_log(mut self, log: impl LogSink + 'static) -> Server {
+        self.log = Some(Box::new(log));
         self
     }
 
@@ -104,15 +105,22 @@ impl Server {
         &self.hub
     }
 
-    /// Serves until `stop` is set; then flushes the log.
+    /// Serves until `stop` is set; then finishes the log.
     pub fn run(&mut self, stop: &AtomicBool) -> io::Result<()> {
         while !stop.load(Ordering::Relaxed) {
             self.poll(STOP_CHECK)?;
         }
-        if let Some(log) = &mut self.log {
-            log.flush()?;
+        self.finish_log()
+    }
+
+    /// Completes the traffic log (an MCAP writes its summary) and closes it;
+    /// [`run`](Self::run) does this when it stops. A caller with a loop of its
+    /// own calls it once it stops polling.
+    pub fn finish_log(&mut self) -> io::Result<()> {
+        match self.log.take() {
+            Some(mut log) => log.finish(),
+            None => Ok(()),
         }
-        Ok(())
     }
 
     /// Waits at most `max_wait` for datagrams, handles those waiting (at
@@ -137,7 +145,7 @@ impl Server {
         if let Some(log) = &mut self.log {
             // One flush per round: a crash loses at most the round in hand,
             // and can only tear the record being written.
-            if let Err(e) = log.flush() {
+            if let Err(e) = log.end_round(Instant::now()) {
                 tracing::error!(error = %e, "traffic log failed; serving on without it");
                 self.log = None;
             }
