@@ -38,8 +38,8 @@ enum Command {
     Status(cmd::status::Args),
     /// Watch a live hub (or a traffic log) in the terminal, channel by channel, field by field.
     Spy(cmd::spy::Args),
-    /// List a traffic log, filtered by channel and time.
-    Log(cmd::traffic::LogArgs),
+    /// List a traffic log (.clog or MCAP), filtered by channel and time; export it as MCAP; recover a torn MCAP.
+    Log(cmd::traffic::LogCommand),
     /// Publish a traffic log again with its original timing.
     Replay(cmd::traffic::ReplayArgs),
     /// Swarm sorting: experiments, the paper's reproduction, live mode.
@@ -82,7 +82,7 @@ fn main() -> ExitCode {
         Command::Bridge(a) => cmd::bridge::run(a),
         Command::Status(a) => cmd::status::run(a),
         Command::Spy(a) => cmd::spy::run(a),
-        Command::Log(a) => cmd::traffic::list(a),
+        Command::Log(a) => cmd::traffic::run(a),
         Command::Replay(a) => cmd::traffic::replay(a),
         Command::Sort(c) => cmd::sort::run(c),
         Command::Game(c) => cmd::game::run(c),

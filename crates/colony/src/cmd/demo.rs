@@ -9,7 +9,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
-use colony_hub::{HubSite, HubSpec, StartError};
+use colony_hub::{HubSite, HubSpec, HubThread};
 use colony_monitor::{Monitor, MonitorConfig};
 use colony_sim::SceneConfig;
 use colony_sort::live::launch::{Controllers, Swarm, SwarmSpec};
@@ -38,6 +38,10 @@ pub struct Args {
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long, value_parser = super::RUN_SECONDS)]
     pub seconds: Option<f64>,
+    /// Log every packet of the run to this file: a `.clog`, or for a name
+    /// ending in `.mcap` an MCAP file for Foxglove or Lichtblick.
+    #[arg(long, value_name = "FILE")]
+    pub log: Option<std::path::PathBuf>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -48,13 +52,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let key = one_run_key();
     let mut spec = HubSpec::new(args.hub_bind.as_str());
     spec.config.key = Some(key.clone());
-    let hub = HubSite::here_or_elsewhere(None, &spec, &stop)
-        .map_err(|e| match e {
-            StartError::Bind { addr, source } => anyhow::Error::new(source).context(format!(
-                "cannot start the demo's hub on `{addr}` (is a hub already running there? choose another port with --hub-bind)"
-            )),
-            e => e.into(),
-        })?;
+    spec.log = args.log.clone();
+    let server = super::hub::start(&spec, |addr| {
+        format!("cannot start the demo's hub on `{addr}` (is a hub already running there? choose another port with --hub-bind)")
+    })?;
+    let hub = HubSite::Here(HubThread::spawn(server, &stop)?);
     let result = run_with_hub(&args, &hub.addr(), key, &stop, deadline);
     let hub_result = hub.stop();
     result?;

@@ -1,19 +1,22 @@
 //! `colony hub`: the broker on a UDP port.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use colony_hub::log::Rotation;
 use colony_hub::{Cidr, HubConfig, HubSpec, Server, StartError};
+use colony_mcap::McapLogWriter;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Address to listen on; 127.0.0.1 keeps the hub to this machine.
     #[arg(long, default_value = "127.0.0.1:7400", value_name = "HOST:PORT")]
     pub bind: String,
-    /// Append every accepted packet to this traffic log.
+    /// Append every accepted packet to this traffic log: a crash-safe `.clog`,
+    /// or, for a name ending in `.mcap`, a new MCAP file (chunked, zstd, indexed)
+    /// that Foxglove and Lichtblick open; a crash loses at most its last second.
     #[arg(long, value_name = "FILE")]
     pub log: Option<PathBuf>,
-    /// Rotate the log once it would pass this size (`64K`, `100M`, `2G`; at least 64K):
+    /// Rotate a `.clog` log once it would pass this size (`64K`, `100M`, `2G`; at least 64K):
     /// FILE becomes FILE.1, FILE.1 becomes FILE.2 and so on, and a new FILE begins.
     #[arg(long, value_name = "BYTES", requires = "log", value_parser = super::log_size)]
     pub log_max: Option<u64>,
@@ -89,11 +92,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             keep: args.log_keep,
         }),
     };
-    let mut server = Server::start(&spec).map_err(|e| match e {
-        StartError::Bind { addr, source } => anyhow::Error::new(source).context(format!(
-            "cannot listen on `{addr}` (is another hub running there?)"
-        )),
-        e => e.into(),
+    let mut server = start(&spec, |addr| {
+        format!("cannot listen on `{addr}` (is another hub running there?)")
     })?;
     let stop = super::stop_flag()?;
     let addr = server.local_addr()?;
@@ -110,4 +110,44 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     server.run(&stop)?;
     tracing::info!("hub stopped");
     Ok(())
+}
+
+/// Whether the hub writes its log at `path` as MCAP: a name ending in `.mcap`.
+/// (Readers tell the formats apart by their first bytes, not by the name.)
+pub fn writes_mcap(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
+}
+
+/// Binds a hub as `spec` says, with its traffic log: a `.clog` (opened by
+/// the hub, torn tails cut), or an MCAP for a name ending in `.mcap` (a new
+/// file). `cannot_bind` says, given the address, why a taken one matters.
+pub fn start(spec: &HubSpec, cannot_bind: impl FnOnce(&str) -> String) -> anyhow::Result<Server> {
+    let mcap = spec.log.as_deref().filter(|p| writes_mcap(p));
+    if mcap.is_some() && spec.log_rotation.is_some() {
+        anyhow::bail!(
+            "--log-max rotates .clog logs only: an MCAP log is one file whose index and summary are \
+             written when the hub stops. Log to a .clog to rotate (`colony log export` makes MCAP \
+             of it later), or leave out --log-max"
+        );
+    }
+    let plain = HubSpec {
+        log: if mcap.is_some() {
+            None
+        } else {
+            spec.log.clone()
+        },
+        ..spec.clone()
+    };
+    let server = Server::start(&plain).map_err(|e| match e {
+        StartError::Bind { addr, source } => {
+            let why = cannot_bind(&addr);
+            anyhow::Error::new(source).context(why)
+        }
+        e => e.into(),
+    })?;
+    Ok(match mcap {
+        Some(path) => server.with_log(McapLogWriter::create(path)?),
+        None => server,
+    })
 }

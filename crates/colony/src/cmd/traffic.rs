@@ -1,18 +1,41 @@
-//! `colony log` and `colony replay`: reading traffic logs.
+//! `colony log` and `colony replay`: reading traffic logs (`.clog` or MCAP,
+//! told apart by their first bytes), exporting them as MCAP and recovering a
+//! torn MCAP.
 
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 use anyhow::Context as _;
-use colony_hub::log::TornTail;
-use colony_hub::replay::{for_each_timed, on_channels, ReplayOptions};
+use colony_hub::log::Record;
+use colony_hub::replay::{for_each_timed_in, on_channels, replay_records, ReplayOptions};
+use colony_mcap::{McapEnd, McapLogWriter, TrafficReader};
 use colony_wire::Packet;
 
 use super::HubAddr;
 
+/// `colony log FILE`, or one of its subcommands.
 #[derive(clap::Args, Debug)]
-pub struct LogArgs {
-    /// The traffic log, as written by `colony hub --log`.
-    pub file: PathBuf,
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct LogCommand {
+    #[command(subcommand)]
+    pub action: Option<LogAction>,
+    #[command(flatten)]
+    pub list: LogArgs,
+}
+
+#[derive(clap::Subcommand, Debug)]
+pub enum LogAction {
+    /// Write a traffic log (what the filters keep of it) as MCAP, for Foxglove,
+    /// Lichtblick and other MCAP tools.
+    Export(ExportArgs),
+    /// Rewrite an MCAP log that a crash cut short (or that has a damaged chunk)
+    /// as a valid MCAP holding every whole chunk.
+    Recover(RecoverArgs),
+}
+
+/// Which records of a log to take.
+#[derive(clap::Args, Debug)]
+pub struct Filter {
     /// Only packets on these channels (any subject of the header matches).
     #[arg(long = "channel", short, value_name = "SUBJECT")]
     pub channels: Vec<String>,
@@ -24,11 +47,68 @@ pub struct LogArgs {
     pub to: Option<f64>,
 }
 
+/// What the filter says of a record.
+enum Take<'a> {
+    /// Take it.
+    Yes(Packet<'a>),
+    /// Take it, though it is not a packet (why not).
+    Unreadable(String),
+    /// Leave it.
+    No,
+    /// Leave it and everything after it.
+    Stop,
+}
+
+impl Filter {
+    fn take<'a>(&self, since: Duration, record: &'a Record) -> Take<'a> {
+        let s = since.as_secs_f64();
+        if self.from.is_some_and(|f| s < f) {
+            return Take::No;
+        }
+        if self.to.is_some_and(|t| s > t) {
+            return Take::Stop;
+        }
+        match Packet::parse(&record.payload) {
+            Ok(p) if on_channels(&p, &self.channels) => Take::Yes(p),
+            Ok(_) => Take::No,
+            Err(e) => Take::Unreadable(e.to_string()),
+        }
+    }
+}
+
+#[derive(clap::Args, Debug)]
+pub struct LogArgs {
+    /// The traffic log, as written by `colony hub --log` (a `.clog` or an MCAP).
+    #[arg(required = true)]
+    pub file: Option<PathBuf>,
+    #[command(flatten)]
+    pub filter: Filter,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ExportArgs {
+    /// The traffic log to export (a `.clog` or an MCAP).
+    pub file: PathBuf,
+    /// The MCAP file to write (it must not exist yet).
+    #[arg(long, value_name = "OUT.mcap")]
+    pub mcap: PathBuf,
+    #[command(flatten)]
+    pub filter: Filter,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct RecoverArgs {
+    /// The damaged MCAP log.
+    pub file: PathBuf,
+    /// The MCAP file to write (it must not exist yet).
+    pub out: PathBuf,
+}
+
 #[derive(clap::Args, Debug)]
 pub struct ReplayArgs {
     #[command(flatten)]
     pub hub: HubAddr,
-    /// The traffic log to publish again.
+    /// The traffic log to publish again (a `.clog` or an MCAP).
     pub file: PathBuf,
     /// How much faster than real time (2 is twice as fast).
     #[arg(long, default_value_t = 1.0, value_parser = super::SPEED)]
@@ -38,46 +118,110 @@ pub struct ReplayArgs {
     pub channels: Vec<String>,
 }
 
-/// Says on standard error that the log ends in a torn record, as the loss it is not.
-fn report_torn(file: &Path, pass_records: u64, torn: Option<&TornTail>) {
-    if let Some(t) = torn {
-        eprintln!(
-            "colony: {} ends in a torn record at byte {} ({} bytes, a write cut short); all {pass_records} records before it were read",
-            file.display(),
-            t.offset,
-            t.bytes
-        );
+/// Opens a log of either format.
+fn open(file: &Path) -> anyhow::Result<TrafficReader> {
+    Ok(TrafficReader::open(file)?)
+}
+
+/// Says on standard error what a crash cut short, as the loss it is (or is not).
+fn report_damage(log: &TrafficReader) {
+    if let Some(note) = log.damage() {
+        eprintln!("colony: {note}");
     }
 }
 
-pub fn list(args: LogArgs) -> anyhow::Result<()> {
+pub fn run(args: LogCommand) -> anyhow::Result<()> {
+    match args.action {
+        Some(LogAction::Export(a)) => export(a),
+        Some(LogAction::Recover(a)) => recover(a),
+        None => list(args.list),
+    }
+}
+
+fn list(args: LogArgs) -> anyhow::Result<()> {
     use std::io::Write as _;
+    let file = args.file.context("no log given")?;
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
-    let pass = for_each_timed(&args.file, |since, record| -> anyhow::Result<bool> {
-        let s = since.as_secs_f64();
-        if args.from.is_some_and(|f| s < f) {
-            return Ok(true);
-        }
-        if args.to.is_some_and(|t| s > t) {
-            return Ok(false);
-        }
-        match Packet::parse(&record.payload) {
-            Ok(p) if on_channels(&p, &args.channels) => {
-                writeln!(out, "# +{s:.6} s from {}", record.source)?;
-                write!(out, "{p}")?;
+    let mut log = open(&file)?;
+    for_each_timed_in(
+        log.by_ref().map(|r| r.map_err(anyhow::Error::from)),
+        |since, record| -> anyhow::Result<bool> {
+            let s = since.as_secs_f64();
+            match args.filter.take(since, record) {
+                Take::Stop => return Ok(false),
+                Take::No => {}
+                Take::Yes(p) => {
+                    writeln!(out, "# +{s:.6} s from {}", record.source)?;
+                    write!(out, "{p}")?;
+                }
+                Take::Unreadable(e) => writeln!(
+                    out,
+                    "# +{s:.6} s from {}: unreadable packet: {e}",
+                    record.source
+                )?,
             }
-            Ok(_) => {}
-            Err(e) => writeln!(
-                out,
-                "# +{s:.6} s from {}: unreadable packet: {e}",
-                record.source
-            )?,
-        }
-        Ok(true)
-    })?;
-    report_torn(&args.file, pass.records, pass.torn.as_ref());
+            Ok(true)
+        },
+    )?;
+    report_damage(&log);
     out.flush()?;
+    Ok(())
+}
+
+fn export(args: ExportArgs) -> anyhow::Result<()> {
+    let mut log = open(&args.file)?;
+    let mut out = McapLogWriter::create(&args.mcap)?;
+    let mut unreadable = 0u64;
+    for_each_timed_in(
+        log.by_ref().map(|r| r.map_err(anyhow::Error::from)),
+        |since, record| -> anyhow::Result<bool> {
+            match args.filter.take(since, record) {
+                Take::Stop => return Ok(false),
+                Take::No => {}
+                Take::Yes(_) | Take::Unreadable(_) => {
+                    if !out.append_record(record)? {
+                        unreadable += 1;
+                    }
+                }
+            }
+            Ok(true)
+        },
+    )?;
+    out.finish()?;
+    report_damage(&log);
+    if unreadable > 0 {
+        eprintln!("colony: left out {unreadable} records that are not packets");
+    }
+    eprintln!(
+        "colony: wrote {} messages to {}",
+        out.messages(),
+        args.mcap.display()
+    );
+    Ok(())
+}
+
+fn recover(args: RecoverArgs) -> anyhow::Result<()> {
+    let r = colony_mcap::recover(&args.file, &args.out)?;
+    match r.end {
+        McapEnd::Finished => eprintln!(
+            "colony: {} was finished (its writer wrote its summary)",
+            args.file.display()
+        ),
+        McapEnd::Torn { offset, bytes } => eprintln!(
+            "colony: {} ends before its writer finished: the {bytes} bytes from byte {offset} on were not whole and are lost",
+            args.file.display()
+        ),
+    }
+    for (offset, why) in &r.skipped {
+        eprintln!("colony: skipped the corrupt record at byte {offset} ({why})");
+    }
+    eprintln!(
+        "colony: recovered {} messages from {} whole chunks into {}",
+        r.messages,
+        r.chunks,
+        args.out.display()
+    );
     Ok(())
 }
 
@@ -88,14 +232,14 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
         speed: args.speed,
         channels: args.channels.clone(),
     };
-    let replayed = colony_hub::replay::replay(&args.file, &options, &stop, |p| {
-        client.publish(p).context("cannot publish a logged packet")
-    })?;
-    report_torn(&args.file, replayed.records, replayed.torn.as_ref());
-    eprintln!(
-        "colony: replayed {} packets to {}",
-        replayed.sent,
-        client.hub_addr()
-    );
+    let mut log = open(&args.file)?;
+    let (sent, _records) = replay_records(
+        log.by_ref().map(|r| r.map_err(anyhow::Error::from)),
+        &options,
+        &stop,
+        |p| client.publish(p).context("cannot publish a logged packet"),
+    )?;
+    report_damage(&log);
+    eprintln!("colony: replayed {sent} packets to {}", client.hub_addr());
     Ok(())
 }

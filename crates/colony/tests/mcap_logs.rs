@@ -1,0 +1,446 @@
+//! MCAP logs end to end: the hub writes one during `colony demo`, `colony log export` makes one
+//! of a `.clog` the hub wrote, and the `mcap` package from PyPI (a reader colony did not write)
+//! reads both whole; one replays into a monitor that draws the run; a hub killed while logging
+//! at 1 kHz leaves a file `colony log` reads as far as its whole chunks and `colony log recover`
+//! makes valid; a file damaged in the middle is an error with its offset.
+//!
+//! Needs python3 with `mcap` and `zstandard` in target/pydeps: `scripts/test` installs them.
+
+mod common;
+#[path = "../../monitor/tests/common/mod.rs"]
+mod monitor_ws;
+
+use std::path::{Path, PathBuf};
+use std::process::Stdio;
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+
+use colony_hub::log::{LogReader, Record};
+use colony_mcap::{McapReader, TrafficReader};
+use colony_wire::Packet;
+use common::{run_bounded, HubProcess};
+use serde_json::Value;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// A directory that lives as long as the test binary.
+fn scratch() -> &'static Path {
+    static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
+    DIR.get_or_init(|| tempfile::tempdir().unwrap()).path()
+}
+
+/// Every message of an MCAP as the `mcap` package from PyPI reads it, then its summary.
+fn python_reads(file: &Path) -> (Vec<Value>, Value) {
+    let deps = std::env::var_os("COLONY_PYDEPS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root().join("target/pydeps"));
+    assert!(
+        deps.join("mcap").exists() && deps.join("zstandard").exists(),
+        "the mcap and zstandard Python packages are not in {}: run the README's test command, \
+         `scripts/test`, which installs them (python3 -m pip install --target target/pydeps \
+         mcap==1.6.0 zstandard==0.25.0)",
+        deps.display()
+    );
+    let mut child = std::process::Command::new("python3")
+        .arg(root().join("python/tests/mcap_dump.py"))
+        .arg(file)
+        .env("PYTHONPATH", &deps)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run python3");
+    let out = child.stdout.take().unwrap();
+    let reader = std::thread::spawn(move || std::io::read_to_string(out).unwrap());
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the Python reader took over 60 s"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let err = std::io::read_to_string(child.stderr.take().unwrap()).unwrap();
+    assert!(
+        status.success(),
+        "the mcap package could not read {}: {err}",
+        file.display()
+    );
+    let mut lines: Vec<Value> = reader
+        .join()
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let summary = lines.pop().expect("a summary line")["summary"].clone();
+    (lines, summary)
+}
+
+/// Holds what Python read to `records`, one for one, in order.
+fn same_messages(python: &[Value], summary: &Value, records: &[Record]) {
+    assert_eq!(python.len(), records.len(), "message count");
+    assert_eq!(summary["message_count"], records.len() as u64);
+    assert!(summary["chunk_indexes"].as_u64().unwrap() >= 1, "{summary}");
+    for (i, (m, r)) in python.iter().zip(records).enumerate() {
+        let packet = Packet::parse(&r.payload).unwrap();
+        assert_eq!(m["topic"], colony_schema::topic(&packet), "message {i}");
+        assert_eq!(m["message_encoding"], "json");
+        assert_eq!(m["schema_encoding"], "jsonschema");
+        assert_eq!(m["schema_is_object"], true);
+        assert!(m["schema"].as_str().is_some_and(|s| !s.is_empty()));
+        assert_eq!(m["sequence"], i as u64, "in order");
+        assert_eq!(m["log_time"], r.time_us * 1000, "message {i}");
+        assert_eq!(m["publish_time"], r.time_us * 1000);
+        assert_eq!(
+            m["message"]["packet"].as_str().unwrap().as_bytes(),
+            r.payload.as_slice(),
+            "message {i} keeps its packet's text"
+        );
+        assert_eq!(m["message"]["source"], r.source.as_str());
+    }
+}
+
+/// The robots' poses in a `vision` message as Python decoded it.
+fn poses(m: &Value) -> Vec<(i64, f64, f64)> {
+    m["message"]["lines"]["robot"]
+        .as_array()
+        .expect("robot lines")
+        .iter()
+        .map(|r| {
+            (
+                r["id"].as_i64().expect("an integer id"),
+                r["x"].as_f64().expect("a number x"),
+                r["y"].as_f64().expect("a number y"),
+            )
+        })
+        .collect()
+}
+
+/// Runs `colony demo` for 3 s logging to `name` in the scratch directory.
+fn demo_log(name: &str) -> PathBuf {
+    let log = scratch().join(name);
+    let log_arg = log.to_str().unwrap();
+    let (code, _, err) = run_bounded(
+        &[
+            "demo",
+            "--hub-bind",
+            "127.0.0.1:0",
+            "--monitor-bind",
+            "127.0.0.1:0",
+            "--seconds",
+            "3",
+            "--log",
+            log_arg,
+        ],
+        "warn",
+    );
+    assert_eq!(code, Some(0), "colony demo: {err}");
+    log
+}
+
+/// An MCAP the demo's hub wrote, made once for the tests that read it.
+fn demo_mcap() -> &'static Path {
+    static LOG: OnceLock<PathBuf> = OnceLock::new();
+    LOG.get_or_init(|| demo_log("demo.mcap"))
+}
+
+fn read_mcap(file: &Path) -> Vec<Record> {
+    McapReader::open(file)
+        .unwrap()
+        .map(Result::unwrap)
+        .collect()
+}
+
+#[test]
+fn the_hub_writes_an_mcap_during_the_demo_that_the_mcap_package_reads_whole() {
+    let file = demo_mcap();
+    let records = read_mcap(file);
+    assert!(records.len() > 50, "{} messages", records.len());
+    let (python, summary) = python_reads(file);
+    same_messages(&python, &summary, &records);
+    let vision: Vec<&Value> = python.iter().filter(|m| m["topic"] == "vision").collect();
+    assert!(vision.len() > 10, "{} vision messages", vision.len());
+    let last = poses(vision.last().unwrap());
+    assert_eq!(last.len(), 4, "the demo's four robots: {last:?}");
+    assert!(last.iter().all(|(_, x, y)| x.is_finite() && y.is_finite()));
+    // The JSON's poses are the packet's.
+    let text = vision.last().unwrap()["message"]["packet"]
+        .as_str()
+        .unwrap();
+    let packet = Packet::parse(text.as_bytes()).unwrap();
+    let robot = packet.lines().find(|l| l.label() == "robot").unwrap();
+    let x = robot.f64("x").unwrap();
+    assert!((x - last[0].1).abs() < 1e-9, "{x} against {:?}", last[0]);
+}
+
+#[test]
+fn a_clog_the_hub_wrote_exports_to_an_mcap_the_mcap_package_reads_whole() {
+    let clog = demo_log("demo.clog");
+    let records: Vec<Record> = LogReader::open(&clog)
+        .unwrap()
+        .map(Result::unwrap)
+        .collect();
+    assert!(records.len() > 50);
+    let out = scratch().join("exported.mcap");
+    let (code, _, err) = run_bounded(
+        &[
+            "log",
+            "export",
+            clog.to_str().unwrap(),
+            "--mcap",
+            out.to_str().unwrap(),
+        ],
+        "warn",
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains(&format!("wrote {} messages", records.len())),
+        "{err}"
+    );
+    let (python, summary) = python_reads(&out);
+    same_messages(&python, &summary, &records);
+    let vision = python.iter().rfind(|m| m["topic"] == "vision").unwrap();
+    assert_eq!(poses(vision).len(), 4);
+
+    // The filters of `colony log` apply: only vision, from the second second on.
+    let t0 = records[0].time_us;
+    let kept: Vec<Record> = records
+        .iter()
+        .filter(|r| r.time_us - t0 >= 1_000_000)
+        .filter(|r| Packet::parse(&r.payload).unwrap().has_subject("vision"))
+        .cloned()
+        .collect();
+    let part = scratch().join("vision.mcap");
+    let (code, _, err) = run_bounded(
+        &[
+            "log",
+            "export",
+            clog.to_str().unwrap(),
+            "--mcap",
+            part.to_str().unwrap(),
+            "--channel",
+            "vision",
+            "--from",
+            "1",
+        ],
+        "warn",
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let (python, summary) = python_reads(&part);
+    same_messages(&python, &summary, &kept);
+    // An existing file is not written over.
+    let (code, _, err) = run_bounded(
+        &[
+            "log",
+            "export",
+            clog.to_str().unwrap(),
+            "--mcap",
+            part.to_str().unwrap(),
+        ],
+        "warn",
+    );
+    assert_eq!(code, Some(1));
+    assert!(err.contains("exists"), "{err}");
+}
+
+#[test]
+fn an_mcap_log_replays_into_a_monitor_that_draws_the_run() {
+    let file = demo_mcap();
+    let hub = HubProcess::start(&[]);
+    let monitor = colony_monitor::Monitor::start(&colony_monitor::MonitorConfig {
+        hub: hub.addr.to_string(),
+        bind: "127.0.0.1:0".into(),
+        ..Default::default()
+    })
+    .unwrap();
+    let mut ws = monitor_ws::Ws::connect(
+        monitor.local_addr(),
+        &monitor_ws::with_token(&monitor, "/ws"),
+    );
+    // The last poses the log holds for each robot.
+    let mut last = std::collections::BTreeMap::new();
+    for r in read_mcap(file) {
+        let p = Packet::parse(&r.payload).unwrap();
+        if p.has_subject("vision") {
+            for l in p.lines().filter(|l| l.label() == "robot") {
+                let f = &l;
+                let id = f.f64("id").unwrap() as i64;
+                last.insert(id, (f.f64("x").unwrap(), f.f64("y").unwrap()));
+            }
+        }
+    }
+    assert_eq!(last.len(), 4);
+    let addr = hub.addr.to_string();
+    let (code, _, err) = run_bounded(
+        &[
+            "replay",
+            "--hub",
+            &addr,
+            "--speed",
+            "4",
+            file.to_str().unwrap(),
+        ],
+        "warn",
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("replayed"), "{err}");
+    // The monitor's world holds each robot where the log last put it.
+    let world = ws.until(Duration::from_secs(10), "the run's last poses", |v| {
+        v["t"] == "world"
+            && last.iter().all(|(id, (x, y))| {
+                v["robots"].as_array().is_some_and(|rs| {
+                    // Each robot is [id, x, y, theta, carrying], to the centimetre.
+                    rs.iter().any(|r| {
+                        r[0].as_i64() == Some(*id)
+                            && (r[1].as_f64().unwrap_or(f64::NAN) - x).abs() < 0.01
+                            && (r[2].as_f64().unwrap_or(f64::NAN) - y).abs() < 0.01
+                    })
+                })
+            })
+    });
+    assert_eq!(world["robots"].as_array().unwrap().len(), 4, "{world}");
+    monitor.shutdown().unwrap();
+}
+
+/// Publishes numbered packets on `load` at 1 kHz for `seconds`, then kills the hub with
+/// SIGKILL; returns how many were sent.
+fn load_then_kill(hub: &mut HubProcess, seconds: f64) -> u64 {
+    let mut client = colony_client::UdpClient::connect(hub.addr).unwrap();
+    let start = Instant::now();
+    let mut n = 0u64;
+    while start.elapsed().as_secs_f64() < seconds {
+        let due = start + Duration::from_micros(n * 1000);
+        if let Some(wait) = due.checked_duration_since(Instant::now()) {
+            std::thread::sleep(wait);
+        }
+        client
+            .publish(format!("@ <load> 0\nmsg n {n}\n").as_bytes())
+            .unwrap();
+        n += 1;
+    }
+    // Let the hub take in what is in its socket, then kill it mid-run.
+    std::thread::sleep(Duration::from_millis(20));
+    hub.kill();
+    n
+}
+
+/// The `n` of every logged `load` packet, in order.
+fn numbers(records: impl Iterator<Item = Record>) -> Vec<u64> {
+    records
+        .filter_map(|r| {
+            let p = Packet::parse(&r.payload).ok()?;
+            if !p.has_subject("load") {
+                return None;
+            }
+            p.lines().next()?.f64("n").ok().map(|n| n as u64)
+        })
+        .collect()
+}
+
+#[test]
+fn a_hub_killed_while_logging_mcap_at_1khz_loses_at_most_its_last_chunk() {
+    let dir = tempfile::tempdir().unwrap();
+    let mcap = dir.path().join("killed.mcap");
+    let mut hub = HubProcess::start(&["--log", mcap.to_str().unwrap()]);
+    let sent = load_then_kill(&mut hub, 3.0);
+
+    // What `colony log` reads: a prefix of what was sent, without a gap, and a report of it.
+    let (code, out, err) = run_bounded(&["log", mcap.to_str().unwrap(), "-c", "load"], "warn");
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("ends before its writer finished") && err.contains("recovered"),
+        "{err}"
+    );
+    let listed = out.matches("@ <load>").count() as u64;
+    let mut log = TrafficReader::open(&mcap).unwrap();
+    let got = numbers(log.by_ref().map(Result::unwrap));
+    assert_eq!(got.len() as u64, listed);
+    assert_eq!(
+        got,
+        (0..got.len() as u64).collect::<Vec<_>>(),
+        "a prefix, in order"
+    );
+    // Its first chunk was a second old two seconds before the kill.
+    assert!(
+        !got.is_empty() && got.len() as u64 <= sent,
+        "{} of {sent}",
+        got.len()
+    );
+    let lost = sent - got.len() as u64;
+    eprintln!("# MCAP: kill -9 at 1 kHz lost {lost} of {sent} packets (the chunk in memory)");
+
+    // `colony log recover` writes a valid MCAP with all of them.
+    let fixed = dir.path().join("fixed.mcap");
+    let (code, _, err) = run_bounded(
+        &[
+            "log",
+            "recover",
+            mcap.to_str().unwrap(),
+            fixed.to_str().unwrap(),
+        ],
+        "warn",
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("recovered"), "{err}");
+    let (python, summary) = python_reads(&fixed);
+    let all = read_mcap(&fixed);
+    same_messages(&python, &summary, &all);
+    assert_eq!(numbers(all.into_iter()), got);
+}
+
+#[test]
+fn a_hub_killed_while_logging_clog_at_1khz_keeps_every_packet_it_flushed_in_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let clog = dir.path().join("killed.clog");
+    let mut hub = HubProcess::start(&["--log", clog.to_str().unwrap()]);
+    let sent = load_then_kill(&mut hub, 3.0);
+    let got = numbers(LogReader::open(&clog).unwrap().map(Result::unwrap));
+    assert_eq!(
+        got,
+        (0..got.len() as u64).collect::<Vec<_>>(),
+        "a prefix, in order"
+    );
+    let lost = sent - got.len() as u64;
+    eprintln!("# .clog: kill -9 at 1 kHz lost {lost} of {sent} packets");
+}
+
+#[test]
+fn an_mcap_damaged_in_the_middle_is_an_error_with_its_offset() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("bad.mcap");
+    let mut w = colony_mcap::McapLogWriter::create(&file).unwrap();
+    for n in 0..3000u64 {
+        let text = format!("@ <vision> 20\nrobot id 3 x {n}.25 y 1 theta 0\n");
+        w.append_raw(1_700_000_000_000_000 + n, "127.0.0.1:1", text.as_bytes())
+            .unwrap();
+        if n % 500 == 499 {
+            w.close_chunk().unwrap();
+        }
+    }
+    w.finish().unwrap();
+    let mut bytes = std::fs::read(&file).unwrap();
+    let mid = bytes.len() / 2;
+    for b in &mut bytes[mid..mid + 8] {
+        *b = !*b;
+    }
+    std::fs::write(&file, &bytes).unwrap();
+    for args in [
+        vec!["log"],
+        vec!["replay", "--hub", "127.0.0.1:9", "--speed", "1000"],
+    ] {
+        let mut args = args.clone();
+        args.push(file.to_str().unwrap());
+        let (code, _, err) = run_bounded(&args, "warn");
+        assert_eq!(code, Some(1), "{args:?}: {err}");
+        assert!(
+            err.contains("is corrupt") && err.contains("at byte"),
+            "{err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
