@@ -156,6 +156,26 @@ describe('the Foxglove WebSocket, against a live colony demo', { concurrency: fa
     client.unsubscribe(vision);
   });
 
+  test('a radio packet the viewer publishes (colony-schema JSON) holds its robots through the override', async () => {
+    const radio = client.subscribe(channels.get('radio').id);
+    const ch = client.advertise({ topic: 'radio', encoding: 'json', schemaName: 'colony.radio' });
+    const packet = '@ <radio> 10\ncmd id 1 forward 0 turn 0.5\n';
+    const errorsBefore = statuses.filter((s) => s.level === 2).length;
+    const mine = () => (bySub.get(radio) || []).filter((m) => m.json.priority === 10
+      && (m.json.lines.cmd || []).some((c) => c.id === 1 && c.turn === 0.5));
+    await until(() => {
+      client.sendMessage(ch, new TextEncoder().encode(JSON.stringify({ packet })));
+      return mine().length > 0;
+    }, 20000, 'the monitor published no override for robot 1');
+    assert.equal(statuses.filter((s) => s.level === 2).length, errorsBefore,
+      JSON.stringify(statuses.slice(errorsBefore)));
+    const o = client.advertise({ topic: '/colony/override', encoding: 'json', schemaName: 'colony.Override' });
+    client.sendMessage(o, new TextEncoder().encode(JSON.stringify({ t: 'release', ids: [1] })));
+    client.unadvertise(o);
+    client.unadvertise(ch);
+    client.unsubscribe(radio);
+  });
+
   test('after unsubscribing, no more messages come for the subscription', async () => {
     const sub = client.subscribe(channels.get('vision').id);
     await until(() => (bySub.get(sub) || []).length > 2, 20000, 'no vision');
@@ -209,5 +229,49 @@ describe('the Foxglove WebSocket, against a live colony demo', { concurrency: fa
     const sub = client.subscribe(channels.get('vision').id);
     await until(() => (bySub.get(sub) || []).length > 0, 20000, 'no vision after the hostile client');
     assert.equal(demo.child.exitCode, null);
+  });
+});
+
+describe('the Foxglove WebSocket during a live game', { concurrency: false, timeout: 120000 }, () => {
+  let game;
+  let client;
+  const channels = new Map();
+  const last = new Map(); // topic -> newest message
+  const subs = new Map(); // subscription id -> topic
+
+  before(async () => {
+    const hubPort = await freeUdpPort();
+    game = new ColonyProcess('foxglove-game', [
+      'game', 'ctf', '--player', 'none', '--hub-bind', `127.0.0.1:${hubPort}`, '--monitor-bind', '127.0.0.1:0',
+    ]);
+    const [, host, token] = await game.waitFor(/http:\/\/(127\.0\.0\.1:\d+)\/\S*token=([0-9a-f]{32})/);
+    client = new FoxgloveClient({ ws: new WebSocket(`ws://${host}/foxglove?token=${token}`, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]) });
+    client.on('advertise', (list) => {
+      for (const c of list) {
+        channels.set(c.topic, c);
+        if (c.topic.startsWith('/colony/battlefield')) subs.set(client.subscribe(c.id), c.topic);
+      }
+    });
+    client.on('message', ({ subscriptionId, data }) => {
+      last.set(subs.get(subscriptionId), JSON.parse(decoder.decode(data)));
+    });
+  });
+
+  after(async () => {
+    if (client) client.close();
+    if (game) await game.stop();
+  });
+
+  test('the battlefield comes as scene entities: terrain, every robot with its heading, the flags', async () => {
+    const scene = await until(() => last.get('/colony/battlefield'), 60000, 'no battlefield scene');
+    const terrain = await until(() => last.get('/colony/battlefield/terrain'), 60000, 'no terrain');
+    const byId = Object.fromEntries(scene.entities.map((e) => [e.id, e]));
+    assert.equal(byId.robots.frame_id, 'battlefield');
+    // Two teams of six by default (--red and --blue).
+    assert.equal(byId.robots.cylinders.length, 12);
+    assert.equal(byId.robots.arrows.length, 12);
+    assert.equal(byId.flags.spheres.length, 2);
+    assert.ok(terrain.entities[0].cubes.length > 0);
+    assert.ok(channels.has('game.state'), [...channels.keys()].join(' '));
   });
 });
