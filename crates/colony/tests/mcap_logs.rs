@@ -444,3 +444,27 @@ fn an_mcap_damaged_in_the_middle_is_an_error_with_its_offset() {
         assert!(!err.contains("panicked"), "{err}");
     }
 }
+
+/// BENCHMARKS.md's figures: packets a kill -9 loses at 1 kHz, for each format, with the kill
+/// falling at different points of the MCAP writer's one-second chunk.
+#[test]
+#[ignore = "a measurement (about 40 s): cargo test -p colony --test mcap_logs kill_loss -- --ignored --nocapture"]
+fn kill_loss_at_1khz_for_both_formats() {
+    let dir = tempfile::tempdir().unwrap();
+    for (format, ext) in [("MCAP", "mcap"), (".clog", "clog")] {
+        let mut losses = Vec::new();
+        for (i, seconds) in [2.1, 2.3, 2.5, 2.7, 2.9, 3.1].into_iter().enumerate() {
+            let file = dir.path().join(format!("{i}.{ext}"));
+            let mut hub = HubProcess::start(&["--log", file.to_str().unwrap()]);
+            let sent = load_then_kill(&mut hub, seconds);
+            let got = numbers(TrafficReader::open(&file).unwrap().map(Result::unwrap));
+            assert_eq!(got, (0..got.len() as u64).collect::<Vec<_>>());
+            losses.push(sent - got.len() as u64);
+        }
+        let mean = losses.iter().sum::<u64>() as f64 / losses.len() as f64;
+        eprintln!(
+            "# {format}: lost {losses:?} packets (mean {mean:.0}, max {})",
+            losses.iter().max().unwrap()
+        );
+    }
+}
