@@ -1,11 +1,14 @@
 //! One viewer's connection, with no socket and no clock: what it subscribed to, the channels
 //! it publishes on, and what waits to be sent to it.
 //!
-//! A slow viewer never holds anything up: each channel keeps only its newest message waiting
-//! ([`Session::on_message`]), so a viewer that cannot keep up is sent the newest data and every
-//! message replaced before it went out is counted as dropped ([`Session::dropped`]); a status
-//! message tells the viewer how many, at most every [`DROP_REPORT_EVERY`]. Waiting channels are
-//! sent in turn, so one busy channel cannot starve the others.
+//! A slow viewer never holds anything up: each channel keeps at most its [`PER_CHANNEL`] newest
+//! messages waiting, and the connection at most [`MAX_PENDING`] (beyond that the oldest of the
+//! longest queue goes; [`Session::on_message`]), so a viewer that cannot keep up is sent the
+//! newest data and every message dropped before it went out is counted ([`Session::dropped`]);
+//! a status message tells the viewer how many, at most every [`DROP_REPORT_EVERY`]. (A few per
+//! channel, not one: several publishers share a channel, such as each robot's `debug`, and their
+//! packets of one step arrive together.) Waiting channels are sent in turn, so one busy channel
+//! cannot starve the others.
 //!
 //! A viewer may publish only the operator's override: on [`OVERRIDE_TOPIC`] (the monitor page's
 //! own override requests as JSON, such as `{"t":"drive","ids":[3],"forward":0.5,"turn":0}`) or
@@ -28,6 +31,10 @@ pub const OVERRIDE_TOPIC: &str = "/colony/override";
 pub const MAX_SUBSCRIPTIONS: usize = 1024;
 /// Channels one viewer may advertise at once.
 pub const MAX_CLIENT_CHANNELS: usize = 16;
+/// Messages waiting per channel, at most.
+pub const PER_CHANNEL: usize = 8;
+/// Messages waiting per connection, at most.
+pub const MAX_PENDING: usize = 256;
 /// Status messages waiting to be sent, at most (older ones are dropped first).
 const MAX_TEXTS: usize = 64;
 /// Drops are reported at most this often.
@@ -67,8 +74,10 @@ pub struct Session<P> {
     subscriptions: HashMap<u32, u32>,
     by_channel: HashMap<u32, u32>,
     client_channels: HashMap<u32, Sink>,
-    /// The newest message waiting on each channel.
-    pending: BTreeMap<u32, (u64, P)>,
+    /// The newest messages waiting on each channel, oldest first.
+    pending: BTreeMap<u32, VecDeque<(u64, P)>>,
+    /// Messages in `pending`.
+    waiting: usize,
     /// The channel sent last, so waiting channels go in turn.
     last_sent: Option<u32>,
     texts: VecDeque<String>,
@@ -85,6 +94,7 @@ impl<P> Default for Session<P> {
             by_channel: HashMap::new(),
             client_channels: HashMap::new(),
             pending: BTreeMap::new(),
+            waiting: 0,
             last_sent: None,
             texts: VecDeque::new(),
             dropped: 0,
@@ -128,18 +138,38 @@ impl<P: Clone> Session<P> {
         self.texts.push_back(protocol::advertise(&new));
     }
 
-    /// A message on `channel`, received at `receive_ns`: kept if the viewer subscribed, in
-    /// place of one still waiting (which is then counted as dropped).
+    /// A message on `channel`, received at `receive_ns`: kept if the viewer subscribed. When
+    /// its channel already has [`PER_CHANNEL`] waiting, the oldest of them is dropped; when the
+    /// connection has [`MAX_PENDING`], the oldest of the longest queue.
     pub fn on_message(&mut self, channel: u32, receive_ns: u64, payload: P) {
-        if !self.by_channel.contains_key(&channel)
-            || self
-                .pending
-                .insert(channel, (receive_ns, payload))
-                .is_none()
-        {
+        if !self.by_channel.contains_key(&channel) {
             return;
         }
-        self.dropped += 1;
+        let full = self
+            .pending
+            .get(&channel)
+            .is_some_and(|q| q.len() >= PER_CHANNEL);
+        let victim = if full {
+            Some(channel)
+        } else if self.waiting >= MAX_PENDING {
+            self.pending
+                .iter()
+                .max_by_key(|(_, q)| q.len())
+                .map(|(c, _)| *c)
+        } else {
+            None
+        };
+        if let Some(q) = victim.and_then(|c| self.pending.get_mut(&c)) {
+            if q.pop_front().is_some() {
+                self.waiting -= 1;
+                self.dropped += 1;
+            }
+        }
+        self.pending
+            .entry(channel)
+            .or_default()
+            .push_back((receive_ns, payload));
+        self.waiting += 1;
     }
 
     /// The viewer fell behind the feed by `n` messages.
@@ -213,7 +243,9 @@ impl<P: Clone> Session<P> {
                     match self.subscriptions.remove(&id) {
                         Some(channel) => {
                             self.by_channel.remove(&channel);
-                            self.pending.remove(&channel);
+                            if let Some(q) = self.pending.remove(&channel) {
+                                self.waiting -= q.len();
+                            }
                         }
                         None => {
                             self.status(Level::Warning, &format!("no subscription {id}"));
@@ -326,7 +358,12 @@ impl<P: Clone> Session<P> {
                 .map(|(k, _)| *k),
             None => self.pending.keys().next().copied(),
         }?;
-        let (receive_ns, payload) = self.pending.remove(&next)?;
+        let queue = self.pending.get_mut(&next)?;
+        let (receive_ns, payload) = queue.pop_front()?;
+        if queue.is_empty() {
+            self.pending.remove(&next);
+        }
+        self.waiting -= 1;
         self.last_sent = Some(next);
         let subscription = *self.by_channel.get(&next)?;
         Some(Out::Message {
@@ -473,7 +510,7 @@ mod tests {
         }
         s.on_message(2, 0, 500);
         s.on_missed(10);
-        assert_eq!(s.dropped(), 99 + 10);
+        assert_eq!(s.dropped(), 100 - PER_CHANNEL as u64 + 10);
         let now = Instant::now();
         s.poll_timeout(now);
         let mut got = Vec::new();
@@ -487,14 +524,47 @@ mod tests {
             }
         }
         assert_eq!(t[0]["level"], 1);
-        assert!(t[0]["message"].as_str().unwrap().contains("109"), "{t:?}");
-        assert_eq!(got, [99, 500]);
+        assert!(t[0]["message"].as_str().unwrap().contains("102"), "{t:?}");
+        // The newest of channel 1 and channel 2's one, in turn.
+        assert_eq!(got, [92, 500, 93, 94, 95, 96, 97, 98, 99]);
         // Reported again only after a while, and only if there is something new.
         s.on_missed(1);
         s.poll_timeout(now + Duration::from_millis(10));
         assert_eq!(s.poll_transmit(), None);
         s.poll_timeout(now + DROP_REPORT_EVERY);
         assert_eq!(texts(&mut s).len(), 1);
+    }
+
+    #[test]
+    fn a_burst_on_one_channel_is_kept_and_the_connection_is_bounded() {
+        let mut s = Session::new("colony monitor", "1");
+        let many: Vec<Channel> = (1..=100).map(|i| channel(i, &format!("c{i}"))).collect();
+        s.on_channels(&many);
+        texts(&mut s);
+        let subs: Vec<String> = (1..=100)
+            .map(|i| format!(r#"{{"id":{i},"channelId":{i}}}"#))
+            .collect();
+        s.handle_text(&format!(
+            r#"{{"op":"subscribe","subscriptions":[{}]}}"#,
+            subs.join(",")
+        ));
+        // Four robots' debug packets of one step: none lost.
+        for r in 0..4 {
+            s.on_message(1, 0, r);
+        }
+        assert_eq!(s.dropped(), 0);
+        // Every channel full: the connection holds MAX_PENDING, the rest counted.
+        for c in 1..=100 {
+            for i in 0..PER_CHANNEL as u32 {
+                s.on_message(c, 0, i);
+            }
+        }
+        let mut sent = 0;
+        while s.poll_transmit().is_some() {
+            sent += 1;
+        }
+        assert_eq!(sent, MAX_PENDING);
+        assert_eq!(s.dropped() as usize, 4 + 100 * PER_CHANNEL - MAX_PENDING);
     }
 
     #[test]
