@@ -468,3 +468,37 @@ fn kill_loss_at_1khz_for_both_formats() {
         );
     }
 }
+
+#[test]
+fn a_hub_refuses_to_rotate_an_mcap_log_or_to_write_over_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("run.mcap");
+    let (code, _, err) = run_bounded(
+        &[
+            "hub",
+            "--bind",
+            "127.0.0.1:0",
+            "--log",
+            file.to_str().unwrap(),
+            "--log-max",
+            "1M",
+        ],
+        "warn",
+    );
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("--log-max rotates .clog logs only"), "{err}");
+    std::fs::write(&file, b"an earlier run").unwrap();
+    let (code, _, err) = run_bounded(
+        &[
+            "hub",
+            "--bind",
+            "127.0.0.1:0",
+            "--log",
+            file.to_str().unwrap(),
+        ],
+        "warn",
+    );
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("is never appended to"), "{err}");
+    assert_eq!(std::fs::read(&file).unwrap(), b"an earlier run");
+}
