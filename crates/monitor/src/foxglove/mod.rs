@@ -12,7 +12,8 @@
 //! - **Nothing waits for a viewer.** The feed is a `tokio` broadcast: the bridge never blocks
 //!   on it, and does nothing for it beyond noting a topic while no viewer is connected. A viewer
 //!   that falls behind the broadcast misses messages, and each connection keeps at most the
-//!   newest message per channel waiting ([`session`]); both are counted and told to the viewer.
+//!   few newest messages of each channel waiting ([`session`]); both are counted and told to the
+//!   viewer.
 //!   JSON is written on the web server's threads, for the channels a viewer subscribed to.
 //! - **Publishing is the override.** A viewer may publish only the operator's override
 //!   ([`session::OVERRIDE_TOPIC`] or `radio`), which becomes the monitor page's own commands,

@@ -336,7 +336,7 @@ impl<P: Clone> Session<P> {
                 Level::Warning,
                 &format!(
                     "this connection is slower than the data: {n} messages dropped \
-                     ({} in all); the newest of each channel is sent",
+                     ({} in all); the newest of each channel are sent",
                     self.dropped
                 ),
             );
