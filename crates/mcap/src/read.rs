@@ -54,6 +54,9 @@ pub struct McapReader {
     path: PathBuf,
     offset: u64,
     len: u64,
+    /// Whether the file ends in the MCAP magic, as only a finished file does:
+    /// then nothing in it is a torn end, and a record cut short is corruption.
+    ends_whole: bool,
     /// For each channel id seen, whether its messages are JSON.
     channels: HashMap<u16, bool>,
     pending: VecDeque<Record>,
@@ -87,11 +90,19 @@ impl McapReader {
                 })
             }
         }
+        let mut tail = [0u8; 8];
+        let ends_whole = len >= 16 && {
+            file.seek(SeekFrom::Start(len - 8)).map_err(io_err)?;
+            file.read_exact(&mut tail).map_err(io_err)?;
+            file.seek(SeekFrom::Start(8)).map_err(io_err)?;
+            &tail == MAGIC
+        };
         Ok(McapReader {
             file,
             path: path.to_owned(),
             offset: 8,
             len,
+            ends_whole,
             channels: HashMap::new(),
             pending: VecDeque::new(),
             end: None,
@@ -152,12 +163,22 @@ impl McapReader {
         }
     }
 
-    fn torn(&mut self) {
+    /// Ends the reading at a record that is not whole: the torn end a crash
+    /// leaves, unless the file ends as only a finished one does.
+    fn torn(&mut self) -> Result<(), McapLogError> {
+        if self.ends_whole {
+            self.done = true;
+            return Err(self.corrupt(
+                self.offset,
+                "a record cut short in a file that ends as a finished one does (its length is damaged)",
+            ));
+        }
         self.end = Some(McapEnd::Torn {
             offset: self.offset,
             bytes: self.len - self.offset,
         });
         self.done = true;
+        Ok(())
     }
 
     /// Reads one top-level record, queueing the messages it holds.
@@ -165,8 +186,7 @@ impl McapReader {
         let remaining = self.len - self.offset;
         if remaining < 9 {
             // Nothing, or less than a record's opcode and length.
-            self.torn();
-            return Ok(());
+            return self.torn();
         }
         let mut head = [0u8; 9];
         self.file.read_exact(&mut head).map_err(|e| self.io(e))?;
@@ -174,16 +194,14 @@ impl McapReader {
         let len = u64::from_le_bytes(head[1..].try_into().expect("8 bytes"));
         if opcode == 0 && len == 0 && self.rest_is_zeros().map_err(|e| self.io(e))? {
             // What a power cut leaves at the end of a file.
-            self.torn();
-            return Ok(());
+            return self.torn();
         }
         if !(OP_HEADER..=OP_DATA_END).contains(&opcode) && opcode < 0x80 {
             return Err(self.corrupt(self.offset, format!("no record has opcode {opcode:#04x}")));
         }
         if len > remaining - 9 {
             // A record cut short: what a crash leaves at the end.
-            self.torn();
-            return Ok(());
+            return self.torn();
         }
         let start = self.offset;
         let next = self.offset + 9 + len;

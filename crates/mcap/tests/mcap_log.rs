@@ -224,3 +224,22 @@ fn a_write_error_is_returned_not_panicked_and_nothing_follows_it() {
         Ok(_) => panic!("writing the header to /dev/full succeeded"),
     }
 }
+
+#[test]
+fn a_damaged_length_in_a_finished_file_is_corruption_not_a_torn_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("a.mcap");
+    write(&path, 500, 100, true);
+    let mut bytes = std::fs::read(&path).unwrap();
+    // The first chunk follows the magic and the header record.
+    let header_len = u64::from_le_bytes(bytes[9..17].try_into().unwrap()) as usize;
+    let chunk = 8 + 9 + header_len;
+    assert_eq!(bytes[chunk], 0x06, "a chunk");
+    bytes[chunk + 1..chunk + 9].copy_from_slice(&(1u64 << 40).to_le_bytes());
+    std::fs::write(&path, &bytes).unwrap();
+    let mut r = McapReader::open(&path).unwrap();
+    match r.find_map(Result::err) {
+        Some(McapLogError::Corrupt { offset, .. }) => assert_eq!(offset, chunk as u64),
+        other => panic!("{other:?}"),
+    }
+}
