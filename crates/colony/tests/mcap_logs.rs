@@ -502,3 +502,75 @@ fn a_hub_refuses_to_rotate_an_mcap_log_or_to_write_over_one() {
     assert!(err.contains("is never appended to"), "{err}");
     assert_eq!(std::fs::read(&file).unwrap(), b"an earlier run");
 }
+
+#[test]
+fn a_hub_whose_mcap_log_fails_says_so_and_serves_on() {
+    use std::io::Read as _;
+    let dir = tempfile::tempdir().unwrap();
+    // A pipe whose reader goes away: the next write fails (EPIPE) as a full disk's would.
+    let fifo = dir.path().join("log.mcap");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    assert!(made.is_ok_and(|s| s.success()), "mkfifo");
+    let (close, closing) = std::sync::mpsc::channel::<()>();
+    let reader_path = fifo.clone();
+    let reader = std::thread::spawn(move || {
+        let mut pipe = std::fs::File::open(&reader_path).unwrap();
+        let mut magic = [0u8; 8];
+        pipe.read_exact(&mut magic).unwrap();
+        let _ = closing.recv_timeout(Duration::from_secs(20));
+        magic
+    });
+    let err_file = dir.path().join("hub.err");
+    let mut child = common::colony()
+        .args([
+            "hub",
+            "--bind",
+            "127.0.0.1:0",
+            "--log",
+            fifo.to_str().unwrap(),
+        ])
+        .env("COLONY_LOG", "info")
+        .env("NO_COLOR", "1")
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(&err_file).unwrap())
+        .spawn()
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let addr = loop {
+        let text = std::fs::read_to_string(&err_file).unwrap();
+        if let Some(rest) = text.split("addr=").nth(1) {
+            break rest.split_whitespace().next().unwrap().to_string();
+        }
+        assert!(Instant::now() < deadline, "the hub never listened: {text}");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    close.send(()).unwrap();
+    assert_eq!(&reader.join().unwrap(), colony_mcap::MAGIC);
+    let hub: std::net::SocketAddr = addr.parse().unwrap();
+    let mut sub = common::subscribed(hub, &["after"]);
+    let mut client = colony_client::UdpClient::connect(hub).unwrap();
+    // Traffic for over a second: a chunk is closed and its write fails.
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !std::fs::read_to_string(&err_file)
+        .unwrap()
+        .contains("traffic log failed")
+    {
+        assert!(Instant::now() < deadline, "the log never failed");
+        client.publish(b"@ <load> 0\nmsg n 1\n").unwrap();
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // The hub serves on, without its log.
+    client.publish(b"@ <after> 0\nnote text \"still here\"\n").unwrap();
+    let got = common::drain_until(&mut sub, Instant::now() + Duration::from_secs(5), |g| {
+        !g.is_empty()
+    });
+    assert!(got.iter().any(|p| p.contains("still here")), "{got:?}");
+    assert!(
+        child.try_wait().unwrap().is_none(),
+        "the hub is still running"
+    );
+    let _ = child.kill();
+    let _ = child.wait();
+    let text = std::fs::read_to_string(&err_file).unwrap();
+    assert!(!text.contains("panicked"), "{text}");
+}
