@@ -105,7 +105,8 @@ impl McapLogWriter {
             // its data.
             .disable_seeking(true)
             // Compress on the writing thread: the hub starts no threads for it.
-            .compression_threads(0);
+            .compression_threads(0)
+            .compression_level(1);
         let writer = options
             .create(NoSeek::new(Fused {
                 file,
