@@ -560,7 +560,9 @@ fn a_hub_whose_mcap_log_fails_says_so_and_serves_on() {
         std::thread::sleep(Duration::from_millis(50));
     }
     // The hub serves on, without its log.
-    client.publish(b"@ <after> 0\nnote text \"still here\"\n").unwrap();
+    client
+        .publish(b"@ <after> 0\nnote text \"still here\"\n")
+        .unwrap();
     let got = common::drain_until(&mut sub, Instant::now() + Duration::from_secs(5), |g| {
         !g.is_empty()
     });
