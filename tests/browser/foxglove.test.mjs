@@ -119,6 +119,11 @@ describe('the Foxglove WebSocket, against a live colony demo', { concurrency: fa
     assert.equal(byId.robots.arrows.length, 4);
     assert.ok('w' in byId.robots.cubes[0].pose.orientation);
     assert.equal(byId.pucks.cylinders.length, 40);
+    // The arena's frame is placed in `world`, so a 3D panel has a tree to choose from.
+    const fsub = client.subscribe(channels.get('/colony/frames').id);
+    const frames = await until(() => (bySub.get(fsub) || []).at(-1), 20000, 'no frame transforms');
+    client.unsubscribe(fsub);
+    assert.ok(frames.json.transforms.some((t) => t.parent_frame_id === 'world' && t.child_frame_id === 'arena'));
   });
 
   test('an override the viewer publishes holds a robot and drives it in the simulator', async () => {

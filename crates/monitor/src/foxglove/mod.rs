@@ -7,7 +7,9 @@
 //!   [`MAX_CHANNELS`]), advertised at once to every viewer, with encoding `json` and
 //!   colony-schema's JSON Schema. Besides the hub's channels, three scene topics: the arena
 //!   ([`ARENA_TOPIC`]) and the battlefield ([`BATTLEFIELD_TOPIC`], [`TERRAIN_TOPIC`]) as
-//!   `foxglove.SceneUpdate` (see [`scene`]); a new subscriber gets each scene's newest at once.
+//!   `foxglove.SceneUpdate` (see [`scene`]), and their frames placed in `world`
+//!   ([`FRAMES_TOPIC`], `foxglove.FrameTransforms`); a new subscriber gets each one's newest at
+//!   once.
 //! - **Receive timestamps.** Each message carries the wall-clock time the monitor received it.
 //! - **Nothing waits for a viewer.** The feed is a `tokio` broadcast: the bridge never blocks
 //!   on it, and does nothing for it beyond noting a topic while no viewer is connected. A viewer
@@ -48,6 +50,8 @@ pub const ARENA_TOPIC: &str = "/colony/arena";
 pub const BATTLEFIELD_TOPIC: &str = "/colony/battlefield";
 /// The battlefield's terrain (sent when the map changes).
 pub const TERRAIN_TOPIC: &str = "/colony/battlefield/terrain";
+/// The scene frames placed in a common `world` frame (`foxglove.FrameTransforms`).
+pub const FRAMES_TOPIC: &str = "/colony/frames";
 /// Channels advertised at most (the hub counts at most 1,024 channels of its own).
 pub const MAX_CHANNELS: usize = 1024;
 /// Messages the broadcast holds for a viewer that is behind, at most.
@@ -115,6 +119,7 @@ pub struct Feed {
     arena: u32,
     battlefield: u32,
     terrain: u32,
+    frames: u32,
 }
 
 /// The web server's end: what each connection reads.
@@ -144,6 +149,7 @@ pub fn feed() -> (Feed, Viewers) {
         arena: 0,
         battlefield: 0,
         terrain: 0,
+        frames: 0,
     };
     let schema = scene::scene_update_schema();
     for (i, topic) in [ARENA_TOPIC, BATTLEFIELD_TOPIC, TERRAIN_TOPIC]
@@ -157,6 +163,13 @@ pub fn feed() -> (Feed, Viewers) {
             _ => feed.terrain = id.unwrap_or(0),
         }
     }
+    feed.frames = feed
+        .register(
+            FRAMES_TOPIC,
+            scene::FRAME_TRANSFORMS.into(),
+            scene::frame_transforms_schema(),
+        )
+        .unwrap_or(0);
     let session_id: Arc<str> = Arc::from(now_ns().to_string());
     (
         feed,
@@ -253,14 +266,16 @@ impl Feed {
         });
     }
 
-    /// The arena's newest scene (see [`scene::arena_scene`]).
+    /// The arena's newest scene (see [`scene::arena_scene`]), and the frames with its time.
     pub fn on_arena(&mut self, json: Vec<u8>, receive_ns: u64) {
         self.send_scene(self.arena, receive_ns, json);
+        self.send_scene(self.frames, receive_ns, scene::frame_transforms(receive_ns));
     }
 
-    /// The battlefield's robots and flags.
+    /// The battlefield's robots and flags, and the frames with their time.
     pub fn on_battlefield(&mut self, json: Vec<u8>, receive_ns: u64) {
         self.send_scene(self.battlefield, receive_ns, json);
+        self.send_scene(self.frames, receive_ns, scene::frame_transforms(receive_ns));
     }
 
     /// The battlefield's terrain.

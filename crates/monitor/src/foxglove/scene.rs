@@ -23,6 +23,10 @@ pub const SCENE_UPDATE: &str = "foxglove.SceneUpdate";
 pub const ARENA_FRAME: &str = "arena";
 /// The frame the battlefield's entities are in.
 pub const BATTLEFIELD_FRAME: &str = "battlefield";
+/// The schema name of a list of frame transforms.
+pub const FRAME_TRANSFORMS: &str = "foxglove.FrameTransforms";
+/// The frame both views are placed in (each at its origin, unturned).
+pub const WORLD_FRAME: &str = "world";
 /// Terrain boxes at most (a larger map is drawn in part).
 pub const MAX_TERRAIN_BOXES: usize = 50_000;
 
@@ -325,6 +329,44 @@ pub fn battlefield_scene(state: &GameStateView, ns: u64) -> Vec<u8> {
     serde_json::to_vec(&json!({ "deletions": [], "entities": entities })).unwrap_or_default()
 }
 
+/// The arena's and the battlefield's frames, each placed at the origin of [`WORLD_FRAME`], at
+/// time `ns`, as one `foxglove.FrameTransforms`: the 3D panel then has a tree to choose a
+/// display frame from.
+pub fn frame_transforms(ns: u64) -> Vec<u8> {
+    let transforms: Vec<Value> = [ARENA_FRAME, BATTLEFIELD_FRAME]
+        .into_iter()
+        .map(|child| {
+            json!({
+                "timestamp": stamp(ns),
+                "parent_frame_id": WORLD_FRAME,
+                "child_frame_id": child,
+                "translation": v3(0.0, 0.0, 0.0),
+                "rotation": { "x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0 },
+            })
+        })
+        .collect();
+    serde_json::to_vec(&json!({ "transforms": transforms })).unwrap_or_default()
+}
+
+/// A JSON Schema for `foxglove.FrameTransforms` as [`frame_transforms`] writes it.
+pub fn frame_transforms_schema() -> String {
+    let num = json!({ "type": "number" });
+    let vec3 = json!({ "type": "object", "properties": { "x": num, "y": num, "z": num } });
+    let quat =
+        json!({ "type": "object", "properties": { "x": num, "y": num, "z": num, "w": num } });
+    let time = json!({ "type": "object", "properties": {
+        "sec": { "type": "integer" }, "nsec": { "type": "integer" } } });
+    let transform = json!({ "type": "object", "title": "foxglove.FrameTransform", "properties": {
+        "timestamp": time, "parent_frame_id": { "type": "string" },
+        "child_frame_id": { "type": "string" }, "translation": vec3, "rotation": quat } });
+    json!({
+        "title": FRAME_TRANSFORMS,
+        "type": "object",
+        "properties": { "transforms": { "type": "array", "items": transform } },
+    })
+    .to_string()
+}
+
 /// A JSON Schema for `foxglove.SceneUpdate` as colony writes it (the fields above; the viewer
 /// knows the type by its name).
 pub fn scene_update_schema() -> String {
@@ -475,6 +517,18 @@ mod tests {
         assert_eq!(cubes[0]["size"]["x"], 2.0);
         assert_eq!(cubes[0]["pose"]["position"]["x"], 1.0);
         assert_eq!(cubes[0]["pose"]["position"]["y"], 1.5);
+    }
+
+    #[test]
+    fn both_views_are_placed_in_the_world_frame() {
+        let t: Value = serde_json::from_slice(&frame_transforms(7)).unwrap();
+        let list = t["transforms"].as_array().unwrap();
+        assert_eq!(list.len(), 2);
+        assert!(list.iter().all(|t| t["parent_frame_id"] == WORLD_FRAME));
+        assert_eq!(list[0]["child_frame_id"], ARENA_FRAME);
+        assert_eq!(list[0]["rotation"]["w"], 1.0);
+        let s: Value = serde_json::from_str(&frame_transforms_schema()).unwrap();
+        assert_eq!(s["title"], FRAME_TRANSFORMS);
     }
 
     #[test]
