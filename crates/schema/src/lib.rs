@@ -25,8 +25,11 @@
 
 mod channels;
 
+use std::collections::HashMap;
+use std::io::Write as _;
+
 use colony_wire::{Fields, Packet, Value};
-use serde_json::{Map, Number, Value as Json};
+use serde_json::Value as Json;
 
 pub use channels::{schema_for, Schema};
 
@@ -43,52 +46,143 @@ pub fn topic(packet: &Packet<'_>) -> String {
 
 /// The packet as a JSON message (see the crate's documentation), with the
 /// address it came from when known.
+///
+/// Written straight into one buffer, labels in the order they first appear:
+/// a hub logging every packet to MCAP calls this once per packet.
 pub fn to_json(packet: &Packet<'_>, source: Option<&str>) -> Vec<u8> {
-    let mut lines: Map<String, Json> = Map::new();
+    // Each label's lines, as JSON objects joined by commas, in first-seen order.
+    let mut labels: Vec<(&str, Vec<u8>)> = Vec::new();
+    let mut index: HashMap<&str, usize> = HashMap::new();
     for line in packet.lines() {
-        let entry = lines
-            .entry(line.label().to_owned())
-            .or_insert_with(|| Json::Array(Vec::new()));
-        if let Json::Array(all) = entry {
-            all.push(Json::Object(object(line.fields())));
+        let i = match index.get(line.label()) {
+            Some(&i) => i,
+            None => {
+                index.insert(line.label(), labels.len());
+                labels.push((line.label(), Vec::new()));
+                labels.len() - 1
+            }
+        };
+        let out = &mut labels[i].1;
+        if !out.is_empty() {
+            out.push(b',');
+        }
+        object(out, line.fields());
+    }
+    let mut out = Vec::with_capacity(packet.as_str().len() * 3 + 64);
+    out.extend_from_slice(b"{\"packet\":");
+    string(&mut out, packet.as_str());
+    out.extend_from_slice(b",\"subjects\":[");
+    for (i, s) in packet.subjects().enumerate() {
+        if i > 0 {
+            out.push(b',');
+        }
+        string(&mut out, s);
+    }
+    out.extend_from_slice(format!("],\"priority\":{}", packet.priority().0).as_bytes());
+    if let Some(source) = source {
+        out.extend_from_slice(b",\"source\":");
+        string(&mut out, source);
+    }
+    out.extend_from_slice(b",\"lines\":{");
+    for (i, (label, lines)) in labels.iter().enumerate() {
+        if i > 0 {
+            out.push(b',');
+        }
+        string(&mut out, label);
+        out.extend_from_slice(b":[");
+        out.extend_from_slice(lines);
+        out.push(b']');
+    }
+    out.extend_from_slice(b"}}");
+    out
+}
+
+/// A JSON string, escaped as JSON requires.
+fn string(out: &mut Vec<u8>, s: &str) {
+    if s.bytes().all(|b| b >= 0x20 && b != b'"' && b != b'\\') {
+        // Most labels, names and words need no escape at all.
+        out.push(b'"');
+        out.extend_from_slice(s.as_bytes());
+        out.push(b'"');
+    } else {
+        // Writing a &str into a Vec cannot fail.
+        let _ = serde_json::to_writer(&mut *out, s);
+    }
+}
+
+/// Whether `token` is written as JSON writes a number: `-?(0|[1-9][0-9]*)(.[0-9]+)?([eE][+-]?[0-9]+)?`.
+fn is_json_number(token: &str) -> bool {
+    let b = token.as_bytes();
+    let mut i = usize::from(b.first() == Some(&b'-'));
+    let digits = |i: &mut usize| {
+        let start = *i;
+        while b.get(*i).is_some_and(u8::is_ascii_digit) {
+            *i += 1;
+        }
+        *i - start
+    };
+    match b.get(i) {
+        Some(b'0') => i += 1,
+        Some(b'1'..=b'9') => {
+            digits(&mut i);
+        }
+        _ => return false,
+    }
+    if b.get(i) == Some(&b'.') {
+        i += 1;
+        if digits(&mut i) == 0 {
+            return false;
         }
     }
-    let mut message = Map::new();
-    message.insert("packet".into(), Json::String(packet.as_str().to_owned()));
-    message.insert(
-        "subjects".into(),
-        Json::Array(packet.subjects().map(|s| Json::String(s.into())).collect()),
-    );
-    message.insert("priority".into(), Json::from(packet.priority().0));
-    if let Some(source) = source {
-        message.insert("source".into(), Json::String(source.to_owned()));
+    if matches!(b.get(i), Some(b'e' | b'E')) {
+        i += 1;
+        if matches!(b.get(i), Some(b'+' | b'-')) {
+            i += 1;
+        }
+        if digits(&mut i) == 0 {
+            return false;
+        }
     }
-    message.insert("lines".into(), Json::Object(lines));
-    serde_json::to_vec(&Json::Object(message)).unwrap_or_default()
+    i == b.len()
 }
 
-fn object(fields: Fields<'_>) -> Map<String, Json> {
-    fields
-        .map(|f| (f.name.to_owned(), value(&f.value)))
-        .collect()
+/// The fields as a JSON object. A name repeated within one line or group is
+/// refused by the parser, so keys never repeat.
+fn object(out: &mut Vec<u8>, fields: Fields<'_>) {
+    out.push(b'{');
+    for (i, f) in fields.enumerate() {
+        if i > 0 {
+            out.push(b',');
+        }
+        string(out, f.name);
+        out.push(b':');
+        value(out, &f.value);
+    }
+    out.push(b'}');
 }
 
-fn value(v: &Value<'_>) -> Json {
+fn value(out: &mut Vec<u8>, v: &Value<'_>) {
     match v {
-        Value::Bare(token) => token
-            .parse::<i64>()
-            .map(Json::from)
-            .ok()
-            .or_else(|| {
-                token
-                    .parse::<f64>()
-                    .ok()
-                    .and_then(Number::from_f64)
-                    .map(Json::Number)
-            })
-            .unwrap_or_else(|| Json::String((*token).to_owned())),
-        Value::Quoted(q) => Json::String(q.unescape().into_owned()),
-        Value::Group(g) => Json::Object(object(g.fields())),
+        Value::Bare(token) => {
+            let finite = |t: &str| t.parse::<f64>().ok().filter(|x| x.is_finite());
+            // Without an exponent, fewer than 300 digits cannot overflow an f64.
+            let short = token.len() < 300 && !token.contains(['e', 'E']);
+            if is_json_number(token) && (short || finite(token).is_some()) {
+                // The commonest case by far (`-18.24`, `3`): the token as written.
+                out.extend_from_slice(token.as_bytes());
+            } else if let Ok(i) = token.parse::<i64>() {
+                // `007`, `+5`: integers JSON would not take as written.
+                let _ = write!(out, "{i}");
+            } else if let Some(x) = finite(token) {
+                // `.5`, `5.`, `1E+3`.
+                let _ = serde_json::to_writer(&mut *out, &x);
+            } else {
+                // JSON has no NaN or infinity, and a word is a word.
+                string(out, token);
+            }
+        }
+        Value::Quoted(q) => string(out, &q.unescape()),
+        Value::Group(g) => object(out, g.fields()),
     }
 }
 
@@ -152,6 +246,32 @@ mod tests {
         assert_eq!(back, (text.to_owned(), None));
         assert_eq!(packet_text(b"{\"packet\": 5}"), None);
         assert_eq!(packet_text(b"not json"), None);
+    }
+
+    #[test]
+    fn numbers_json_would_not_take_as_written_are_rewritten() {
+        let j = json("@ <a> 0\nl a .5 b 5. c +5 d -0 e 1E+3 f 0x10 g 1.5e-3 h -\n");
+        let l = &j["lines"]["l"][0];
+        assert_eq!(l["a"], 0.5);
+        assert_eq!(l["b"], 5.0);
+        assert_eq!(l["c"], 5);
+        assert_eq!(l["d"].as_f64(), Some(0.0));
+        assert_eq!(l["e"], 1000.0);
+        assert_eq!(l["f"], "0x10");
+        assert_eq!(l["g"], 0.0015);
+        assert_eq!(l["h"], "-");
+        for ok in ["0", "-0", "1.5", "-1e5", "2E-3", "10"] {
+            assert!(is_json_number(ok), "{ok}");
+        }
+        for bad in ["", "-", "01", ".5", "5.", "1e", "+1", "1.e5", "0x1", "1e5x"] {
+            assert!(!is_json_number(bad), "{bad}");
+        }
+    }
+
+    #[test]
+    fn names_that_need_escapes_are_escaped() {
+        let j = json("@ <a> 0\nl\\x k\\y v\\z\n");
+        assert_eq!(j["lines"]["l\\x"][0]["k\\y"], "v\\z");
     }
 
     #[test]
