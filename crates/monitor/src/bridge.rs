@@ -287,7 +287,7 @@ impl Bridge {
             if (self.state.frame_version() != world_version && since >= WORLD_EVERY)
                 || since >= WORLD_AT_LEAST
             {
-                if self.state.frame_version() != world_version && self.feed.has_viewers() {
+                if self.state.frame_version() != world_version && self.feed.wants_arena() {
                     let world = self.state.world();
                     let caches = world.caches().iter().map(|((r, k), p)| (*r, k.0, p.x, p.y));
                     let scene = foxglove::scene::arena_scene(
@@ -308,7 +308,7 @@ impl Bridge {
             if (self.game.version() != game_version && since >= GAME_EVERY)
                 || since >= GAME_AT_LEAST
             {
-                if self.game.version() != game_version && self.feed.has_viewers() {
+                if self.game.version() != game_version && self.feed.wants_battlefield() {
                     if let Some(state) = self.game.state() {
                         let ns = foxglove::now_ns();
                         self.feed

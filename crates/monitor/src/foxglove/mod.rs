@@ -108,6 +108,9 @@ struct Registry {
 struct Counters {
     viewers: AtomicU64,
     dropped: AtomicU64,
+    /// Connections subscribed to the arena's scene, and to the battlefield's.
+    arena_subscribers: AtomicU64,
+    battlefield_subscribers: AtomicU64,
 }
 
 /// The bridge's end: where received packets and scenes are written.
@@ -115,6 +118,7 @@ struct Counters {
 pub struct Feed {
     tx: broadcast::Sender<Event>,
     registry: Arc<RwLock<Registry>>,
+    counters: Arc<Counters>,
     /// The scene channels' ids.
     arena: u32,
     battlefield: u32,
@@ -129,6 +133,8 @@ pub struct Viewers {
     registry: Arc<RwLock<Registry>>,
     counters: Arc<Counters>,
     session_id: Arc<str>,
+    /// The arena's and the battlefield's scene channels.
+    scenes: [u32; 2],
 }
 
 /// The wall clock now, nanoseconds since the Unix epoch.
@@ -146,6 +152,7 @@ pub fn feed() -> (Feed, Viewers) {
     let mut feed = Feed {
         tx: tx.clone(),
         registry: registry.clone(),
+        counters: counters.clone(),
         arena: 0,
         battlefield: 0,
         terrain: 0,
@@ -171,6 +178,7 @@ pub fn feed() -> (Feed, Viewers) {
         )
         .unwrap_or(0);
     let session_id: Arc<str> = Arc::from(now_ns().to_string());
+    let scenes = [feed.arena, feed.battlefield];
     (
         feed,
         Viewers {
@@ -178,14 +186,28 @@ pub fn feed() -> (Feed, Viewers) {
             registry,
             counters,
             session_id,
+            scenes,
         },
     )
 }
 
 impl Feed {
-    /// Whether any viewer is connected (else scenes need not be built).
+    /// Whether any viewer is connected (else packets need not be handed on).
     pub fn has_viewers(&self) -> bool {
         self.tx.receiver_count() > 0
+    }
+
+    /// Whether a viewer is subscribed to the arena's scene (else it need not be built).
+    pub fn wants_arena(&self) -> bool {
+        self.counters.arena_subscribers.load(Ordering::Relaxed) > 0
+    }
+
+    /// Whether a viewer is subscribed to the battlefield's scene.
+    pub fn wants_battlefield(&self) -> bool {
+        self.counters
+            .battlefield_subscribers
+            .load(Ordering::Relaxed)
+            > 0
     }
 
     /// Adds a channel, or finds it; `None` past [`MAX_CHANNELS`].
@@ -333,12 +355,33 @@ struct Gone {
     page: PageId,
     closed: Sender<PageId>,
     counters: Arc<Counters>,
+    /// Whether this connection is subscribed to the arena's scene, and the battlefield's.
+    scenes: [bool; 2],
+}
+
+impl Gone {
+    /// Counts this connection's scene subscriptions as `now`.
+    fn scenes(&mut self, now: [bool; 2]) {
+        let subscribers = [
+            &self.counters.arena_subscribers,
+            &self.counters.battlefield_subscribers,
+        ];
+        for ((was, now), count) in self.scenes.iter_mut().zip(now).zip(subscribers) {
+            match (*was, now) {
+                (false, true) => count.fetch_add(1, Ordering::Relaxed),
+                (true, false) => count.fetch_sub(1, Ordering::Relaxed),
+                _ => 0,
+            };
+            *was = now;
+        }
+    }
 }
 
 impl Drop for Gone {
     fn drop(&mut self) {
         let _ = self.closed.send(self.page);
         self.counters.viewers.fetch_sub(1, Ordering::Relaxed);
+        self.scenes([false, false]);
     }
 }
 
@@ -361,10 +404,11 @@ async fn carry_out(link: &Link, command: crate::state::Command) -> Result<String
 /// Runs one viewer's connection until it closes or the monitor stops.
 pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
     viewers.counters.viewers.fetch_add(1, Ordering::Relaxed);
-    let _gone = Gone {
+    let mut gone = Gone {
         page: link.page,
         closed: link.closed.clone(),
         counters: viewers.counters.clone(),
+        scenes: [false, false],
     };
     let mut rx = viewers.tx.subscribe();
     let mut s: Session<Payload> = Session::new("colony monitor", &viewers.session_id);
@@ -404,6 +448,7 @@ pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
                     Some(Ok(Message::Text(t))) => {
                         let before = subscribed_latched(&s, &viewers);
                         let commands = s.handle_text(t.as_str());
+                        gone.scenes(viewers.scenes.map(|c| s.is_subscribed(c)));
                         for (channel, ns, payload) in viewers.latched() {
                             if s.is_subscribed(channel) && !before.contains(&channel) {
                                 s.on_message(channel, ns, payload);
