@@ -12,6 +12,7 @@
 //! update replaces the last.
 
 use colony_proto::swarm::{Arena, Sizes, VisionFrame};
+use serde::Serialize;
 use serde_json::{json, Value};
 
 use crate::game::map::Map;
@@ -51,50 +52,191 @@ const TEAM_COLOURS: [[f64; 3]; 4] = [
 
 const CM: f64 = 0.01;
 
-fn stamp(ns: u64) -> Value {
-    json!({ "sec": ns / 1_000_000_000, "nsec": ns % 1_000_000_000 })
+// The message types, written with serde (a `serde_json::Value` per primitive cost 40 µs per
+// robot). Fields colony does not use are written empty, as the schema has them.
+
+#[derive(Serialize, Clone, Copy)]
+struct Time {
+    sec: u64,
+    nsec: u64,
 }
 
-fn colour(rgb: [f64; 3], a: f64) -> Value {
-    json!({ "r": rgb[0], "g": rgb[1], "b": rgb[2], "a": a })
+#[derive(Serialize, Clone, Copy)]
+struct Vec3 {
+    x: f64,
+    y: f64,
+    z: f64,
+}
+
+#[derive(Serialize, Clone, Copy)]
+struct Quat {
+    x: f64,
+    y: f64,
+    z: f64,
+    w: f64,
+}
+
+#[derive(Serialize, Clone, Copy)]
+struct Pose {
+    position: Vec3,
+    orientation: Quat,
+}
+
+#[derive(Serialize, Clone, Copy)]
+struct Color {
+    r: f64,
+    g: f64,
+    b: f64,
+    a: f64,
+}
+
+#[derive(Serialize)]
+struct Cube {
+    pose: Pose,
+    size: Vec3,
+    color: Color,
+}
+
+#[derive(Serialize)]
+struct Cylinder {
+    pose: Pose,
+    size: Vec3,
+    bottom_scale: f64,
+    top_scale: f64,
+    color: Color,
+}
+
+#[derive(Serialize)]
+struct Arrow {
+    pose: Pose,
+    shaft_length: f64,
+    shaft_diameter: f64,
+    head_length: f64,
+    head_diameter: f64,
+    color: Color,
+}
+
+#[derive(Serialize)]
+struct Line {
+    #[serde(rename = "type")]
+    kind: u8,
+    pose: Pose,
+    thickness: f64,
+    scale_invariant: bool,
+    points: Vec<Vec3>,
+    color: Color,
+    colors: [Color; 0],
+    indices: [u32; 0],
+}
+
+#[derive(Serialize)]
+struct Text {
+    pose: Pose,
+    billboard: bool,
+    font_size: f64,
+    scale_invariant: bool,
+    color: Color,
+    text: String,
+}
+
+#[derive(Serialize, Default)]
+struct Entity {
+    timestamp: Option<Time>,
+    frame_id: &'static str,
+    id: &'static str,
+    lifetime: Option<Time>,
+    frame_locked: bool,
+    metadata: [u8; 0],
+    arrows: Vec<Arrow>,
+    cubes: Vec<Cube>,
+    spheres: Vec<Cube>,
+    cylinders: Vec<Cylinder>,
+    lines: Vec<Line>,
+    triangles: [u8; 0],
+    texts: Vec<Text>,
+    models: [u8; 0],
+}
+
+impl Entity {
+    fn new(ns: u64, frame_id: &'static str, id: &'static str) -> Entity {
+        Entity {
+            timestamp: Some(stamp(ns)),
+            frame_id,
+            id,
+            lifetime: Some(Time { sec: 0, nsec: 0 }),
+            ..Default::default()
+        }
+    }
+}
+
+#[derive(Serialize)]
+struct SceneUpdate {
+    deletions: [u8; 0],
+    entities: Vec<Entity>,
+}
+
+impl SceneUpdate {
+    fn bytes(entities: Vec<Entity>) -> Vec<u8> {
+        serde_json::to_vec(&SceneUpdate {
+            deletions: [],
+            entities,
+        })
+        .unwrap_or_default()
+    }
+}
+
+fn stamp(ns: u64) -> Time {
+    Time {
+        sec: ns / 1_000_000_000,
+        nsec: ns % 1_000_000_000,
+    }
+}
+
+fn colour(rgb: [f64; 3], a: f64) -> Color {
+    Color {
+        r: rgb[0],
+        g: rgb[1],
+        b: rgb[2],
+        a,
+    }
+}
+
+/// A length in metres to a tenth of a millimetre (shorter JSON, and more than a viewer shows).
+fn m(v: f64) -> f64 {
+    if v.is_finite() {
+        (v * 1e4).round() / 1e4
+    } else {
+        0.0
+    }
 }
 
 /// A pose at (x, y, z) metres, turned `theta` about z.
-fn pose(x: f64, y: f64, z: f64, theta: f64) -> Value {
+fn pose(x: f64, y: f64, z: f64, theta: f64) -> Pose {
     let theta = if theta.is_finite() { theta } else { 0.0 };
-    json!({
-        "position": { "x": x, "y": y, "z": z },
-        "orientation": { "x": 0.0, "y": 0.0, "z": (theta / 2.0).sin(), "w": (theta / 2.0).cos() },
-    })
-}
-
-fn v3(x: f64, y: f64, z: f64) -> Value {
-    json!({ "x": x, "y": y, "z": z })
-}
-
-fn entity(ns: u64, frame: &str, id: &str, parts: Value) -> Value {
-    let mut e = json!({
-        "timestamp": stamp(ns),
-        "frame_id": frame,
-        "id": id,
-        "lifetime": { "sec": 0, "nsec": 0 },
-        "frame_locked": false,
-        "metadata": [],
-        "arrows": [], "cubes": [], "spheres": [], "cylinders": [], "lines": [],
-        "triangles": [], "texts": [], "models": [],
-    });
-    if let (Some(e), Some(parts)) = (e.as_object_mut(), parts.as_object()) {
-        for (k, v) in parts {
-            e.insert(k.clone(), v.clone());
-        }
+    let r = |v: f64| (v * 1e6).round() / 1e6;
+    Pose {
+        position: v3(x, y, z),
+        orientation: Quat {
+            x: 0.0,
+            y: 0.0,
+            z: r((theta / 2.0).sin()),
+            w: r((theta / 2.0).cos()),
+        },
     }
-    e
+}
+
+fn v3(x: f64, y: f64, z: f64) -> Vec3 {
+    Vec3 {
+        x: m(x),
+        y: m(y),
+        z: m(z),
+    }
 }
 
 /// The arena's walls: a rectangle with rounded corners centred on the origin, as points (m).
-fn wall_points(a: &Arena) -> Vec<Value> {
+fn wall_points(a: &Arena) -> Vec<Vec3> {
     let (hw, hh) = (a.width / 2.0 * CM, a.height / 2.0 * CM);
-    let r = (a.corner * CM).clamp(0.0, hw.min(hh));
+    let r = (a.corner * CM).clamp(0.0, hw.min(hh).max(0.0));
     let mut pts = Vec::new();
     // Corner centres, counter-clockwise from the top right, each with its arc's start angle.
     let corners = [
@@ -112,7 +254,8 @@ fn wall_points(a: &Arena) -> Vec<Value> {
     pts
 }
 
-/// The swarm's arena at the newest frame, with cache points, as one `foxglove.SceneUpdate`.
+/// The swarm's arena at the newest frame, with cache points (`(robot, kind, x, y)`, cm), as one
+/// `foxglove.SceneUpdate`.
 pub fn arena_scene(
     frame: &VisionFrame,
     arena: Option<Arena>,
@@ -128,110 +271,72 @@ pub fn arena_scene(
     });
     let mut entities = Vec::new();
     if let Some(a) = arena {
-        entities.push(entity(
-            ns,
-            ARENA_FRAME,
-            "walls",
-            json!({ "lines": [{
-                "type": 1,
-                "pose": pose(0.0, 0.0, 0.0, 0.0),
-                "thickness": 0.01,
-                "scale_invariant": false,
-                "points": wall_points(&a),
-                "color": colour([0.23, 0.25, 0.28], 1.0),
-                "colors": [],
-                "indices": [],
-            }] }),
-        ));
+        let mut walls = Entity::new(ns, ARENA_FRAME, "walls");
+        walls.lines.push(Line {
+            kind: 1,
+            pose: pose(0.0, 0.0, 0.0, 0.0),
+            thickness: 0.01,
+            scale_invariant: false,
+            points: wall_points(&a),
+            color: colour([0.23, 0.25, 0.28], 1.0),
+            colors: [],
+            indices: [],
+        });
+        entities.push(walls);
     }
     let (len, wid) = (sizes.robot_length * CM, sizes.robot_width * CM);
-    let cubes: Vec<Value> = frame
-        .robots
-        .iter()
-        .map(|r| {
-            json!({
-                "pose": pose(r.pose.x * CM, r.pose.y * CM, 0.025, r.pose.theta),
-                "size": v3(len, wid, 0.05),
-                "color": colour([0.11, 0.14, 0.17], 1.0),
-            })
-        })
-        .collect();
-    let arrows: Vec<Value> = frame
-        .robots
-        .iter()
-        .map(|r| {
-            json!({
-                "pose": pose(r.pose.x * CM, r.pose.y * CM, 0.06, r.pose.theta),
-                "shaft_length": len * 0.6,
-                "shaft_diameter": len * 0.1,
-                "head_length": len * 0.3,
-                "head_diameter": len * 0.25,
-                "color": colour([0.95, 0.72, 0.02], 1.0),
-            })
-        })
-        .collect();
-    let texts: Vec<Value> = frame
-        .robots
-        .iter()
-        .map(|r| {
-            json!({
-                "pose": pose(r.pose.x * CM, r.pose.y * CM, 0.1, 0.0),
-                "billboard": true,
-                "font_size": 12.0,
-                "scale_invariant": true,
-                "color": colour([0.0, 0.0, 0.0], 1.0),
-                "text": r.id.to_string(),
-            })
-        })
-        .collect();
-    entities.push(entity(
-        ns,
-        ARENA_FRAME,
-        "robots",
-        json!({ "cubes": cubes, "arrows": arrows, "texts": texts }),
-    ));
+    let mut robots = Entity::new(ns, ARENA_FRAME, "robots");
+    for r in &frame.robots {
+        let (x, y, theta) = (r.pose.x * CM, r.pose.y * CM, r.pose.theta);
+        robots.cubes.push(Cube {
+            pose: pose(x, y, 0.025, theta),
+            size: v3(len, wid, 0.05),
+            color: colour([0.11, 0.14, 0.17], 1.0),
+        });
+        robots.arrows.push(Arrow {
+            pose: pose(x, y, 0.06, theta),
+            shaft_length: m(len * 0.6),
+            shaft_diameter: m(len * 0.1),
+            head_length: m(len * 0.3),
+            head_diameter: m(len * 0.25),
+            color: colour([0.95, 0.72, 0.02], 1.0),
+        });
+        robots.texts.push(Text {
+            pose: pose(x, y, 0.1, 0.0),
+            billboard: true,
+            font_size: 12.0,
+            scale_invariant: true,
+            color: colour([0.0, 0.0, 0.0], 1.0),
+            text: r.id.to_string(),
+        });
+    }
+    entities.push(robots);
     let d = sizes.puck_diameter * CM;
-    let pucks: Vec<Value> = frame
+    let kind_colour = |k: u8| KIND_COLOURS[usize::from(k) % KIND_COLOURS.len()];
+    let mut pucks = Entity::new(ns, ARENA_FRAME, "pucks");
+    pucks.cylinders = frame
         .pucks
         .iter()
-        .map(|p| {
-            json!({
-                "pose": pose(p.pos.x * CM, p.pos.y * CM, 0.01, 0.0),
-                "size": v3(d, d, 0.02),
-                "color": colour(KIND_COLOURS[usize::from(p.kind.0) % KIND_COLOURS.len()], 1.0),
-            })
+        .map(|p| Cylinder {
+            pose: pose(p.pos.x * CM, p.pos.y * CM, 0.01, 0.0),
+            size: v3(d, d, 0.02),
+            bottom_scale: 1.0,
+            top_scale: 1.0,
+            color: colour(kind_colour(p.kind.0), 1.0),
         })
         .collect();
-    entities.push(entity(
-        ns,
-        ARENA_FRAME,
-        "pucks",
-        json!({ "cylinders": pucks.iter().map(|p| {
-            let mut p = p.clone();
-            if let Some(o) = p.as_object_mut() {
-                o.insert("bottom_scale".into(), json!(1.0));
-                o.insert("top_scale".into(), json!(1.0));
-            }
-            p
-        }).collect::<Vec<_>>() }),
-    ));
-    let caches: Vec<Value> = caches
+    entities.push(pucks);
+    let mut cache = Entity::new(ns, ARENA_FRAME, "caches");
+    cache.cubes = caches
         .into_iter()
-        .map(|(_, kind, x, y)| {
-            json!({
-                "pose": pose(x * CM, y * CM, 0.001, 0.0),
-                "size": v3(d * 1.5, d * 1.5, 0.002),
-                "color": colour(KIND_COLOURS[usize::from(kind) % KIND_COLOURS.len()], 0.45),
-            })
+        .map(|(_, kind, x, y)| Cube {
+            pose: pose(x * CM, y * CM, 0.001, 0.0),
+            size: v3(d * 1.5, d * 1.5, 0.002),
+            color: colour(kind_colour(kind), 0.45),
         })
         .collect();
-    entities.push(entity(
-        ns,
-        ARENA_FRAME,
-        "caches",
-        json!({ "cubes": caches }),
-    ));
-    serde_json::to_vec(&json!({ "deletions": [], "entities": entities })).unwrap_or_default()
+    entities.push(cache);
+    SceneUpdate::bytes(entities)
 }
 
 /// How tall a battlefield cell's box is, and its colour; `None`: open ground, not drawn.
@@ -248,7 +353,7 @@ fn terrain(c: char) -> Option<(f64, [f64; 3])> {
 /// The battlefield's terrain, as one `foxglove.SceneUpdate` (sent when the map changes).
 pub fn terrain_scene(map: &Map, ns: u64) -> Vec<u8> {
     let cell = map.cell * CM;
-    let mut cubes = Vec::new();
+    let mut terrain_entity = Entity::new(ns, BATTLEFIELD_FRAME, "terrain");
     'rows: for (row, text) in map.rows.iter().enumerate() {
         // The top row first: its y is the highest.
         let y = (f64::from(map.height) - 1.0 - row as f64 + 0.5) * cell;
@@ -258,26 +363,20 @@ pub fn terrain_scene(map: &Map, ns: u64) -> Vec<u8> {
             let c = chars[x];
             let run = chars[x..].iter().take_while(|&&d| d == c).count();
             if let Some((h, rgb)) = terrain(c) {
-                if cubes.len() >= MAX_TERRAIN_BOXES {
+                if terrain_entity.cubes.len() >= MAX_TERRAIN_BOXES {
                     break 'rows;
                 }
                 let cx = (x as f64 + run as f64 / 2.0) * cell;
-                cubes.push(json!({
-                    "pose": pose(cx, y, h / 2.0, 0.0),
-                    "size": v3(run as f64 * cell, cell, h),
-                    "color": colour(rgb, 1.0),
-                }));
+                terrain_entity.cubes.push(Cube {
+                    pose: pose(cx, y, h / 2.0, 0.0),
+                    size: v3(run as f64 * cell, cell, h),
+                    color: colour(rgb, 1.0),
+                });
             }
             x += run;
         }
     }
-    let entities = vec![entity(
-        ns,
-        BATTLEFIELD_FRAME,
-        "terrain",
-        json!({ "cubes": cubes }),
-    )];
-    serde_json::to_vec(&json!({ "deletions": [], "entities": entities })).unwrap_or_default()
+    SceneUpdate::bytes(vec![terrain_entity])
 }
 
 /// The game's robots and flags, as one `foxglove.SceneUpdate`.
@@ -286,47 +385,36 @@ pub fn battlefield_scene(state: &GameStateView, ns: u64) -> Vec<u8> {
         let i = state.teams.iter().position(|t| t.name == team).unwrap_or(0);
         TEAM_COLOURS[i % TEAM_COLOURS.len()]
     };
-    let mut cylinders = Vec::new();
-    let mut arrows = Vec::new();
+    let mut robots = Entity::new(ns, BATTLEFIELD_FRAME, "robots");
     for r in state.robots.iter().filter(|r| r.alive) {
         let (x, y) = (r.x * CM, r.y * CM);
-        cylinders.push(json!({
-            "pose": pose(x, y, 0.05, r.theta),
-            "size": v3(0.3, 0.3, 0.1),
-            "bottom_scale": 1.0,
-            "top_scale": 1.0,
-            "color": colour(team_colour(&r.team), 1.0),
-        }));
-        arrows.push(json!({
-            "pose": pose(x, y, 0.12, r.theta),
-            "shaft_length": 0.2,
-            "shaft_diameter": 0.04,
-            "head_length": 0.1,
-            "head_diameter": 0.1,
-            "color": colour([0.95, 0.95, 0.95], 1.0),
-        }));
+        robots.cylinders.push(Cylinder {
+            pose: pose(x, y, 0.05, r.theta),
+            size: v3(0.3, 0.3, 0.1),
+            bottom_scale: 1.0,
+            top_scale: 1.0,
+            color: colour(team_colour(&r.team), 1.0),
+        });
+        robots.arrows.push(Arrow {
+            pose: pose(x, y, 0.12, r.theta),
+            shaft_length: 0.2,
+            shaft_diameter: 0.04,
+            head_length: 0.1,
+            head_diameter: 0.1,
+            color: colour([0.95, 0.95, 0.95], 1.0),
+        });
     }
-    let flags: Vec<Value> = state
+    let mut flags = Entity::new(ns, BATTLEFIELD_FRAME, "flags");
+    flags.spheres = state
         .flags
         .iter()
-        .map(|f| {
-            json!({
-                "pose": pose(f.x * CM, f.y * CM, 0.3, 0.0),
-                "size": v3(0.2, 0.2, 0.2),
-                "color": colour(team_colour(&f.team), 1.0),
-            })
+        .map(|f| Cube {
+            pose: pose(f.x * CM, f.y * CM, 0.3, 0.0),
+            size: v3(0.2, 0.2, 0.2),
+            color: colour(team_colour(&f.team), 1.0),
         })
         .collect();
-    let entities = vec![
-        entity(
-            ns,
-            BATTLEFIELD_FRAME,
-            "robots",
-            json!({ "cylinders": cylinders, "arrows": arrows }),
-        ),
-        entity(ns, BATTLEFIELD_FRAME, "flags", json!({ "spheres": flags })),
-    ];
-    serde_json::to_vec(&json!({ "deletions": [], "entities": entities })).unwrap_or_default()
+    SceneUpdate::bytes(vec![robots, flags])
 }
 
 /// The arena's and the battlefield's frames, each placed at the origin of [`WORLD_FRAME`], at
@@ -336,11 +424,12 @@ pub fn frame_transforms(ns: u64) -> Vec<u8> {
     let transforms: Vec<Value> = [ARENA_FRAME, BATTLEFIELD_FRAME]
         .into_iter()
         .map(|child| {
+            let t = stamp(ns);
             json!({
-                "timestamp": stamp(ns),
+                "timestamp": { "sec": t.sec, "nsec": t.nsec },
                 "parent_frame_id": WORLD_FRAME,
                 "child_frame_id": child,
-                "translation": v3(0.0, 0.0, 0.0),
+                "translation": { "x": 0.0, "y": 0.0, "z": 0.0 },
                 "rotation": { "x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0 },
             })
         })
