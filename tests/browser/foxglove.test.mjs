@@ -181,6 +181,23 @@ describe('the Foxglove WebSocket, against a live colony demo', { concurrency: fa
     client.unsubscribe(radio);
   });
 
+  test('what a viewer holds is let go when it disconnects, as a page\'s is', async () => {
+    const radio = client.subscribe(channels.get('radio').id);
+    const other = new FoxgloveClient({ ws: new WebSocket(wsUrl, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]) });
+    await new Promise((resolve) => other.on('serverInfo', resolve));
+    const o = other.advertise({ topic: '/colony/override', encoding: 'json', schemaName: 'colony.Override' });
+    other.sendMessage(o, new TextEncoder().encode(JSON.stringify({ t: 'take', ids: [2] })));
+    const holds2 = (m) => m.json.priority === 10 && (m.json.lines.cmd || []).some((c) => c.id === 2);
+    await until(() => (bySub.get(radio) || []).some(holds2), 20000, 'robot 2 was not held');
+    other.close();
+    // Once the bridge hears the connection closed, no more override commands for robot 2.
+    await sleep(1500);
+    const n = (bySub.get(radio) || []).filter(holds2).length;
+    await sleep(2000);
+    assert.equal((bySub.get(radio) || []).filter(holds2).length, n, 'robot 2 still held after its viewer left');
+    client.unsubscribe(radio);
+  });
+
   test('after unsubscribing, no more messages come for the subscription', async () => {
     const sub = client.subscribe(channels.get('vision').id);
     await until(() => (bySub.get(sub) || []).length > 2, 20000, 'no vision');
