@@ -518,3 +518,73 @@ fn on_event(e: Event, s: &mut Session<Payload>, viewers: &Viewers) {
         } => s.on_message(channel, receive_ns, payload),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn packet(text: &str) -> Packet<'_> {
+        Packet::parse(text.as_bytes()).unwrap()
+    }
+
+    #[test]
+    fn each_topic_becomes_one_channel_with_its_schema_and_viewers_hear_of_it() {
+        let (mut feed, viewers) = feed();
+        let mut rx = viewers.tx.subscribe();
+        let scenes = viewers.channels().len();
+        assert_eq!(scenes, 4);
+        feed.on_packet(&packet("@ <vision> 20\nstep n 1\n"), 5);
+        feed.on_packet(&packet("@ <vision> 20\nstep n 2\n"), 6);
+        feed.on_packet(&packet("@ <a> <b> 0\nx y 1\n"), 7);
+        let channels = viewers.channels();
+        let topics: Vec<&str> = channels.iter().map(|c| c.topic.as_str()).collect();
+        assert_eq!(&topics[scenes..], ["vision", "a+b"]);
+        let vision = &channels[scenes];
+        assert_eq!(vision.encoding, "json");
+        assert_eq!(vision.schema_encoding, "jsonschema");
+        assert!(serde_json::from_str::<serde_json::Value>(&vision.schema).is_ok());
+        // A new channel is announced, then each message with its receive time.
+        let mut got = Vec::new();
+        while let Ok(e) = rx.try_recv() {
+            got.push(match e {
+                Event::Channels => "channels".to_string(),
+                Event::Message {
+                    channel,
+                    receive_ns,
+                    payload,
+                } => {
+                    let json: serde_json::Value =
+                        serde_json::from_slice(&payload.to_json()).unwrap();
+                    format!("{channel}@{receive_ns}:{}", json["subjects"])
+                }
+            });
+        }
+        let v = vision.id;
+        assert_eq!(
+            got,
+            [
+                "channels".to_string(),
+                format!("{v}@5:[\"vision\"]"),
+                format!("{v}@6:[\"vision\"]"),
+                "channels".to_string(),
+                format!("{}@7:[\"a\",\"b\"]", v + 1),
+            ]
+        );
+    }
+
+    #[test]
+    fn channels_are_bounded_and_scenes_wait_for_new_subscribers() {
+        let (mut feed, viewers) = feed();
+        for i in 0..MAX_CHANNELS + 10 {
+            let text = format!("@ <c{i}> 0\nx\n");
+            feed.on_packet(&packet(&text), 0);
+        }
+        assert_eq!(viewers.channels().len(), MAX_CHANNELS);
+        assert_eq!(viewers.registry.read().unwrap().not_advertised, 14);
+        // No viewer: packets are not handed on, but a scene is kept for the next subscriber.
+        assert!(!feed.has_viewers() && !feed.wants_arena());
+        feed.on_arena(b"{}".to_vec(), 9);
+        let latched: Vec<u32> = viewers.latched().iter().map(|(c, _, _)| *c).collect();
+        assert!(latched.contains(&feed.arena) && latched.contains(&feed.frames));
+    }
+}
