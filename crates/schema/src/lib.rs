@@ -15,7 +15,9 @@
 //! ```
 //!
 //! Each label is an array (a label may repeat: the format's arrays), so a
-//! viewer plots robot 3's `x` as `/vision.lines.robot[:]{id==3}.x`. A bare
+//! viewer plots robot 3's `x` as `"vision".lines.robot[:]{id==3}.x` (Foxglove's
+//! message-path syntax, the topic quoted since colony's topics carry no leading
+//! slash and may hold dots: `"game.state".lines.flag[:]{team=="red"}.x`). A bare
 //! token that reads as an integer is an integer, one that reads as a finite
 //! number is a number, anything else (and every quoted string) a string; a
 //! group is an object. [`schema_for`] gives the JSON Schema of a channel:
