@@ -10,7 +10,8 @@ import assert from 'node:assert/strict';
 import { after, before, describe, test } from 'node:test';
 import foxglove from '@foxglove/ws-protocol';
 import WebSocket from 'ws';
-import { ColonyProcess, freeUdpPort, sleep } from './lib.mjs';
+import { spawnSync } from 'node:child_process';
+import { ColonyProcess, colonyBin, freeUdpPort, sleep } from './lib.mjs';
 
 const { FoxgloveClient } = foxglove;
 const SPEED = 2;
@@ -239,6 +240,36 @@ describe('the Foxglove WebSocket, against a live colony demo', { concurrency: fa
     assert.equal(noToken.status, 403);
   });
 
+  test('viewers past the cap are closed with a reason; the others carry on', async () => {
+    const conns = [];
+    let refused;
+    for (let i = 0; i < 20 && !refused; i++) {
+      const ws = new WebSocket(wsUrl, ['foxglove.websocket.v1']);
+      const c = { ws, closed: null };
+      c.closedP = new Promise((r) => ws.on('close', (code, reason) => { c.closed = { code, reason: reason.toString() }; r(); }));
+      // Either it is served (its advertise comes) or it is closed.
+      await new Promise((r) => {
+        ws.on('message', r);
+        c.closedP.then(r);
+      });
+      conns.push(c);
+      if (c.closed) refused = c.closed;
+    }
+    assert.ok(refused, 'no connection was refused');
+    assert.equal(refused.code, 1013);
+    assert.match(refused.reason, /too many Foxglove viewers/);
+    for (const c of conns) c.ws.close();
+    await Promise.all(conns.map((c) => c.closedP));
+    // Room again once they left: a new viewer is served.
+    await until(async () => {
+      const c = await raw(wsUrl);
+      await until(() => c.frames.length > 0 || c.ws.readyState !== WebSocket.OPEN, 10000, 'no answer');
+      const served = c.frames.some((f) => f.op === 'serverInfo');
+      c.ws.close();
+      return served;
+    }, 20000, 'no room after the viewers left');
+  });
+
   test('hostile input gets status errors, never a crash; publishing elsewhere is refused', async () => {
     const c = await raw(wsUrl);
     assert.ok(c.opened);
@@ -307,4 +338,11 @@ describe('the Foxglove WebSocket during a live game', { concurrency: false, time
     assert.ok(terrain.entities[0].cubes.length > 0);
     assert.ok(channels.has('game.state'), [...channels.keys()].join(' '));
   });
+});
+
+test('the monitor refuses --foxglove-origin with --no-token', () => {
+  const r = spawnSync(colonyBin(), ['monitor', '--no-token', '--foxglove-origin', 'https://app.foxglove.dev',
+    '--bind', '127.0.0.1:0'], { encoding: 'utf8', timeout: 20000 });
+  assert.notEqual(r.status, 0, r.stdout);
+  assert.match(r.stderr, /--foxglove-origin with --no-token/);
 });

@@ -47,6 +47,8 @@ const HUB_VIEW_EVERY: Duration = Duration::from_secs(1);
 /// The game view is sent at most this often (the game's state comes 5
 /// times a game second, faster when the game runs fast)...
 const GAME_EVERY: Duration = Duration::from_millis(50);
+/// The Foxglove terrain scene is built at most this often (a map can make a large one).
+const TERRAIN_EVERY: Duration = Duration::from_secs(1);
 /// ...and at least this often, so the page sees the game go stale.
 const GAME_AT_LEAST: Duration = Duration::from_millis(500);
 /// The task board is sent at most this often...
@@ -189,6 +191,9 @@ impl Bridge {
         let mut game_version = 0;
         let mut chat_version = 0;
         let mut map_version = 0;
+        // The map changed since the Foxglove terrain was last built; built only for a viewer.
+        let mut terrain_dirty = false;
+        let mut last_terrain: Option<Instant> = None;
         let mut last_tasks = start;
         let mut tasks_version = 0;
         while !stop.load(Ordering::Relaxed) {
@@ -336,12 +341,20 @@ impl Bridge {
             // gets the newest on connecting anyway.
             if self.game.map_version() != map_version {
                 map_version = self.game.map_version();
+                terrain_dirty = true;
+                self.map_tx.send_replace(Arc::from(self.game.map_json()));
+            }
+            if terrain_dirty
+                && self.feed.wants_battlefield()
+                && last_terrain.is_none_or(|t| now.saturating_duration_since(t) >= TERRAIN_EVERY)
+            {
+                terrain_dirty = false;
+                last_terrain = Some(now);
                 if let Some(map) = self.game.map() {
                     let ns = foxglove::now_ns();
                     self.feed
                         .on_terrain(foxglove::scene::terrain_scene(map, ns), ns);
                 }
-                self.map_tx.send_replace(Arc::from(self.game.map_json()));
             }
             if now >= next_hub_view || new_status {
                 next_hub_view = now + HUB_VIEW_EVERY;

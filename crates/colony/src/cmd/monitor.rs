@@ -36,7 +36,22 @@ pub struct Args {
     pub key: Option<std::path::PathBuf>,
 }
 
+/// Refuses what would open the robots to the web: another site's pages let into the Foxglove
+/// endpoint with no token to stop them.
+fn check(args: &Args) -> anyhow::Result<()> {
+    if args.no_token && !args.foxglove_origin.is_empty() {
+        anyhow::bail!(
+            "--foxglove-origin with --no-token would let any page of {} drive the robots \
+             without a token; drop --no-token (the hosted viewer takes the token in the \
+             printed address)",
+            args.foxglove_origin.join(", ")
+        );
+    }
+    Ok(())
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
+    check(&args)?;
     let stop = super::stop_flag()?;
     let monitor = Monitor::start(&MonitorConfig {
         hub: args.hub.addr.clone(),

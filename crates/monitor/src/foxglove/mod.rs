@@ -30,7 +30,7 @@ pub mod session;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{Sender, SyncSender, TrySendError};
-use std::sync::{Arc, RwLock};
+use std::sync::{Arc, OnceLock, RwLock};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use axum::extract::ws::{Message, WebSocket};
@@ -54,30 +54,52 @@ pub const TERRAIN_TOPIC: &str = "/colony/battlefield/terrain";
 pub const FRAMES_TOPIC: &str = "/colony/frames";
 /// Channels advertised at most (the hub counts at most 1,024 channels of its own).
 pub const MAX_CHANNELS: usize = 1024;
+/// Channels kept for topics of one subject (the monitor subscribes to well under this many
+/// subjects): subject-set topics, which a forger can make by the thousand, stop short of them.
+pub const SINGLE_SUBJECT_RESERVE: usize = 256;
+/// Foxglove viewers connected at once, at most; further connections are closed with a reason.
+pub const MAX_VIEWERS: u64 = 16;
 /// Messages the broadcast holds for a viewer that is behind, at most.
 const FEED_CAPACITY: usize = 512;
 /// A viewer's own message is read up to this size (an override request is a few dozen bytes).
 pub const MAX_VIEWER_MESSAGE: usize = 64 * 1024;
 
-/// A message for viewers: a hub packet's text (written as JSON for each viewer that wants it)
-/// or a message already in JSON (a scene).
+/// A message for viewers: a hub packet's text (written as JSON once, by the first viewer that
+/// wants it, and shared by the rest) or a message already in JSON (a scene).
 #[derive(Debug, Clone)]
 pub enum Payload {
     /// A packet as received.
-    Packet(Arc<[u8]>),
+    Packet(Arc<PacketText>),
     /// JSON, as it goes out.
     Json(Arc<[u8]>),
 }
 
+/// A packet's text and, once a viewer asked, its JSON.
+#[derive(Debug)]
+pub struct PacketText {
+    text: Box<[u8]>,
+    json: OnceLock<Arc<[u8]>>,
+}
+
 impl Payload {
-    /// The message as a viewer gets it.
-    fn to_json(&self) -> Vec<u8> {
+    fn packet(text: &[u8]) -> Self {
+        Payload::Packet(Arc::new(PacketText {
+            text: text.into(),
+            json: OnceLock::new(),
+        }))
+    }
+
+    /// The message as a viewer gets it (the same bytes for every viewer).
+    fn to_json(&self) -> Arc<[u8]> {
         match self {
-            Payload::Json(j) => j.to_vec(),
-            Payload::Packet(p) => match Packet::parse(p) {
-                Ok(p) => colony_schema::to_json(&p, None),
-                Err(_) => Vec::new(),
-            },
+            Payload::Json(j) => j.clone(),
+            Payload::Packet(p) => p
+                .json
+                .get_or_init(|| match Packet::parse(&p.text) {
+                    Ok(p) => Arc::from(colony_schema::to_json(&p, None)),
+                    Err(_) => Arc::from(Vec::new()),
+                })
+                .clone(),
         }
     }
 }
@@ -99,8 +121,6 @@ struct Registry {
     channels: Vec<Channel>,
     /// The newest message of each scene channel, for new subscribers.
     latched: HashMap<u32, (u64, Payload)>,
-    /// Topics seen beyond [`MAX_CHANNELS`].
-    not_advertised: u64,
 }
 
 /// Counters shared by the feed and the connections.
@@ -111,6 +131,10 @@ struct Counters {
     /// Connections subscribed to the arena's scene, and to the battlefield's.
     arena_subscribers: AtomicU64,
     battlefield_subscribers: AtomicU64,
+    /// Packets whose topic found no room in the channel list (never advertised).
+    not_advertised: AtomicU64,
+    /// Connections refused past [`MAX_VIEWERS`].
+    refused_viewers: AtomicU64,
 }
 
 /// The bridge's end: where received packets and scenes are written.
@@ -133,8 +157,8 @@ pub struct Viewers {
     registry: Arc<RwLock<Registry>>,
     counters: Arc<Counters>,
     session_id: Arc<str>,
-    /// The arena's and the battlefield's scene channels.
-    scenes: [u32; 2],
+    /// The arena's, the battlefield's and its terrain's scene channels.
+    scenes: [u32; 3],
 }
 
 /// The wall clock now, nanoseconds since the Unix epoch.
@@ -178,7 +202,7 @@ pub fn feed() -> (Feed, Viewers) {
         )
         .unwrap_or(0);
     let session_id: Arc<str> = Arc::from(now_ns().to_string());
-    let scenes = [feed.arena, feed.battlefield];
+    let scenes = [feed.arena, feed.battlefield, feed.terrain];
     (
         feed,
         Viewers {
@@ -189,6 +213,16 @@ pub fn feed() -> (Feed, Viewers) {
             scenes,
         },
     )
+}
+
+/// How long the channel list may be for a new `topic` to join it: subject sets (`a+b`) leave
+/// [`SINGLE_SUBJECT_RESERVE`] for single subjects.
+fn room(topic: &str) -> usize {
+    if topic.contains('+') {
+        MAX_CHANNELS - SINGLE_SUBJECT_RESERVE
+    } else {
+        MAX_CHANNELS
+    }
 }
 
 impl Feed {
@@ -202,7 +236,7 @@ impl Feed {
         self.counters.arena_subscribers.load(Ordering::Relaxed) > 0
     }
 
-    /// Whether a viewer is subscribed to the battlefield's scene.
+    /// Whether a viewer is subscribed to the battlefield's scene or its terrain.
     pub fn wants_battlefield(&self) -> bool {
         self.counters
             .battlefield_subscribers
@@ -210,7 +244,7 @@ impl Feed {
             > 0
     }
 
-    /// Adds a channel, or finds it; `None` past [`MAX_CHANNELS`].
+    /// Adds a channel, or finds it; `None` once the list has no room for it (see [`room`]).
     fn register(&mut self, topic: &str, schema_name: String, schema: String) -> Option<u32> {
         let Ok(mut r) = self.registry.write() else {
             return None;
@@ -218,8 +252,9 @@ impl Feed {
         if let Some(id) = r.by_topic.get(topic) {
             return Some(*id);
         }
-        if r.channels.len() >= MAX_CHANNELS {
-            r.not_advertised += 1;
+        if r.channels.len() >= room(topic) {
+            drop(r);
+            self.refuse(topic);
             return None;
         }
         let id = r.channels.len() as u32 + 1;
@@ -237,25 +272,35 @@ impl Feed {
         Some(id)
     }
 
+    /// Counts a packet whose topic has no room, and says so in the log now and then.
+    fn refuse(&self, topic: &str) {
+        let n = self.counters.not_advertised.fetch_add(1, Ordering::Relaxed) + 1;
+        if n.is_power_of_two() {
+            tracing::warn!(
+                topic,
+                not_advertised = n,
+                "the Foxglove channel list is full: packets of new topics are not advertised"
+            );
+        }
+    }
+
     fn channel_of(&mut self, packet: &Packet<'_>) -> Option<u32> {
-        let single;
         let topic = if packet.subject_count() == 1 {
-            single = packet.subjects().next().unwrap_or_default().to_owned();
-            if let Ok(r) = self.registry.read() {
-                if let Some(id) = r.by_topic.get(packet.subjects_text()) {
-                    return Some(*id);
-                }
-            }
-            single
+            packet.subjects().next().unwrap_or_default().to_owned()
         } else {
-            let topic = colony_schema::topic(packet);
-            if let Ok(r) = self.registry.read() {
-                if let Some(id) = r.by_topic.get(&topic) {
-                    return Some(*id);
-                }
-            }
-            topic
+            colony_schema::topic(packet)
         };
+        // Found, or refused, under the read lock: a full list costs no schema and no write lock.
+        if let Ok(r) = self.registry.read() {
+            if let Some(id) = r.by_topic.get(&topic) {
+                return Some(*id);
+            }
+            if r.channels.len() >= room(&topic) {
+                drop(r);
+                self.refuse(&topic);
+                return None;
+            }
+        }
         let schema = colony_schema::schema_for(&topic);
         let text = String::from_utf8_lossy(&schema.data).into_owned();
         self.register(&topic, schema.name, text)
@@ -267,7 +312,7 @@ impl Feed {
             return;
         };
         if self.has_viewers() {
-            let payload = Payload::Packet(Arc::from(packet.as_str().as_bytes()));
+            let payload = Payload::packet(packet.as_str().as_bytes());
             let _ = self.tx.send(Event::Message {
                 channel,
                 receive_ns,
@@ -315,6 +360,16 @@ impl Viewers {
     /// Messages dropped for slow viewers so far, all connections together.
     pub fn dropped(&self) -> u64 {
         self.counters.dropped.load(Ordering::Relaxed)
+    }
+
+    /// Packets whose topic found no room in the channel list, so far.
+    pub fn not_advertised(&self) -> u64 {
+        self.counters.not_advertised.load(Ordering::Relaxed)
+    }
+
+    /// Connections refused past [`MAX_VIEWERS`] so far.
+    pub fn refused(&self) -> u64 {
+        self.counters.refused_viewers.load(Ordering::Relaxed)
     }
 
     fn channels(&self) -> Vec<Channel> {
@@ -403,7 +458,21 @@ async fn carry_out(link: &Link, command: crate::state::Command) -> Result<String
 
 /// Runs one viewer's connection until it closes or the monitor stops.
 pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
-    viewers.counters.viewers.fetch_add(1, Ordering::Relaxed);
+    if viewers.counters.viewers.fetch_add(1, Ordering::Relaxed) >= MAX_VIEWERS {
+        viewers.counters.viewers.fetch_sub(1, Ordering::Relaxed);
+        viewers
+            .counters
+            .refused_viewers
+            .fetch_add(1, Ordering::Relaxed);
+        let _ = link.closed.send(link.page);
+        let _ = socket
+            .send(Message::Close(Some(axum::extract::ws::CloseFrame {
+                code: 1013,
+                reason: format!("too many Foxglove viewers: at most {MAX_VIEWERS} at once").into(),
+            })))
+            .await;
+        return;
+    }
     let mut gone = Gone {
         page: link.page,
         closed: link.closed.clone(),
@@ -415,6 +484,7 @@ pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
     s.on_channels(&viewers.channels());
     let mut tick = tokio::time::interval(Duration::from_millis(500));
     let mut reported = 0;
+    let mut refused_told = 0;
     'conn: loop {
         // Take in what the feed has, then send what waits, newest first per channel.
         loop {
@@ -448,7 +518,8 @@ pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
                     Some(Ok(Message::Text(t))) => {
                         let before = subscribed_latched(&s, &viewers);
                         let commands = s.handle_text(t.as_str());
-                        gone.scenes(viewers.scenes.map(|c| s.is_subscribed(c)));
+                        let [arena, field, terrain] = viewers.scenes.map(|c| s.is_subscribed(c));
+                        gone.scenes([arena, field || terrain]);
                         for (channel, ns, payload) in viewers.latched() {
                             if s.is_subscribed(channel) && !before.contains(&channel) {
                                 s.on_message(channel, ns, payload);
@@ -467,10 +538,17 @@ pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
             }
             event = rx.recv() => match event {
                 Ok(e) => on_event(e, &mut s, &viewers),
-                Err(broadcast::error::RecvError::Lagged(n)) => s.on_missed(n),
+                Err(broadcast::error::RecvError::Lagged(n)) => lagged(n, &mut s, &viewers),
                 Err(broadcast::error::RecvError::Closed) => break,
             },
-            _ = tick.tick() => s.poll_timeout(std::time::Instant::now()),
+            _ = tick.tick() => {
+                s.poll_timeout(std::time::Instant::now());
+                let refused = viewers.not_advertised();
+                if refused > refused_told {
+                    refused_told = refused;
+                    s.status(Level::Warning, &not_advertised_status(refused));
+                }
+            }
             changed = link.shutdown.changed() => {
                 if changed.is_err() || *link.shutdown.borrow_and_update() {
                     let _ = socket.send(Message::Close(None)).await;
@@ -502,10 +580,28 @@ fn drain(rx: &mut broadcast::Receiver<Event>, s: &mut Session<Payload>, viewers:
     for _ in 0..FEED_CAPACITY {
         match rx.try_recv() {
             Ok(e) => on_event(e, s, viewers),
-            Err(broadcast::error::TryRecvError::Lagged(n)) => s.on_missed(n),
+            Err(broadcast::error::TryRecvError::Lagged(n)) => lagged(n, s, viewers),
             Err(_) => return,
         }
     }
+}
+
+/// The viewer fell behind the feed by `n` events: channels announced among them are offered
+/// now, and the missed messages are counted only if it subscribed to anything (a viewer
+/// subscribed to nothing missed nothing it asked for).
+fn lagged(n: u64, s: &mut Session<Payload>, viewers: &Viewers) {
+    s.on_channels(&viewers.channels());
+    if s.has_subscriptions() {
+        s.on_missed(n);
+    }
+}
+
+/// What a viewer is told when topics found no room in the channel list.
+fn not_advertised_status(n: u64) -> String {
+    format!(
+        "the channel list is full ({MAX_CHANNELS} channels, {SINGLE_SUBJECT_RESERVE} of them \
+         kept for single subjects): {n} packets of further topics were not advertised"
+    )
 }
 
 fn on_event(e: Event, s: &mut Session<Payload>, viewers: &Viewers) {
@@ -555,6 +651,8 @@ mod tests {
                 } => {
                     let json: serde_json::Value =
                         serde_json::from_slice(&payload.to_json()).unwrap();
+                    // Built once: every viewer shares the same bytes.
+                    assert!(Arc::ptr_eq(&payload.to_json(), &payload.to_json()));
                     format!("{channel}@{receive_ns}:{}", json["subjects"])
                 }
             });
@@ -573,6 +671,54 @@ mod tests {
     }
 
     #[test]
+    fn subject_sets_cannot_crowd_out_single_subjects_and_refusals_are_counted() {
+        let (mut feed, viewers) = feed();
+        for i in 0..2000 {
+            let text = format!("@ <vision> <c{i}> 0\nx\n");
+            feed.on_packet(&packet(&text), 0);
+        }
+        assert_eq!(
+            viewers.channels().len(),
+            MAX_CHANNELS - SINGLE_SUBJECT_RESERVE
+        );
+        let refused = viewers.not_advertised();
+        assert_eq!(
+            refused,
+            2000 + 4 - (MAX_CHANNELS - SINGLE_SUBJECT_RESERVE) as u64
+        );
+        // A real channel seen later is still advertised.
+        feed.on_packet(&packet("@ <game.state> 0\nx\n"), 0);
+        assert!(viewers.channels().iter().any(|c| c.topic == "game.state"));
+        assert_eq!(viewers.not_advertised(), refused);
+        assert!(not_advertised_status(refused).contains(&refused.to_string()));
+    }
+
+    #[test]
+    fn a_lagged_viewer_hears_of_new_channels_and_is_not_blamed_for_what_it_never_asked() {
+        let (mut feed, viewers) = feed();
+        let mut s: Session<Payload> = Session::new("t", "1");
+        s.on_channels(&viewers.channels());
+        while s.poll_transmit().is_some() {}
+        feed.on_packet(&packet("@ <vision> 0\nx\n"), 0);
+        lagged(7, &mut s, &viewers);
+        assert_eq!(s.dropped(), 0);
+        let mut advertised = false;
+        while let Some(out) = s.poll_transmit() {
+            if let Out::Text(t) = out {
+                advertised |= t.contains("\"advertise\"") && t.contains("\"vision\"");
+            }
+        }
+        assert!(advertised);
+        // Subscribed to something: what it missed is counted.
+        let id = viewers.channels()[0].id;
+        s.handle_text(&format!(
+            r#"{{"op":"subscribe","subscriptions":[{{"id":1,"channelId":{id}}}]}}"#
+        ));
+        lagged(3, &mut s, &viewers);
+        assert_eq!(s.dropped(), 3);
+    }
+
+    #[test]
     fn channels_are_bounded_and_scenes_wait_for_new_subscribers() {
         let (mut feed, viewers) = feed();
         for i in 0..MAX_CHANNELS + 10 {
@@ -580,7 +726,7 @@ mod tests {
             feed.on_packet(&packet(&text), 0);
         }
         assert_eq!(viewers.channels().len(), MAX_CHANNELS);
-        assert_eq!(viewers.registry.read().unwrap().not_advertised, 14);
+        assert_eq!(viewers.not_advertised(), 14);
         // No viewer: packets are not handed on, but a scene is kept for the next subscriber.
         assert!(!feed.has_viewers() && !feed.wants_arena());
         feed.on_arena(b"{}".to_vec(), 9);

@@ -117,6 +117,11 @@ impl<P: Clone> Session<P> {
         self.dropped
     }
 
+    /// Whether the viewer is subscribed to any channel.
+    pub fn has_subscriptions(&self) -> bool {
+        !self.by_channel.is_empty()
+    }
+
     /// Whether the viewer is subscribed to `channel`.
     pub fn is_subscribed(&self, channel: u32) -> bool {
         self.by_channel.contains_key(&channel)
