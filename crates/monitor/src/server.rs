@@ -283,6 +283,12 @@ impl Monitor {
         (self.viewers.connected(), self.viewers.dropped())
     }
 
+    /// Packets whose topic found no room in the Foxglove channel list, and Foxglove connections
+    /// refused past the cap on viewers, so far.
+    pub fn foxglove_refusals(&self) -> (u64, u64) {
+        (self.viewers.not_advertised(), self.viewers.refused())
+    }
+
     /// The token the pages need, if one is.
     pub fn token(&self) -> Option<&str> {
         self.guard.gate.token()

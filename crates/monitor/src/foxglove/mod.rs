@@ -464,6 +464,10 @@ pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
             .counters
             .refused_viewers
             .fetch_add(1, Ordering::Relaxed);
+        tracing::warn!(
+            refused = viewers.refused(),
+            "a Foxglove viewer was refused: {MAX_VIEWERS} are connected"
+        );
         let _ = link.closed.send(link.page);
         let _ = socket
             .send(Message::Close(Some(axum::extract::ws::CloseFrame {

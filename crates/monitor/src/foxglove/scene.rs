@@ -28,8 +28,9 @@ pub const BATTLEFIELD_FRAME: &str = "battlefield";
 pub const FRAME_TRANSFORMS: &str = "foxglove.FrameTransforms";
 /// The frame both views are placed in (each at its origin, unturned).
 pub const WORLD_FRAME: &str = "world";
-/// Terrain boxes at most (a larger map is drawn in part).
-pub const MAX_TERRAIN_BOXES: usize = 50_000;
+/// Terrain boxes at most (a larger map is drawn in part): a forged map of alternating cells
+/// defeats merging runs, and would otherwise make a scene of many megabytes.
+pub const MAX_TERRAIN_BOXES: usize = 20_000;
 
 /// The monitor page's puck colours, by kind (kind modulo their number).
 const KIND_COLOURS: [[f64; 3]; 8] = [
@@ -588,6 +589,21 @@ mod tests {
         assert_ne!(pucks[0]["color"], pucks[1]["color"]);
         let caches = entity(&scene, "caches")["cubes"].as_array().unwrap();
         assert_eq!(caches[0]["color"]["r"], pucks[1]["color"]["r"]);
+    }
+
+    #[test]
+    fn a_forged_map_of_alternating_cells_is_drawn_in_part() {
+        let row: String = "TW".repeat(128);
+        let map = Map {
+            width: 256,
+            height: 256,
+            cell: 10.0,
+            rows: vec![row; 256],
+            sites: Vec::new(),
+        };
+        let scene: Value = serde_json::from_slice(&terrain_scene(&map, 0)).unwrap();
+        let cubes = entity(&scene, "terrain")["cubes"].as_array().unwrap();
+        assert_eq!(cubes.len(), MAX_TERRAIN_BOXES);
     }
 
     #[test]
