@@ -6,7 +6,6 @@ use std::io::{self, BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 use colony_hub::log::Record;
-use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
 use crate::{McapLogError, MAGIC};
 
@@ -266,66 +265,116 @@ impl McapReader {
 
     /// The colony messages in one whole record (a chunk, a channel or a
     /// message), decompressing and checking a chunk; channels are noted.
+    ///
+    /// A chunk is decompressed here, not by the mcap crate's reader (whose
+    /// arithmetic trusts a chunk's sizes): only no compression or zstd, into
+    /// at most `uncompressed_size` bytes (itself at most [`MAX_RECORD`]), and
+    /// the result must be exactly that long. Its CRC is checked unless it is
+    /// 0, which MCAP lets a writer write for "not computed" (colony's writer
+    /// always computes it); the sizes bound a chunk either way. The records
+    /// inside are walked with every length checked against what is left.
     fn decode(&mut self, record: &[u8]) -> Result<Vec<Record>, String> {
-        if record[0] == OP_CHUNK {
-            let header = match mcap::parse_record(OP_CHUNK, &record[9..]) {
-                Ok(mcap::records::Record::Chunk { header, .. }) => header,
-                Ok(_) => return Err("not a chunk".into()),
-                Err(e) => return Err(e.to_string()),
-            };
-            if header.uncompressed_size > MAX_RECORD {
+        let mut found = Vec::new();
+        if record[0] != OP_CHUNK {
+            self.walk(record, &mut found)?;
+            return Ok(found);
+        }
+        let (header, data) = match mcap::parse_record(OP_CHUNK, &record[9..]) {
+            Ok(mcap::records::Record::Chunk { header, data }) => (header, data),
+            Ok(_) => return Err("not a chunk".into()),
+            Err(e) => return Err(e.to_string()),
+        };
+        if header.uncompressed_size > MAX_RECORD {
+            return Err(format!(
+                "uncompressed size {} beyond the {MAX_RECORD} bytes a reader believes",
+                header.uncompressed_size
+            ));
+        }
+        let size = header.uncompressed_size as usize;
+        let inner: std::borrow::Cow<[u8]> = match header.compression.as_str() {
+            "" => data,
+            "zstd" => zstd::bulk::decompress(&data, size)
+                .map_err(|e| {
+                    format!(
+                        "zstd data that does not decompress into its uncompressed size {size}: {e}"
+                    )
+                })?
+                .into(),
+            other => {
                 return Err(format!(
-                    "uncompressed size {} beyond the {MAX_RECORD} bytes a reader believes",
-                    header.uncompressed_size
+                    "compression {other:?}: colony reads only zstd or none"
+                ))
+            }
+        };
+        if inner.len() != size {
+            return Err(format!(
+                "{} bytes of records where the chunk says {size}",
+                inner.len()
+            ));
+        }
+        if header.uncompressed_crc != 0 {
+            let crc = crc32fast::hash(&inner);
+            if crc != header.uncompressed_crc {
+                return Err(format!(
+                    "records' CRC {crc:#010x} where the chunk says {:#010x}",
+                    header.uncompressed_crc
                 ));
             }
         }
-        let mut reader = LinearReader::new_with_options(
-            LinearReaderOptions::default()
-                .with_skip_start_magic(true)
-                .with_skip_end_magic(true)
-                .with_prevalidate_chunk_crcs(true)
-                .with_record_length_limit(MAX_RECORD as usize),
-        );
-        let mut input = record;
-        let mut found = Vec::new();
-        while let Some(event) = reader.next_event() {
-            match event.map_err(|e| e.to_string())? {
-                LinearReadEvent::ReadRequest(want) => {
-                    let n = want.min(input.len());
-                    reader.insert(n).copy_from_slice(&input[..n]);
-                    reader.notify_read(n);
-                    input = &input[n..];
-                }
-                LinearReadEvent::Record { opcode, data } => match opcode {
-                    OP_CHANNEL | OP_MESSAGE => {
-                        match mcap::parse_record(opcode, data).map_err(|e| e.to_string())? {
-                            mcap::records::Record::Channel(c) => {
-                                let json = c.message_encoding == colony_schema::MESSAGE_ENCODING;
-                                self.channels.insert(c.id, json);
-                            }
-                            mcap::records::Record::Message { header, data } => {
-                                match self.to_record(header.channel_id, header.log_time, &data) {
-                                    Some(r) => found.push(r),
-                                    None => self.foreign += 1,
-                                }
-                            }
-                            _ => {}
-                        }
-                    }
-                    OP_SCHEMA | OP_CHUNK => {}
-                    op if op < 0x80 && op > OP_DATA_END => {
-                        return Err(format!("no record has opcode {op:#04x}"))
-                    }
-                    _ => {}
-                },
-            }
-        }
+        self.walk(&inner, &mut found)?;
         Ok(found)
     }
 
+    /// Walks whole records (a chunk's contents, or one top-level record),
+    /// noting channels and collecting colony messages.
+    fn walk(&mut self, mut rest: &[u8], found: &mut Vec<Record>) -> Result<(), String> {
+        while !rest.is_empty() {
+            if rest.len() < 9 {
+                return Err("a record cut short inside a chunk".into());
+            }
+            let opcode = rest[0];
+            let len = u64::from_le_bytes(rest[1..9].try_into().expect("8 bytes"));
+            let after = &rest[9..];
+            if len > after.len() as u64 {
+                return Err(format!(
+                    "a record of {len} bytes where {} are left",
+                    after.len()
+                ));
+            }
+            let (body, next) = after.split_at(len as usize);
+            rest = next;
+            match opcode {
+                OP_CHANNEL | OP_MESSAGE => {
+                    match mcap::parse_record(opcode, body).map_err(|e| e.to_string())? {
+                        mcap::records::Record::Channel(c) => {
+                            let json = c.message_encoding == colony_schema::MESSAGE_ENCODING;
+                            self.channels.insert(c.id, json);
+                        }
+                        mcap::records::Record::Message { header, data } => {
+                            match self.to_record(header.channel_id, header.log_time, &data) {
+                                Some(r) => found.push(r),
+                                None => self.foreign += 1,
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+                OP_SCHEMA => {}
+                op if op < 0x80 => {
+                    return Err(format!("a record with opcode {op:#04x} inside a chunk"))
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// A message as a [`Record`], if colony wrote it. A message on a channel
+    /// never seen (its channel record was in a chunk that was damaged and
+    /// skipped) is still colony's if its data is: colony's JSON carries the
+    /// packet's text, from which the channel follows.
     fn to_record(&self, channel: u16, log_time: u64, data: &[u8]) -> Option<Record> {
-        if self.channels.get(&channel) != Some(&true) {
+        if self.channels.get(&channel) == Some(&false) {
             return None;
         }
         let (text, source) = colony_schema::packet_text(data)?;

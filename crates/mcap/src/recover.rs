@@ -17,6 +17,9 @@ pub struct Recovered {
     pub skipped: Vec<(u64, String)>,
     /// Messages left out because colony did not write them.
     pub foreign: u64,
+    /// Messages read but left out because their text is not a packet (the
+    /// writer would not take them).
+    pub unwritable: u64,
 }
 
 /// Reads the MCAP log `from` as far as its whole records go (skipping any
@@ -26,8 +29,11 @@ pub struct Recovered {
 pub fn recover(from: impl AsRef<Path>, to: impl AsRef<Path>) -> Result<Recovered, McapLogError> {
     let mut reader = McapReader::open(from)?.skipping_corrupt();
     let mut writer = McapLogWriter::create(to)?;
+    let mut unwritable = 0;
     for record in reader.by_ref() {
-        writer.append_record(&record?)?;
+        if !writer.append_record(&record?)? {
+            unwritable += 1;
+        }
     }
     writer.finish()?;
     Ok(Recovered {
@@ -36,5 +42,6 @@ pub fn recover(from: impl AsRef<Path>, to: impl AsRef<Path>) -> Result<Recovered
         end: reader.end().cloned().unwrap_or(McapEnd::Finished),
         skipped: reader.skipped().to_vec(),
         foreign: reader.foreign(),
+        unwritable,
     })
 }

@@ -130,25 +130,161 @@ fn a_chunk_damaged_in_the_middle_is_an_error_with_its_offset() {
     assert!(rec.messages >= 400);
 }
 
+/// A chunk record: `records` as its (already compressed) data, then `padding`
+/// inside the record after it.
+fn chunk(compression: &str, size: u64, crc: u32, records: &[u8], padding: &[u8]) -> Vec<u8> {
+    let mut body = Vec::new();
+    body.extend_from_slice(&0u64.to_le_bytes());
+    body.extend_from_slice(&0u64.to_le_bytes());
+    body.extend_from_slice(&size.to_le_bytes());
+    body.extend_from_slice(&crc.to_le_bytes());
+    body.extend_from_slice(&(compression.len() as u32).to_le_bytes());
+    body.extend_from_slice(compression.as_bytes());
+    body.extend_from_slice(&(records.len() as u64).to_le_bytes());
+    body.extend_from_slice(records);
+    body.extend_from_slice(padding);
+    let mut r = vec![0x06];
+    r.extend_from_slice(&(body.len() as u64).to_le_bytes());
+    r.extend_from_slice(&body);
+    r
+}
+
+/// Every chunk in a file: (where its record starts, its whole length).
+fn chunks(bytes: &[u8]) -> Vec<(usize, usize)> {
+    let mut at = 8;
+    let mut found = Vec::new();
+    while at + 9 <= bytes.len() {
+        let len = u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()) as usize;
+        if bytes[at] == 0x06 {
+            found.push((at, 9 + len));
+        }
+        if bytes[at] == 0x0f {
+            break;
+        }
+        at += 9 + len;
+    }
+    found
+}
+
+fn read_to_error(path: &Path) -> Option<McapLogError> {
+    let mut r = McapReader::open(path).unwrap();
+    r.find_map(Result::err)
+}
+
+#[test]
+fn a_record_running_past_an_uncompressed_chunk_is_corruption_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("a.mcap");
+    // A message record whose length runs 5 bytes past the chunk's records,
+    // into padding inside the chunk record; with a CRC of 0 and with a valid one.
+    let mut inner = vec![0x05];
+    inner.extend_from_slice(&(22u64 + 5).to_le_bytes());
+    inner.extend_from_slice(&[0u8; 22]);
+    for crc in [0, crc32fast::hash(&inner)] {
+        let mut bytes = colony_mcap::MAGIC.to_vec();
+        bytes.extend(chunk("", inner.len() as u64, crc, &inner, &[0u8; 64]));
+        std::fs::write(&path, &bytes).unwrap();
+        match read_to_error(&path) {
+            Some(McapLogError::Corrupt { offset: 8, why, .. }) => {
+                assert!(why.contains("left"), "{why}")
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}
+
+#[test]
+fn a_zstd_chunk_larger_than_it_says_is_corruption_not_a_panic_or_a_bomb() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("a.mcap");
+    // Records that decompress to far more than the chunk says: 200 MiB of
+    // zeros in well under a megabyte (a zstd bomb), and a small overrun.
+    for (real, said) in [(200usize << 20, 1000u64), (2000, 1000)] {
+        let mut inner = vec![0x80];
+        inner.extend_from_slice(&((real - 9) as u64).to_le_bytes());
+        inner.resize(real, 0);
+        let compressed = zstd::bulk::compress(&inner, 19).unwrap();
+        drop(inner);
+        assert!(compressed.len() < 1 << 20);
+        let mut bytes = colony_mcap::MAGIC.to_vec();
+        bytes.extend(chunk("zstd", said, 0, &compressed, &[]));
+        std::fs::write(&path, &bytes).unwrap();
+        match read_to_error(&path) {
+            Some(McapLogError::Corrupt { offset: 8, why, .. }) => {
+                assert!(why.contains("uncompressed size"), "{why}")
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}
+
+#[test]
+fn a_chunk_compressed_otherwise_than_zstd_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("a.mcap");
+    let mut bytes = colony_mcap::MAGIC.to_vec();
+    bytes.extend(chunk("lz4", 4, 0, b"abcd", &[]));
+    std::fs::write(&path, &bytes).unwrap();
+    match read_to_error(&path) {
+        Some(McapLogError::Corrupt { why, .. }) => assert!(why.contains("lz4"), "{why}"),
+        other => panic!("{other:?}"),
+    }
+}
+
 #[test]
 fn no_damage_makes_the_reader_panic() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("a.mcap");
     write(&path, 300, 100, true);
     let whole = std::fs::read(&path).unwrap();
+    let spans = chunks(&whole);
+    assert_eq!(spans.len(), 3);
     let bad = dir.path().join("bad.mcap");
     let mut seed = 0x9e3779b97f4a7c15u64;
-    for _ in 0..300 {
+    let mut next = || {
         seed ^= seed << 13;
         seed ^= seed >> 7;
         seed ^= seed << 17;
+        seed
+    };
+    let mut reached_the_records = 0;
+    for round in 0..600 {
         let mut bytes = whole.clone();
-        let at = 8 + (seed as usize) % (bytes.len() - 8);
-        bytes[at] = (seed >> 32) as u8;
-        if seed % 5 == 0 {
-            // A forged length.
-            let at = 8 + (seed as usize >> 3) % (bytes.len() - 16);
-            bytes[at..at + 8].copy_from_slice(&u64::MAX.to_le_bytes());
+        if round % 2 == 0 {
+            // Damage inside a chunk's records, with the chunk's sizes and CRC
+            // made to match, so that it reaches the record parser.
+            let (at, len) = spans[next() as usize % spans.len()];
+            let mut records = Vec::new();
+            let header_len = 8 + 8 + 8 + 4 + 4 + 4;
+            let data = &whole[at + 9 + header_len + 8..at + len];
+            records.extend(zstd::bulk::decompress(data, 64 << 20).unwrap());
+            for _ in 0..1 + next() % 4 {
+                let i = next() as usize % records.len();
+                if next() % 3 == 0 && i + 8 <= records.len() {
+                    let forged =
+                        [u64::MAX, u64::MAX / 2, 1 << 40, next() % 4096][next() as usize % 4];
+                    records[i..i + 8].copy_from_slice(&forged.to_le_bytes());
+                } else {
+                    records[i] = next() as u8;
+                }
+            }
+            let crc = if next() % 2 == 0 {
+                0
+            } else {
+                crc32fast::hash(&records)
+            };
+            let compressed = zstd::bulk::compress(&records, 1).unwrap();
+            let rebuilt = chunk("zstd", records.len() as u64, crc, &compressed, &[]);
+            bytes.splice(at..at + len, rebuilt);
+            reached_the_records += 1;
+        } else {
+            let at = 8 + (next() as usize) % (bytes.len() - 8);
+            bytes[at] = (next() >> 32) as u8;
+            if next() % 5 == 0 {
+                // A forged length.
+                let at = 8 + (next() as usize >> 3) % (bytes.len() - 16);
+                bytes[at..at + 8].copy_from_slice(&u64::MAX.to_le_bytes());
+            }
         }
         std::fs::write(&bad, &bytes).unwrap();
         let mut r = McapReader::open(&bad).unwrap();
@@ -157,7 +293,30 @@ fn no_damage_makes_the_reader_panic() {
                 break;
             }
         }
+        let out = dir.path().join(format!("out{round}.mcap"));
+        let _ = recover(&bad, &out);
     }
+    assert_eq!(reached_the_records, 300);
+}
+
+#[test]
+fn a_damaged_chunk_loses_only_its_own_messages_not_its_channels_later_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("a.mcap");
+    write(&path, 500, 100, true);
+    let mut bytes = std::fs::read(&path).unwrap();
+    // The first chunk holds every channel record; damage its data.
+    let (at, len) = chunks(&bytes)[0];
+    bytes[at + len - 20] ^= 0x5a;
+    std::fs::write(&path, &bytes).unwrap();
+    let out = dir.path().join("b.mcap");
+    let r = recover(&path, &out).unwrap();
+    assert_eq!(r.skipped.len(), 1, "{r:?}");
+    assert_eq!(r.foreign, 0, "{r:?}");
+    assert_eq!(r.messages, 400, "{r:?}");
+    let (got, end) = read_all(&out);
+    assert_eq!(end, Some(McapEnd::Finished));
+    assert_eq!(got, (100..500).map(record).collect::<Vec<_>>());
 }
 
 #[test]

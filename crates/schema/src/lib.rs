@@ -31,7 +31,6 @@ use std::collections::HashMap;
 use std::io::Write as _;
 
 use colony_wire::{Fields, Packet, Value};
-use serde_json::Value as Json;
 
 pub use channels::{schema_for, Schema};
 
@@ -189,24 +188,27 @@ fn value(out: &mut Vec<u8>, v: &Value<'_>) {
 }
 
 /// The packet's exact text and its source back from a message [`to_json`]
-/// made (or any JSON object with a string `packet`); `None` for anything else.
+/// made (or any JSON object with a string `packet`, and a string `source` if
+/// any); `None` for anything else.
+///
+/// Only those two fields are kept: every other field (the typed `lines`,
+/// which a forged message can make as large as it likes) is skipped as it is
+/// read, not built, so this takes little memory beyond `json` itself.
 pub fn packet_text(json: &[u8]) -> Option<(String, Option<String>)> {
-    let Json::Object(mut message) = serde_json::from_slice(json).ok()? else {
-        return None;
-    };
-    let Some(Json::String(packet)) = message.remove("packet") else {
-        return None;
-    };
-    let source = match message.remove("source") {
-        Some(Json::String(s)) => Some(s),
-        _ => None,
-    };
-    Some((packet, source))
+    #[derive(serde::Deserialize)]
+    struct Message {
+        packet: String,
+        #[serde(default)]
+        source: Option<String>,
+    }
+    let m: Message = serde_json::from_slice(json).ok()?;
+    Some((m.packet, m.source))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use serde_json::Value as Json;
 
     fn json(text: &str) -> Json {
         let p = Packet::parse(text.as_bytes()).unwrap();
