@@ -424,6 +424,7 @@ fn an_mcap_damaged_in_the_middle_is_an_error_with_its_offset() {
     }
     w.finish().unwrap();
     let mut bytes = std::fs::read(&file).unwrap();
+    let original = bytes.clone();
     let mid = bytes.len() / 2;
     for b in &mut bytes[mid..mid + 8] {
         *b = !*b;
@@ -442,6 +443,112 @@ fn an_mcap_damaged_in_the_middle_is_an_error_with_its_offset() {
             "{err}"
         );
         assert!(!err.contains("panicked"), "{err}");
+    }
+    // An export that fails on the damage leaves neither OUT nor a partial
+    // file, so that it can be run again.
+    let out = dir.path().join("out.mcap");
+    let partial = dir.path().join("out.mcap.partial");
+    for _ in 0..2 {
+        let (code, _, err) = run_bounded(
+            &[
+                "log",
+                "export",
+                file.to_str().unwrap(),
+                "--mcap",
+                out.to_str().unwrap(),
+            ],
+            "warn",
+        );
+        assert_eq!(code, Some(1), "{err}");
+        assert!(
+            err.contains("is corrupt") && err.contains("was not written"),
+            "{err}"
+        );
+        assert!(!out.exists() && !partial.exists(), "{err}");
+    }
+    // Damage to the first chunk, which holds the channel records, loses only
+    // that chunk's messages: the later ones on the same channel are recovered.
+    let mut fixed = original;
+    let header_len = u64::from_le_bytes(fixed[9..17].try_into().unwrap()) as usize;
+    let chunk = 8 + 9 + header_len;
+    assert_eq!(fixed[chunk], 0x06);
+    let chunk_len = u64::from_le_bytes(fixed[chunk + 1..chunk + 9].try_into().unwrap()) as usize;
+    fixed[chunk + 9 + chunk_len - 16] ^= 0x5a;
+    std::fs::write(&file, &fixed).unwrap();
+    let (code, _, err) = run_bounded(
+        &[
+            "log",
+            "recover",
+            file.to_str().unwrap(),
+            out.to_str().unwrap(),
+        ],
+        "warn",
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("recovered 2500 messages"), "{err}");
+    assert!(!partial.exists());
+    assert_eq!(read_mcap(&out).len(), 2500);
+}
+
+/// A chunk whose inner record runs past its records, and a zstd chunk that
+/// decompresses to more than it says, as a hostile file would hold them: an
+/// error from `colony log`, a skipped chunk for `colony log recover`, never a
+/// panic.
+#[test]
+fn a_forged_chunk_is_an_error_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let chunk = |compression: &str, size: u64, records: &[u8], padding: &[u8]| {
+        let mut body = vec![0u8; 16];
+        body.extend_from_slice(&size.to_le_bytes());
+        body.extend_from_slice(&0u32.to_le_bytes());
+        body.extend_from_slice(&(compression.len() as u32).to_le_bytes());
+        body.extend_from_slice(compression.as_bytes());
+        body.extend_from_slice(&(records.len() as u64).to_le_bytes());
+        body.extend_from_slice(records);
+        body.extend_from_slice(padding);
+        let mut file = colony_mcap::MAGIC.to_vec();
+        file.push(0x06);
+        file.extend_from_slice(&(body.len() as u64).to_le_bytes());
+        file.extend_from_slice(&body);
+        file
+    };
+    let mut past = vec![0x05];
+    past.extend_from_slice(&27u64.to_le_bytes());
+    past.extend_from_slice(&[0u8; 22]);
+    let mut big = vec![0x80];
+    big.extend_from_slice(&1991u64.to_le_bytes());
+    big.resize(2000, 0);
+    let big = zstd::bulk::compress(&big, 3).unwrap();
+    for (i, bytes) in [
+        chunk("", past.len() as u64, &past, &[0u8; 64]),
+        chunk("zstd", 1000, &big, &[]),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let file = dir.path().join(format!("forged{i}.mcap"));
+        std::fs::write(&file, &bytes).unwrap();
+        let (code, _, err) = run_bounded(&["log", file.to_str().unwrap()], "warn");
+        assert_eq!(code, Some(1), "{err}");
+        assert!(
+            err.contains("is corrupt") && !err.contains("panicked"),
+            "{err}"
+        );
+        let out = dir.path().join(format!("out{i}.mcap"));
+        let (code, _, err) = run_bounded(
+            &[
+                "log",
+                "recover",
+                file.to_str().unwrap(),
+                out.to_str().unwrap(),
+            ],
+            "warn",
+        );
+        assert_eq!(code, Some(0), "{err}");
+        assert!(
+            err.contains("skipped the corrupt record at byte 8"),
+            "{err}"
+        );
     }
 }
 

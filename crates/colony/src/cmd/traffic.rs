@@ -169,9 +169,79 @@ fn list(args: LogArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Writes `out` by way of `OUT.partial` beside it (created new, so two runs
+/// never share one), renamed onto `out` only once `write` has succeeded: a
+/// failed run leaves no finished-looking `out`, and its partial file is
+/// removed, so that running it again is not refused.
+fn write_via_partial<T>(
+    out: &Path,
+    write: impl FnOnce(&Path) -> anyhow::Result<T>,
+) -> anyhow::Result<T> {
+    if std::fs::metadata(out).is_ok_and(|m| m.len() > 0) {
+        return Err(colony_mcap::McapLogError::Exists {
+            path: out.to_owned(),
+        }
+        .into());
+    }
+    let mut name = out.as_os_str().to_owned();
+    name.push(".partial");
+    let partial = PathBuf::from(name);
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&partial)
+        .with_context(|| {
+            format!(
+                "cannot create {} (if another run left it, remove it)",
+                partial.display()
+            )
+        })?;
+    match write(&partial) {
+        Ok(v) => {
+            std::fs::rename(&partial, out).with_context(|| {
+                format!("cannot rename {} to {}", partial.display(), out.display())
+            })?;
+            Ok(v)
+        }
+        Err(e) => {
+            match std::fs::remove_file(&partial) {
+                Ok(()) => eprintln!(
+                    "colony: removed the unfinished {}; {} was not written",
+                    partial.display(),
+                    out.display()
+                ),
+                Err(r) => eprintln!(
+                    "colony: {} is unfinished and could not be removed ({r})",
+                    partial.display()
+                ),
+            }
+            Err(e)
+        }
+    }
+}
+
 fn export(args: ExportArgs) -> anyhow::Result<()> {
     let mut log = open(&args.file)?;
-    let mut out = McapLogWriter::create(&args.mcap)?;
+    let (out, unreadable) =
+        write_via_partial(&args.mcap, |partial| export_to(&args, &mut log, partial))?;
+    report_damage(&log);
+    if unreadable > 0 {
+        eprintln!("colony: left out {unreadable} records that are not packets");
+    }
+    eprintln!(
+        "colony: wrote {} messages to {}",
+        out.messages(),
+        args.mcap.display()
+    );
+    Ok(())
+}
+
+fn export_to(
+    args: &ExportArgs,
+    log: &mut TrafficReader,
+    partial: &Path,
+) -> anyhow::Result<(McapLogWriter, u64)> {
+    let mut out = McapLogWriter::create(partial)?;
     let mut unreadable = 0u64;
     for_each_timed_in(
         log.by_ref().map(|r| r.map_err(anyhow::Error::from)),
@@ -189,20 +259,13 @@ fn export(args: ExportArgs) -> anyhow::Result<()> {
         },
     )?;
     out.finish()?;
-    report_damage(&log);
-    if unreadable > 0 {
-        eprintln!("colony: left out {unreadable} records that are not packets");
-    }
-    eprintln!(
-        "colony: wrote {} messages to {}",
-        out.messages(),
-        args.mcap.display()
-    );
-    Ok(())
+    Ok((out, unreadable))
 }
 
 fn recover(args: RecoverArgs) -> anyhow::Result<()> {
-    let r = colony_mcap::recover(&args.file, &args.out)?;
+    let r = write_via_partial(&args.out, |partial| {
+        Ok(colony_mcap::recover(&args.file, partial)?)
+    })?;
     match r.end {
         McapEnd::Finished => eprintln!(
             "colony: {} was finished (its writer wrote its summary)",
@@ -215,6 +278,18 @@ fn recover(args: RecoverArgs) -> anyhow::Result<()> {
     }
     for (offset, why) in &r.skipped {
         eprintln!("colony: skipped the corrupt record at byte {offset} ({why})");
+    }
+    if r.foreign > 0 {
+        eprintln!(
+            "colony: skipped {} messages that colony did not write",
+            r.foreign
+        );
+    }
+    if r.unwritable > 0 {
+        eprintln!(
+            "colony: left out {} messages whose text is not a packet",
+            r.unwritable
+        );
     }
     eprintln!(
         "colony: recovered {} messages from {} whole chunks into {}",
