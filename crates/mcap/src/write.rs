@@ -30,22 +30,38 @@ pub const OTHER_TOPIC: &str = "colony/other";
 /// A file that, once a write to it has failed, refuses every later one, so
 /// that nothing (the mcap writer's own drop, which writes the summary,
 /// included) appends to a log with a hole in it.
-struct Fused {
-    file: File,
+/// An interrupted write (`EINTR`) wrote nothing and is retried, so it does
+/// not count as a failure.
+struct Fused<W = File> {
+    file: W,
     failed: bool,
 }
 
-impl Write for Fused {
+impl<W: Write> Write for Fused<W> {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
         if self.failed {
             return Err(io::Error::other("an earlier write to this log failed"));
         }
-        self.file.write(buf).inspect_err(|_| self.failed = true)
+        self.file.write(buf).inspect_err(|e| {
+            if e.kind() != io::ErrorKind::Interrupted {
+                self.failed = true
+            }
+        })
     }
 
     fn flush(&mut self) -> io::Result<()> {
         self.file.flush()
     }
+}
+
+/// What a log may be written to: a regular file, or a FIFO (a reader at its
+/// other end); never a device, a directory or a socket.
+fn is_log_target(kind: std::fs::FileType) -> bool {
+    #[cfg(unix)]
+    let fifo = std::os::unix::fs::FileTypeExt::is_fifo(&kind);
+    #[cfg(not(unix))]
+    let fifo = false;
+    kind.is_file() || fifo
 }
 
 type Inner = mcap::Writer<NoSeek<Fused>>;
@@ -85,13 +101,27 @@ impl McapLogWriter {
             path: path.to_owned(),
             source,
         };
+        let not_a_file = || {
+            io_err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                "not a regular file or a FIFO: an MCAP log is written only to a new or empty file (or piped)",
+            ))
+        };
+        // Checked before opening too, so that a device is never opened.
+        if std::fs::metadata(path).is_ok_and(|m| !is_log_target(m.file_type())) {
+            return Err(not_a_file());
+        }
         let file = OpenOptions::new()
             .write(true)
             .create(true)
             .truncate(false)
             .open(path)
             .map_err(io_err)?;
-        if file.metadata().map_err(io_err)?.len() > 0 {
+        let meta = file.metadata().map_err(io_err)?;
+        if !is_log_target(meta.file_type()) {
+            return Err(not_a_file());
+        }
+        if meta.len() > 0 {
             return Err(McapLogError::Exists {
                 path: path.to_owned(),
             });
@@ -279,5 +309,43 @@ impl LogSink for McapLogWriter {
 
     fn finish(&mut self) -> io::Result<()> {
         McapLogWriter::finish(self).map_err(io::Error::other)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Fails its first write with `error`, then takes everything.
+    struct FailsOnce(Option<io::ErrorKind>, Vec<u8>);
+
+    impl Write for FailsOnce {
+        fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+            if let Some(kind) = self.0.take() {
+                return Err(io::Error::from(kind));
+            }
+            self.1.extend_from_slice(buf);
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn an_interrupted_write_is_retried_and_any_other_failure_is_final() {
+        let mut f = Fused {
+            file: FailsOnce(Some(io::ErrorKind::Interrupted), Vec::new()),
+            failed: false,
+        };
+        f.write_all(b"abc").unwrap();
+        assert_eq!(f.file.1, b"abc");
+        let mut f = Fused {
+            file: FailsOnce(Some(io::ErrorKind::StorageFull), Vec::new()),
+            failed: false,
+        };
+        assert!(f.write_all(b"abc").is_err());
+        assert!(f.write_all(b"abc").is_err());
+        assert!(f.file.1.is_empty());
     }
 }

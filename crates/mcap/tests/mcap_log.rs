@@ -373,14 +373,23 @@ fn either_format_is_told_by_its_first_bytes() {
 }
 
 #[test]
-fn a_write_error_is_returned_not_panicked_and_nothing_follows_it() {
-    // /dev/full fails every write with ENOSPC, as a full disk does.
-    if !Path::new("/dev/full").exists() {
-        return;
-    }
-    match McapLogWriter::create("/dev/full") {
-        Err(e) => assert!(e.to_string().contains("/dev/full"), "{e}"),
-        Ok(_) => panic!("writing the header to /dev/full succeeded"),
+fn a_device_or_a_directory_is_refused() {
+    // A device (whose writes may fail, or go nowhere) or a directory is no
+    // log (a FIFO is: colony's tests pipe one).
+    for path in ["/dev/full", "/dev/null", "/tmp"] {
+        if !Path::new(path).exists() {
+            continue;
+        }
+        match McapLogWriter::create(path) {
+            Err(e) => {
+                let said = format!("{e}: {}", std::error::Error::source(&e).unwrap());
+                assert!(
+                    said.contains(path) && said.contains("not a regular file"),
+                    "{said}"
+                )
+            }
+            Ok(_) => panic!("{path} taken as a log"),
+        }
     }
 }
 
