@@ -1821,21 +1821,13 @@ def _earliest(*times):
     return min(times) if times else None
 
 
-class CallClient:
-    """A :class:`Caller` on its own :class:`Client`::
+class _OnClient:
+    """A caller or provider on a :class:`Client` of its own: its descriptor,
+    closing, and ``with``."""
 
-        with CallClient("127.0.0.1:7400", "echo") as c:
-            print(c.call(['text value "hi"']).lines)
-
-    :meth:`call` waits for the answer and raises :class:`CallError`; or keep
-    your own loop with :meth:`start`, :meth:`poll` and :meth:`poll_outcome`.
-    Extra keyword arguments go to :class:`Client` (``key=...``)."""
-
-    def __init__(self, hub, service, **client_args):
-        self.caller = Caller(service)
+    def _open(self, hub, subjects, client_args):
         self.client = Client(hub, **client_args)
-        self._parked = deque()
-        for s in self.caller.subjects():
+        for s in subjects:
             self.client.subscribe(s)
 
     def fileno(self):
@@ -1849,6 +1841,22 @@ class CallClient:
 
     def __exit__(self, *exc):
         self.close()
+
+
+class CallClient(_OnClient):
+    """A :class:`Caller` on its own :class:`Client`::
+
+        with CallClient("127.0.0.1:7400", "echo") as c:
+            print(c.call(['text value "hi"']).lines)
+
+    :meth:`call` waits for the answer and raises :class:`CallError`; or keep
+    your own loop with :meth:`start`, :meth:`poll` and :meth:`poll_outcome`.
+    Extra keyword arguments go to :class:`Client` (``key=...``)."""
+
+    def __init__(self, hub, service, **client_args):
+        self.caller = Caller(service)
+        self._parked = deque()
+        self._open(hub, self.caller.subjects(), client_args)
 
     def start(self, lines, timeout=5.0, priority=0):
         call_id = self.caller.call(time.monotonic(), lines, timeout, priority)
@@ -1900,7 +1908,7 @@ class CallClient:
             self.poll()
 
 
-class ServeClient:
+class ServeClient(_OnClient):
     """A :class:`Provider` on its own :class:`Client`. ``handler(call)``
     returns the answer's lines, or raises to refuse the call (its message is
     the reason). It announces itself only once the hub has leased its
@@ -1908,21 +1916,7 @@ class ServeClient:
 
     def __init__(self, hub, service, lease=3.0, **client_args):
         self.provider = Provider(service, time.monotonic(), lease)
-        self.client = Client(hub, **client_args)
-        for s in self.provider.subjects():
-            self.client.subscribe(s)
-
-    def fileno(self):
-        return self.client.fileno()
-
-    def close(self):
-        self.client.close()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
+        self._open(hub, self.provider.subjects(), client_args)
 
     def _flush(self):
         if self.client.lease_ms is None:
