@@ -21,6 +21,27 @@ use colony_wire::Packet;
 use common::{run_bounded, HubProcess};
 use serde_json::Value;
 
+/// `colony log export FROM --mcap TO` with these filters, to its end.
+fn export(from: &Path, to: &Path, filters: &[&str]) -> (Option<i32>, String, String) {
+    let (from, to) = (from.to_str().unwrap(), to.to_str().unwrap());
+    let mut args = vec!["log", "export", from, "--mcap", to];
+    args.extend_from_slice(filters);
+    run_bounded(&args, "warn")
+}
+
+/// `colony log recover FROM TO`, to its end.
+fn recover(from: &Path, to: &Path) -> (Option<i32>, String, String) {
+    run_bounded(
+        &[
+            "log",
+            "recover",
+            from.to_str().unwrap(),
+            to.to_str().unwrap(),
+        ],
+        "warn",
+    )
+}
+
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
@@ -187,16 +208,7 @@ fn a_clog_the_hub_wrote_exports_to_an_mcap_the_mcap_package_reads_whole() {
         .collect();
     assert!(records.len() > 50);
     let out = scratch().join("exported.mcap");
-    let (code, _, err) = run_bounded(
-        &[
-            "log",
-            "export",
-            clog.to_str().unwrap(),
-            "--mcap",
-            out.to_str().unwrap(),
-        ],
-        "warn",
-    );
+    let (code, _, err) = export(&clog, &out, &[]);
     assert_eq!(code, Some(0), "{err}");
     assert!(
         err.contains(&format!("wrote {} messages", records.len())),
@@ -216,34 +228,12 @@ fn a_clog_the_hub_wrote_exports_to_an_mcap_the_mcap_package_reads_whole() {
         .cloned()
         .collect();
     let part = scratch().join("vision.mcap");
-    let (code, _, err) = run_bounded(
-        &[
-            "log",
-            "export",
-            clog.to_str().unwrap(),
-            "--mcap",
-            part.to_str().unwrap(),
-            "--channel",
-            "vision",
-            "--from",
-            "1",
-        ],
-        "warn",
-    );
+    let (code, _, err) = export(&clog, &part, &["--channel", "vision", "--from", "1"]);
     assert_eq!(code, Some(0), "{err}");
     let (python, summary) = python_reads(&part);
     same_messages(&python, &summary, &kept);
     // An existing file is not written over.
-    let (code, _, err) = run_bounded(
-        &[
-            "log",
-            "export",
-            clog.to_str().unwrap(),
-            "--mcap",
-            part.to_str().unwrap(),
-        ],
-        "warn",
-    );
+    let (code, _, err) = export(&clog, &part, &[]);
     assert_eq!(code, Some(1));
     assert!(err.contains("exists"), "{err}");
 }
@@ -376,15 +366,7 @@ fn a_hub_killed_while_logging_mcap_at_1khz_loses_at_most_its_last_chunk() {
 
     // `colony log recover` writes a valid MCAP with all of them.
     let fixed = dir.path().join("fixed.mcap");
-    let (code, _, err) = run_bounded(
-        &[
-            "log",
-            "recover",
-            mcap.to_str().unwrap(),
-            fixed.to_str().unwrap(),
-        ],
-        "warn",
-    );
+    let (code, _, err) = recover(&mcap, &fixed);
     assert_eq!(code, Some(0), "{err}");
     assert!(err.contains("recovered"), "{err}");
     let (python, summary) = python_reads(&fixed);
@@ -449,16 +431,7 @@ fn an_mcap_damaged_in_the_middle_is_an_error_with_its_offset() {
     let out = dir.path().join("out.mcap");
     let partial = dir.path().join("out.mcap.partial");
     for _ in 0..2 {
-        let (code, _, err) = run_bounded(
-            &[
-                "log",
-                "export",
-                file.to_str().unwrap(),
-                "--mcap",
-                out.to_str().unwrap(),
-            ],
-            "warn",
-        );
+        let (code, _, err) = export(&file, &out, &[]);
         assert_eq!(code, Some(1), "{err}");
         assert!(
             err.contains("is corrupt") && err.contains("was not written"),
@@ -475,15 +448,7 @@ fn an_mcap_damaged_in_the_middle_is_an_error_with_its_offset() {
     let chunk_len = u64::from_le_bytes(fixed[chunk + 1..chunk + 9].try_into().unwrap()) as usize;
     fixed[chunk + 9 + chunk_len - 16] ^= 0x5a;
     std::fs::write(&file, &fixed).unwrap();
-    let (code, _, err) = run_bounded(
-        &[
-            "log",
-            "recover",
-            file.to_str().unwrap(),
-            out.to_str().unwrap(),
-        ],
-        "warn",
-    );
+    let (code, _, err) = recover(&file, &out);
     assert_eq!(code, Some(0), "{err}");
     assert!(err.contains("recovered 2500 messages"), "{err}");
     assert!(!partial.exists());
@@ -535,15 +500,7 @@ fn a_forged_chunk_is_an_error_not_a_panic() {
             "{err}"
         );
         let out = dir.path().join(format!("out{i}.mcap"));
-        let (code, _, err) = run_bounded(
-            &[
-                "log",
-                "recover",
-                file.to_str().unwrap(),
-                out.to_str().unwrap(),
-            ],
-            "warn",
-        );
+        let (code, _, err) = recover(&file, &out);
         assert_eq!(code, Some(0), "{err}");
         assert!(
             err.contains("skipped the corrupt record at byte 8"),
