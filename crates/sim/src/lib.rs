@@ -68,6 +68,7 @@
 
 mod arena;
 mod body;
+pub mod canvas;
 mod config;
 mod config_load;
 mod error;
