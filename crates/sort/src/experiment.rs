@@ -18,7 +18,7 @@ use crate::Controller;
 
 /// The fewest robots one thread senses and decides for in a go (rayon's minimum chunk):
 /// smaller chunks make the threads' hand-offs cost more than the work.
-const ROBOTS_PER_TASK: usize = 32;
+pub(crate) const ROBOTS_PER_TASK: usize = 32;
 
 /// One trial to run.
 #[derive(Debug, Clone)]
@@ -164,7 +164,7 @@ pub enum ExperimentError {
 
 /// The per-robot random streams of a trial: independent of each other and
 /// of the world's own stream.
-fn robot_rng(seed: u64, robot: usize) -> ChaCha8Rng {
+pub(crate) fn robot_rng(seed: u64, robot: usize) -> ChaCha8Rng {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream((robot as u64).wrapping_add(1));
     rng

@@ -23,6 +23,7 @@ pub mod world;
 mod world_node;
 
 pub use robot_node::RobotNode;
+pub(crate) use world_node::vision_frame;
 pub use world_node::WorldNode;
 
 /// What can stop a live world or robot.

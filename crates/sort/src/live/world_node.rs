@@ -167,8 +167,8 @@ impl<W: BorrowMut<World>> Node for WorldNode<W> {
     }
 }
 
-/// The world as the overhead camera sees it.
-fn vision_frame(world: &World) -> Result<VisionFrame, LiveError> {
+/// The world as the overhead camera sees it (also what `env` publishes for a monitor).
+pub(crate) fn vision_frame(world: &World) -> Result<VisionFrame, LiveError> {
     let scene: &SceneConfig = world.config();
     let robots = world
         .robots()
