@@ -308,7 +308,8 @@ impl SortEnv {
     /// commands passed to [`step`](SortEnv::step), the episode is exactly
     /// `run_trial`'s with the same seed, scene and parameters. Each call
     /// advances the controllers (they keep state and draw random numbers),
-    /// so call it once a step per method.
+    /// so call it once a step per method. BHD clusters without regard to
+    /// kind: `colony sort run` refuses it with several kinds, this does not.
     pub fn reference_commands(&mut self, method: Method, out: &mut Vec<WheelCommand>) {
         let n = self.world.robot_count();
         let (seed, scene, params) = (self.seed, &self.config.scene, &self.config.params);
