@@ -18,6 +18,7 @@
 //! - [`server`]: game logic and swarm intelligence as one part of the game.
 //! - [`world`]: the battlefield in the simulator.
 //! - [`bot`]: the built-in scripted player.
+//! - [`env`]: the game as a multi-agent learning environment (the agents: one team's robots).
 //! - [`matches`]: the parts wired together in memory, fast-forwarded;
 //!   [`live`] runs them over the hub, and [`live_match`] runs and watches a whole match.
 //!
@@ -32,6 +33,7 @@
 #![warn(missing_docs)]
 
 pub mod bot;
+pub mod env;
 pub mod formation;
 pub mod live;
 pub mod live_match;

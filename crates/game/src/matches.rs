@@ -124,6 +124,18 @@ impl Match {
         bots: &[&str],
     ) -> Result<Match, MatchError> {
         let entries = roster(&field, &rules, teams)?;
+        Ok(Match::with_roster(field, rules, entries, bots)?)
+    }
+
+    /// Sets up a match with a roster already made (by [`roster`], its poses perhaps moved
+    /// within their cells, as the learning environment does to make its seed matter); `bots`
+    /// names the teams the scripted player plays.
+    pub fn with_roster(
+        field: Arc<Battlefield>,
+        rules: Rules,
+        entries: Vec<RobotEntry>,
+        bots: &[&str],
+    ) -> Result<Match, SimError> {
         // No latency: a step and everything it sets off happen at the step's time.
         let mut bus = Bus::new(Duration::ZERO);
         // Every packet is shown to the caller's tap.
@@ -206,9 +218,14 @@ impl Match {
         self.step(tap);
     }
 
-    /// Every event so far.
+    /// Every event so far (since the last [`Match::clear_events`]).
     pub fn events(&self) -> &[Event] {
         &self.recorder.events
+    }
+
+    /// Forgets the events so far: a long run that reads them as they come keeps no history.
+    pub fn clear_events(&mut self) {
+        self.recorder.events.clear();
     }
 
     /// The newest game state published.

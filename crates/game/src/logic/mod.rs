@@ -8,7 +8,7 @@
 mod referee;
 mod roster;
 
-pub use referee::{Referee, BASE_RADIUS, FLAG_REACH};
+pub use referee::{Referee, RobotTally, BASE_RADIUS, FLAG_REACH};
 pub use roster::{roster, RobotEntry, SetupError};
 
 #[cfg(test)]

@@ -15,6 +15,24 @@ pub const FLAG_REACH: f64 = 30.0;
 /// A flag brought this close to its captor's base is captured, cm.
 pub const BASE_RADIUS: f64 = 45.0;
 
+/// What one robot has done and suffered so far, counted by the referee as it rules: the
+/// learning environment's rewards are differences of these, so they follow the rules exactly.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RobotTally {
+    /// Health taken from enemies by its shots (at most what each target had left).
+    pub damage_dealt: f64,
+    /// Health it lost to shots.
+    pub damage_taken: f64,
+    /// Enemies its shots destroyed.
+    pub kills: u32,
+    /// Enemy flags it picked up.
+    pub flags_taken: u32,
+    /// Flags it brought to its base.
+    pub captures: u32,
+    /// Its shots and pick-ups the referee refused.
+    pub refused: u32,
+}
+
 #[derive(Debug, Clone)]
 struct Robot {
     entry: RobotEntry,
@@ -24,6 +42,7 @@ struct Robot {
     last_fire: f64,
     behaviour: String,
     reason: String,
+    tally: RobotTally,
 }
 
 #[derive(Debug, Clone)]
@@ -98,6 +117,7 @@ impl Referee {
                     last_fire: f64::NEG_INFINITY,
                     behaviour: String::new(),
                     reason: String::new(),
+                    tally: RobotTally::default(),
                 })
                 .collect(),
             rules,
@@ -156,6 +176,34 @@ impl Referee {
     /// A team's base.
     pub fn base(&self, team: &str) -> Option<Vec2> {
         self.bases.iter().find(|b| b.0 == team).map(|b| b.1)
+    }
+
+    /// A robot's health left, if the robot exists.
+    pub fn health(&self, id: u32) -> Option<f64> {
+        self.robots.get(id as usize).map(|r| r.health)
+    }
+
+    /// Seconds until a robot may fire again (0 when it may now), if the robot exists.
+    pub fn reload_left(&self, id: u32) -> Option<f64> {
+        self.robots.get(id as usize).map(|r| {
+            let reload = r.entry.build.kind.stats().reload_s;
+            (r.last_fire + reload - self.time).clamp(0.0, reload)
+        })
+    }
+
+    /// What a robot has done and suffered so far, if the robot exists.
+    pub fn tally(&self, id: u32) -> Option<RobotTally> {
+        self.robots.get(id as usize).map(|r| r.tally)
+    }
+
+    /// Every team's score and kills, in roster order.
+    pub fn teams(&self) -> &[TeamState] {
+        &self.teams
+    }
+
+    /// The winner, once the game is over and someone won.
+    pub fn winner(&self) -> Option<&str> {
+        self.winner.as_deref()
     }
 
     /// Records the squad a robot now belongs to (after a split, a merge or a single-robot order).
@@ -240,6 +288,7 @@ impl Referee {
             None
         };
         if let Some(why) = refusal {
+            self.robots[shooter as usize].tally.refused += 1;
             return self.event(
                 "refused",
                 format!("robot {shooter} fires at robot {target}: {why}"),
@@ -247,8 +296,11 @@ impl Referee {
         }
         self.robots[shooter as usize].last_fire = time;
         let t = &mut self.robots[target as usize];
+        let before = t.health;
         t.health = (t.health - damage).max(0.0);
         let health = t.health;
+        t.tally.damage_taken += before - health;
+        self.robots[shooter as usize].tally.damage_dealt += before - health;
         self.event(
             "hit",
             format!("robot {shooter} hits robot {target} for {damage} (health {health})"),
@@ -262,6 +314,7 @@ impl Referee {
         let r = &mut self.robots[id as usize];
         r.alive = false;
         let pos = r.pose.position();
+        self.robots[by as usize].tally.kills += 1;
         let killer_team = self.robots[by as usize].entry.team.clone();
         if let Some(t) = self.teams.iter_mut().find(|t| t.name == killer_team) {
             t.kills += 1;
@@ -313,12 +366,14 @@ impl Referee {
             None
         };
         if let Some(why) = refusal {
+            self.robots[robot as usize].tally.refused += 1;
             return self.event(
                 "refused",
                 format!("robot {robot} picks up the {flag} flag: {why}"),
             );
         }
         self.flags[f].carrier = Some(robot);
+        self.robots[robot as usize].tally.flags_taken += 1;
         self.event(
             "flag-taken",
             format!("robot {robot} of {team} takes the {flag} flag"),
@@ -335,6 +390,7 @@ impl Referee {
             if let Some(c) = self.flags[i].carrier {
                 let r = &self.robots[c as usize];
                 self.flags[i].at = r.pose.position();
+                let carrier = c as usize;
                 let captor = r.entry.team.clone();
                 if let Some(base) = self.base(&captor) {
                     if self.flags[i].at.distance(base) <= BASE_RADIUS {
@@ -344,6 +400,7 @@ impl Referee {
                         if let Some(t) = self.teams.iter_mut().find(|t| t.name == captor) {
                             t.score += 1;
                         }
+                        self.robots[carrier].tally.captures += 1;
                         self.event(
                             "captured",
                             format!("robot {c} of {captor} captures the {team} flag"),
