@@ -22,6 +22,19 @@
 use colony_sim::{Observation, Vec2, World};
 
 /// The sizes of every agent's observation, agent-major in each buffer.
+///
+/// `map` is C×G×G per agent, channel-major, over the bounding rectangle of
+/// the camera footprint in the robot frame (x from `near_cm` to `far_cm`
+/// ahead of the robot's centre, y within ±`half_width_cm`). Row 0 is the far
+/// edge, column 0 the left edge (+y): a picture from above with the robot
+/// looking up. Channels `0..K` count the pucks of each kind whose centre is
+/// in a cell (pucks in another robot's gripper are left out, as the paper's
+/// local map drops them; the carried puck is never in the grid: `gripper`
+/// reports it), channel `K` counts other robots' centres, channel `K + 1` is 1
+/// where a wall or another robot's body has a point. `gripper` is one-hot:
+/// index 0 empty, `1 + k` carrying kind `k`. `pose` is x / half the arena
+/// width, y / half its height (the arena is centred on the origin), cos θ,
+/// sin θ. Every value is finite.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ObsLayout {
     /// Agents (robots).
