@@ -18,7 +18,7 @@
 //! - [`server`]: game logic and swarm intelligence as one part of the game.
 //! - [`world`]: the battlefield in the simulator.
 //! - [`bot`]: the built-in scripted player.
-//! - [`env`]: the game as a multi-agent learning environment (the agents: one team's robots).
+//! - [`mod@env`]: the game as a multi-agent learning environment (the agents: one team's robots).
 //! - [`matches`]: the parts wired together in memory, fast-forwarded;
 //!   [`live`] runs them over the hub, and [`live_match`] runs and watches a whole match.
 //!

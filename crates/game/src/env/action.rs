@@ -1,18 +1,5 @@
-//! What a learner may do, and how it reaches the game: through the paths a player and a robot
-//! use, never around them.
-//!
-//! - **Wheels** go as the player's `drive` command on `game.player.TEAM`: the server takes the
-//!   robot out of its squad's hands and orders its brain to hold the wheels, and the brain's
-//!   reflexes (bump, border, sonar) still outrank the drive. The fractions are brought into
-//!   range by proto's one clamp rule ([`WheelCommand::clamped`]: [-1, 1], NaN as 0).
-//! - **Shots and pick-ups** go as the robot's own requests on `game.action`, which is how a
-//!   squad's `shoot` order ends up too (the squad tells the robot whom to shoot, the robot
-//!   asks the referee). The referee checks range, reload, a destroyed shooter or target, the
-//!   team, the flag's reach, and refuses what the rules don't allow; refusals are counted in
-//!   the robot's [`crate::logic::RobotTally`] and cost nothing else. The referee does not
-//!   look at the shooter's heading, so neither does a learner's shot.
-//! - **Squad orders** go as the player's squad commands, carried out by the server's own squad
-//!   behaviours (shoot > avoid > order > hold), exactly as the scripted player's are.
+//! Actions and squad orders, and the packets they become (how they reach the game is told in
+//! the module docs of `env`).
 
 use colony_proto::WheelCommand;
 use colony_sim::Vec2;

@@ -5,9 +5,30 @@
 //! **The rules are the game's.** Underneath is a [`Match`]: the world on the simulator's
 //! field, the game server with its referee and squad arbitrators, every robot's brain and the
 //! scripted player, exchanging their packets through the real sans-IO hub with no latency.
-//! The environment only adds packets a player and a robot could send (see [`action`]'s docs)
-//! and reads what the match shows: the world's poses, the referee's health, reloads, flags,
-//! scores and its per-robot [`RobotTally`], from which rewards are differences.
+//! The environment only adds packets a player and a robot could send, and reads what the
+//! match shows: the world's poses, the referee's health, reloads, flags, scores and its
+//! per-robot [`RobotTally`], from which rewards are differences.
+//!
+//! **How actions reach the game** (never around the referee):
+//!
+//! - *Wheels* ([`RobotAction::forward`], [`RobotAction::turn`]) go as the player's `drive`
+//!   command on `game.player.TEAM`: the server takes the robot out of its squad's hands and
+//!   orders its brain to hold the wheels, and the brain's reflexes (bump, border, sonar) still
+//!   outrank the drive. The fractions are brought into range by proto's one clamp rule
+//!   ([`colony_proto::WheelCommand::clamped`]: [-1, 1], NaN as 0).
+//! - *Shots and pick-ups* ([`RobotAction::fire`], [`RobotAction::pickup`]) go as the robot's
+//!   own requests on `game.action`, which is where a squad's `shoot` order ends up too (the
+//!   squad tells the robot whom to shoot, the robot asks the referee). The referee checks range,
+//!   reload, a destroyed shooter or target, the team and the flag's reach, and refuses what
+//!   the rules don't allow; refusals are counted ([`StepInfo::refused`]) and change nothing
+//!   else. The referee does not look at the shooter's heading, so neither does a learner's shot.
+//!   A destroyed agent's actions are dropped (its player can no longer drive it).
+//! - *Squad orders* ([`SquadOrder`]) go as the player's squad commands, carried out by the
+//!   server's own squad behaviours (shoot > avoid-squads > order > hold), as the scripted
+//!   player's are; its members keep shooting enemies in range on their own.
+//!
+//! **Observations**: see [`ObsLayout`] and the constants named there; every field is listed
+//! in [`GameEnv::observe`]. **Rewards**: see [`RewardWeights`].
 //!
 //! **A step** is one control step of the world (0.1 s of game time). The actions are put on
 //! the bus and delivered right after the world's physics step, as a player's command sent
@@ -107,36 +128,44 @@ pub struct GameEnvConfig {
     pub rewards: RewardWeights,
 }
 
-/// The shipped maps, found from this crate's source (for tests and defaults).
-pub fn shipped_map(mode: Mode) -> std::path::PathBuf {
-    let name = match mode {
-        Mode::CaptureTheFlag => "ctf.map",
-        Mode::DeathMatch => "dm.map",
-    };
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../maps")
-        .join(name)
+/// The text of the map shipped for a mode (`maps/ctf.map`, `maps/dm.map`), built into the
+/// library so a wheel installed anywhere has it.
+pub fn shipped_map(mode: Mode) -> &'static str {
+    match mode {
+        Mode::CaptureTheFlag => include_str!("../../../../maps/ctf.map"),
+        Mode::DeathMatch => include_str!("../../../../maps/dm.map"),
+    }
 }
 
 impl GameEnvConfig {
-    /// The defaults for a mode on the map at `map` (the shipped ones: [`shipped_map`]): red
-    /// learns against blue's scripted player, 6 robots each ([`DEFAULT_LEARNER`]), robot-level
-    /// control, 3000 steps (5 minutes of game time), K = 8, P = 11.
-    pub fn new(mode: Mode, map: impl AsRef<Path>) -> Result<GameEnvConfig, EnvError> {
-        let map = Arc::new(Battlefield::from_file(map)?);
+    /// The defaults for a mode on its shipped map ([`shipped_map`]).
+    pub fn shipped(mode: Mode) -> Result<GameEnvConfig, EnvError> {
+        GameEnvConfig::new(mode, Arc::new(Battlefield::parse(shipped_map(mode))?))
+    }
+
+    /// The defaults for a mode on the map file at `path`.
+    pub fn from_path(mode: Mode, path: impl AsRef<Path>) -> Result<GameEnvConfig, EnvError> {
+        GameEnvConfig::new(mode, Arc::new(Battlefield::from_file(path)?))
+    }
+
+    /// The defaults for a mode on `map`: the map's first team learns against the second's
+    /// scripted player, 6 robots each ([`DEFAULT_LEARNER`]), robot-level control, 3000 steps
+    /// (5 minutes of game time; the rules' own clock is 10), K = 8, P = 11, the default
+    /// rewards.
+    pub fn new(mode: Mode, map: Arc<Battlefield>) -> Result<GameEnvConfig, EnvError> {
         let team = |i: usize| {
             map.teams
                 .get(i)
                 .map(|t| t.name.clone())
                 .ok_or(EnvError::Teams)
         };
-        let (red, blue) = (team(0)?, team(1)?);
+        let (first, second) = (team(0)?, team(1)?);
         let parse = |name: &str, text: &str| {
             TeamSetup::parse(name, text).map_err(|e| EnvError::Setup(SetupError::Rules(e)))
         };
         Ok(GameEnvConfig {
-            learner: parse(&red, DEFAULT_LEARNER)?,
-            opponent: parse(&blue, DEFAULT_OPPONENT)?,
+            learner: parse(&first, DEFAULT_LEARNER)?,
+            opponent: parse(&second, DEFAULT_OPPONENT)?,
             map,
             mode,
             opponent_policy: Opponent::Scripted,

@@ -1,30 +1,7 @@
 //! What each agent sees: four float32 arrays, agent-major, written in place into buffers the
 //! caller owns (NumPy arrays handed in from Python), so a step allocates nothing for them.
 //!
-//! Lengths are in units of `L`, the map's longer side in centimetres (so every relative
-//! position lies in [-1, 1]); relative positions are in the agent's own frame (x ahead, y to
-//! its left), so a policy need not learn rotations. A destroyed agent sees all zeros (its
-//! `alive` is 0) and keeps its place until the episode ends.
-//!
-//! - `own` ([`OWN_FEATURES`]): x / map width and y / map height (world frame, 0 to 1);
-//!   cos and sin of the heading (world frame); velocity ahead and to the left, and turn rate,
-//!   as fractions of the type's top speed and turn rate (from the last step's motion);
-//!   health / max health; damage per shot / [`MAX_DAMAGE`]; alive; carrying a flag;
-//!   reload left / the type's reload time (0: may fire); inside its own base's radius;
-//!   steps taken / max steps; the type, one-hot (scout, tank, infantry, amphibian).
-//! - `nearby` ([`NEARBY_FEATURES`] for each of the K nearest living robots, nearest first,
-//!   ties by id; empty slots all zero): valid (1); dx, dy / L; distance / L; enemy (1) or ally
-//!   (0); health / max health; cos and sin of its heading relative to the agent's; carrying a
-//!   flag; within the agent's range (a shot at it would not be refused for range). Destroyed
-//!   robots are left out, so a slot never holds one. The slot numbers are the ones
-//!   [`super::Fire::Slot`] names.
-//! - `flags` ([`FLAG_FEATURES`] for each team, the learner's first, then the opponent's): the
-//!   flag is in play (0 in Death Match, where the rest of its flag part is 0 too); the flag's
-//!   dx, dy / L and distance / L; it stands at home; it is carried; the team's base dx, dy / L
-//!   and distance / L.
-//! - `patch` (P x P x [`PATCH_CHANNELS`]): the cells around the agent's cell, world-aligned
-//!   with north up (row 0 is the northmost row, column 0 the westmost), channels: wall (trees,
-//!   out of bounds and off the map), water, an ally's centre, an enemy's centre.
+//! The layout, field by field, is on [`GameEnv::observe`].
 
 use colony_sim::{Pose, Vec2};
 
@@ -137,7 +114,33 @@ impl GameEnv {
 
     /// Writes every agent's observation, agent-major, into the four buffers (each
     /// `agents × its part's length`, see [`GameEnv::layout`]); a buffer of another length is
-    /// an error and nothing is written.
+    /// an error and nothing is written. It reads what the last step (or reset) saw, so it can
+    /// be called any number of times between steps.
+    ///
+    /// Lengths are in units of `L`, the map's longer side in centimetres (so every relative
+    /// position lies in [-1, 1]); relative positions are in the agent's own frame (x ahead, y to
+    /// its left), so a policy need not learn rotations. A destroyed agent sees all zeros (its
+    /// `alive` is 0) and keeps its place until the episode ends.
+    ///
+    /// - `own` ([`OWN_FEATURES`]): x / map width and y / map height (world frame, 0 to 1);
+    ///   cos and sin of the heading (world frame); velocity ahead and to the left, and turn rate,
+    ///   as fractions of the type's top speed and turn rate (from the last step's motion);
+    ///   health / max health; damage per shot / [`MAX_DAMAGE`]; alive; carrying a flag;
+    ///   reload left / the type's reload time (0: may fire); inside its own base's radius;
+    ///   steps taken / max steps; the type, one-hot (scout, tank, infantry, amphibian).
+    /// - `nearby` ([`NEARBY_FEATURES`] for each of the K nearest living robots, nearest first,
+    ///   ties by id; empty slots all zero): valid (1); dx, dy / L; distance / L; enemy (1) or ally
+    ///   (0); health / max health; cos and sin of its heading relative to the agent's; carrying a
+    ///   flag; within the agent's range (a shot at it would not be refused for range). Destroyed
+    ///   robots are left out, so a slot never holds one. The slot numbers are the ones
+    ///   [`super::Fire::Slot`] names.
+    /// - `flags` ([`FLAG_FEATURES`] for each team, the learner's first, then the opponent's): the
+    ///   flag is in play (0 in Death Match, where the rest of its flag part is 0 too); the flag's
+    ///   dx, dy / L and distance / L; it stands at home; it is carried; the team's base dx, dy / L
+    ///   and distance / L.
+    /// - `patch` (P x P x [`PATCH_CHANNELS`]): the cells around the agent's cell, world-aligned
+    ///   with north up (row 0 is the northmost row, column 0 the westmost), channels: wall (trees,
+    ///   out of bounds and off the map), water, an ally's centre, an enemy's centre.
     pub fn observe(
         &self,
         own: &mut [f32],

@@ -1,23 +1,25 @@
-//! Rewards: differences, step to step, of what the referee counts, so a reward can never
-//! disagree with the rules. Each agent's reward for a step is
-//!
-//! ```text
-//!   score    × (Δ learner's score − Δ opponent's score)       every agent, alive or not
-//! + outcome  × (+1 learner won, −1 opponent won, 0 draw)       every agent, on the last step
-//! + dealt    × Δ health its shots took from enemies
-//! − taken    × Δ health it lost to shots
-//! − destroyed                                                   on the step it is destroyed
-//! + flag     × Δ enemy flags it picked up
-//! − refused  × Δ its shots and pick-ups the referee refused
-//! ```
-//!
-//! The score is captures in Capture the Flag and kills in Death Match (the referee's). A
-//! capture wins a default Capture the Flag game, so it pays `score + outcome`. A truncated
-//! episode has no outcome.
+//! Rewards: see [`RewardWeights`].
 
 use super::{GameEnv, RobotTally, StepInfo};
 
 /// What each part of the reward weighs.
+///
+/// Rewards: differences, step to step, of what the referee counts, so a reward can never
+/// disagree with the rules. Each agent's reward for a step is
+///
+/// ```text
+///   score    × (Δ learner's score − Δ opponent's score)       every agent, alive or not
+/// + outcome  × (+1 learner won, −1 opponent won, 0 draw)       every agent, on the last step
+/// + dealt    × Δ health its shots took from enemies
+/// − taken    × Δ health it lost to shots
+/// − destroyed                                                   on the step it is destroyed
+/// + flag     × Δ enemy flags it picked up
+/// − refused  × Δ its shots and pick-ups the referee refused
+/// ```
+///
+/// The score is captures in Capture the Flag and kills in Death Match (the referee's). A
+/// capture wins a default Capture the Flag game, so it pays `score + outcome`. A truncated
+/// episode has no outcome.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RewardWeights {
     /// Per point of the team's score, less per point of the opponent's.

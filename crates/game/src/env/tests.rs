@@ -1,7 +1,7 @@
 use super::*;
 
 fn config(mode: Mode) -> GameEnvConfig {
-    GameEnvConfig::new(mode, shipped_map(mode)).unwrap()
+    GameEnvConfig::shipped(mode).unwrap()
 }
 
 /// Every observation part, for comparing two environments bit for bit.
@@ -61,6 +61,22 @@ fn flag_runner(env: &GameEnv) -> Vec<RobotAction> {
             }
         })
         .collect()
+}
+
+#[test]
+fn the_built_in_maps_are_the_shipped_files_and_a_map_loads_from_a_path() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps");
+    for (mode, file) in [
+        (Mode::CaptureTheFlag, "ctf.map"),
+        (Mode::DeathMatch, "dm.map"),
+    ] {
+        let from_file = GameEnvConfig::from_path(mode, dir.join(file)).unwrap();
+        assert_eq!(from_file.map, config(mode).map);
+    }
+    assert!(matches!(
+        GameEnvConfig::from_path(Mode::DeathMatch, dir.join("no-such.map")),
+        Err(EnvError::Map(_))
+    ));
 }
 
 #[test]
@@ -349,4 +365,50 @@ fn the_picture_shows_both_teams_and_recording_keeps_the_games_packets() {
         assert!(subjects.iter().any(|s| s == want), "{want} in {subjects:?}");
     }
     assert!(env.take_packets().is_empty());
+}
+
+/// The cost of a step of the default 12-robot Capture the Flag (run it optimised:
+/// `cargo test --release -p colony-game --lib env::tests::step_cost -- --ignored --nocapture`).
+#[test]
+#[ignore = "a measurement, not a check"]
+fn step_cost() {
+    let mut env = GameEnv::new(config(Mode::CaptureTheFlag), 1).unwrap();
+    let l = env.layout();
+    let n = l.agents;
+    let mut own = vec![0.0; n * l.own_len()];
+    let mut nearby = vec![0.0; n * l.nearby_len()];
+    let mut flags = vec![0.0; n * l.flags_len()];
+    let mut patch = vec![0.0; n * l.patch_len()];
+    let steps = 3000;
+    let (mut stepping, mut observing, mut acting) = (0.0, 0.0, 0.0);
+    for _ in 0..steps {
+        let t = std::time::Instant::now();
+        let actions = flag_runner(&env);
+        acting += t.elapsed().as_secs_f64();
+        let t = std::time::Instant::now();
+        let info = env.step_robots(&actions).unwrap();
+        stepping += t.elapsed().as_secs_f64();
+        let t = std::time::Instant::now();
+        env.observe(&mut own, &mut nearby, &mut flags, &mut patch)
+            .unwrap();
+        observing += t.elapsed().as_secs_f64();
+        if info.terminated || info.truncated {
+            env.reset(2).unwrap();
+        }
+    }
+    let t = std::time::Instant::now();
+    for _ in 0..100 {
+        std::hint::black_box(env.render_rgb(640, 480));
+    }
+    let render = t.elapsed().as_secs_f64() / 100.0;
+    let us = |s: f64| s / f64::from(steps) * 1e6;
+    eprintln!(
+        "per step: step_robots {:.0} µs, observe {:.1} µs (the test's policy {:.1} µs); \
+         {:.0} steps/s; render 640x480 {:.0} µs",
+        us(stepping),
+        us(observing),
+        us(acting),
+        f64::from(steps) / (stepping + observing),
+        render * 1e6
+    );
 }

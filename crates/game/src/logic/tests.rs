@@ -224,3 +224,39 @@ fn the_roster_is_the_same_every_time_and_refuses_what_does_not_fit() {
         Err(SetupError::NoRoom { .. })
     ));
 }
+
+#[test]
+fn the_tally_counts_damage_kills_flags_captures_and_refusals() {
+    let (_, mut r, _) = game(Mode::CaptureTheFlag);
+    // The tank (red, 0) next to the scout (blue, 1), at blue's flag.
+    let flag = r.flag_at("blue").unwrap().0;
+    place(&mut r, 1.0, &[(0, flag), (1, flag + Vec2::new(40.0, 0.0))]);
+    let fire = Action::Fire {
+        robot: 0,
+        target: 1,
+    };
+    r.on_action(&fire);
+    r.on_action(&fire); // too soon: refused
+    assert_eq!(r.reload_left(0), Some(1.2));
+    r.on_action(&Action::PickUp {
+        robot: 0,
+        flag: "blue".into(),
+    });
+    let mut time = 1.0;
+    // A scout has 40 health: three tank shots of 15 destroy it, the last taking only 10.
+    for _ in 0..2 {
+        time += 1.3;
+        place(&mut r, time, &[(0, flag), (1, flag + Vec2::new(40.0, 0.0))]);
+        r.on_action(&fire);
+    }
+    let (tank, scout) = (r.tally(0).unwrap(), r.tally(1).unwrap());
+    assert_eq!((tank.damage_dealt, scout.damage_taken), (40.0, 40.0));
+    assert_eq!((tank.kills, tank.flags_taken, tank.refused), (1, 1, 1));
+    assert_eq!(r.health(1), Some(0.0));
+    // Home with the flag: a capture, and red wins.
+    let base = r.base("red").unwrap();
+    place(&mut r, time + 0.1, &[(0, base)]);
+    assert_eq!(r.tally(0).unwrap().captures, 1);
+    assert_eq!(r.winner(), Some("red"));
+    assert_eq!(r.teams()[0].score, 1);
+}
