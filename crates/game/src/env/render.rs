@@ -84,15 +84,15 @@ impl GameEnv {
                     DESTROYED
                 };
                 let (x, y) = view.to_pixel(s.pose.position());
-                let r = view.length(s.kind.stats().radius_cm).max(2.0);
+                // Never smaller than a few pixels, so a small picture still shows every robot.
+                let r = view.length(s.kind.stats().radius_cm).max(3.0);
                 c.fill_disc(x, y, r + 1.0, RIM);
                 c.fill_disc(x, y, r, colour);
                 if s.alive {
-                    let tip = s.pose.position()
-                        + Vec2::new(s.pose.theta.cos(), s.pose.theta.sin())
-                            * (s.kind.stats().radius_cm * 1.8);
-                    let (tx, ty) = view.to_pixel(tip);
-                    c.line(x, y, tx, ty, (r * 0.4).max(1.0), RIM);
+                    // Pixels run down the picture while the world's y runs up.
+                    let (sin, cos) = s.pose.theta.sin_cos();
+                    let tip = r * 1.8;
+                    c.line(x, y, x + cos * tip, y - sin * tip, (r * 0.4).max(1.0), RIM);
                 }
                 if s.carrying {
                     let flag = self
