@@ -95,6 +95,19 @@ fn the_default_setup_is_six_against_six_within_the_budget() {
         .iter()
         .all(|a| env.game().roster()[a.robot as usize].team == "red"));
     assert_eq!(env.squads().collect::<Vec<_>>(), ["alpha", "bravo"]);
+    // Damage per shot is divided by the most any build does.
+    let most = RobotKind::ALL
+        .iter()
+        .map(|&kind| {
+            crate::rules::RobotBuild {
+                kind,
+                health: 0,
+                power: crate::rules::MAX_UPGRADE,
+            }
+            .damage()
+        })
+        .fold(0.0, f64::max);
+    assert_eq!(MAX_DAMAGE, most);
     let l = env.layout();
     assert_eq!(
         (l.own_len(), l.nearby_len(), l.flags_len(), l.patch_len()),
