@@ -1,17 +1,21 @@
-//! Runs the Python client's tests (`python/tests`, standard-library unittest)
-//! against this build's `colony` binary, so `cargo test --workspace` covers them.
+//! Runs colony's Python test suites (standard-library unittest) against this
+//! build's `colony` binary, so `cargo test --workspace` covers them:
 //!
-//! Without a `python3` on the PATH the test fails and names the command that
-//! installs it (`scripts/test`): no test is skipped silently.
+//! - the protocol client (`python/tests`) against the real hub;
+//! - the `colony` package's environments (`crates/py/tests`: PettingZoo's and
+//!   Gymnasium's own checkers, the reference policies against `colony sort run`,
+//!   the examples), on the package `scripts/test` builds and installs under
+//!   `target/pycolony` with the pinned third-party packages under `target/pydeps`.
+//!
+//! Without a `python3` on the PATH, or without the installed package, a test
+//! fails and names the command that provides it (`scripts/test`): no test is
+//! skipped silently.
 
 use std::io::Read;
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::thread;
 use std::time::{Duration, Instant};
-
-/// The Python suite bounds every wait itself; this is the backstop.
-const LIMIT: Duration = Duration::from_secs(300);
 
 fn drain(mut pipe: impl Read + Send + 'static) -> thread::JoinHandle<String> {
     thread::spawn(move || {
@@ -21,25 +25,36 @@ fn drain(mut pipe: impl Read + Send + 'static) -> thread::JoinHandle<String> {
     })
 }
 
-#[test]
-fn python_client_unittests_pass_against_the_real_hub() {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// Runs `python3 -m unittest discover -s DIR -v` from the repository's root with
+/// `pythonpath`, and fails with Python's whole output unless every test passed
+/// within `limit` (the suites bound every wait themselves; this is the backstop).
+fn unittest(what: &str, dir: &str, pythonpath: &[PathBuf], limit: Duration) {
     let python = std::env::var("PYTHON").unwrap_or_else(|_| "python3".to_string());
-    let spawned = Command::new(&python)
-        .args(["-m", "unittest", "discover", "-s", "python/tests", "-v"])
-        .current_dir(&root)
+    let mut command = Command::new(&python);
+    command
+        .args(["-m", "unittest", "discover", "-s", dir, "-v"])
+        .current_dir(root())
         .env("COLONY_BIN", env!("CARGO_BIN_EXE_colony"))
         .env("PYTHONDONTWRITEBYTECODE", "1")
         .env("PYTHONUNBUFFERED", "1")
         .env_remove("COLONY_HUB")
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn();
-    let mut child = match spawned {
+        .stderr(Stdio::piped());
+    if !pythonpath.is_empty() {
+        command.env(
+            "PYTHONPATH",
+            std::env::join_paths(pythonpath).expect("paths without separators"),
+        );
+    }
+    let mut child = match command.spawn() {
         Ok(child) => child,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => panic!(
-            "no `{python}` to run the Python client's tests ({e}): run the README's test \
+            "no `{python}` to run {what}'s tests ({e}): run the README's test \
              command, `scripts/test`, which installs it (or: apt-get install python3)"
         ),
         Err(e) => panic!("cannot run `{python}`: {e}"),
@@ -51,7 +66,7 @@ fn python_client_unittests_pass_against_the_real_hub() {
     let status = loop {
         match child.try_wait().expect("waiting for python") {
             Some(status) => break Some(status),
-            None if started.elapsed() > LIMIT => {
+            None if started.elapsed() > limit => {
                 let _ = child.kill();
                 let _ = child.wait();
                 break None;
@@ -65,12 +80,49 @@ fn python_client_unittests_pass_against_the_real_hub() {
     println!("--- python stdout ---\n{out}\n--- python stderr ---\n{err}");
     match status {
         None => panic!(
-            "the Python tests ran longer than {} s and were killed",
-            LIMIT.as_secs()
+            "{what}'s Python tests ran longer than {} s and were killed",
+            limit.as_secs()
         ),
         Some(status) => assert!(
             status.success(),
-            "the Python client's tests failed ({status}); output above"
+            "{what}'s Python tests failed ({status}); output above"
         ),
     }
+}
+
+#[test]
+fn python_client_unittests_pass_against_the_real_hub() {
+    unittest(
+        "the Python client",
+        "python/tests",
+        &[],
+        Duration::from_secs(300),
+    );
+}
+
+#[test]
+fn python_environments_pass_pettingzoo_and_gymnasium_checks() {
+    let package = root().join("target/pycolony");
+    let deps = root().join("target/pydeps");
+    for (dir, module, what) in [
+        (&package, "colony", "the `colony` package"),
+        (
+            &deps,
+            "pettingzoo",
+            "PettingZoo (with the other pinned packages)",
+        ),
+    ] {
+        assert!(
+            dir.join(module).is_dir(),
+            "{what} is not installed under {}: run the README's test command, \
+             `scripts/test`, which builds and installs it",
+            dir.display()
+        );
+    }
+    unittest(
+        "the colony package",
+        "crates/py/tests",
+        &[package, deps],
+        Duration::from_secs(600),
+    );
 }

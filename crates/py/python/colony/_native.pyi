@@ -1,0 +1,114 @@
+"""Type stubs for colony's Rust extension (crates/py/src). Arrays handed in are
+written in place and must have exactly the shape named, in C order."""
+
+from typing import Optional
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+class Publisher:
+    """A hub client that only publishes (``render_mode="human"``)."""
+
+    def __init__(self, hub: str) -> None: ...
+    def publish(self, packets: list[bytes]) -> None: ...
+    @property
+    def sent(self) -> int: ...
+    @property
+    def hub(self) -> str: ...
+
+class SortCore:
+    """One sorting world; ``colony.sorting.SortingEnv`` wraps it."""
+
+    def __init__(
+        self,
+        *,
+        scene: Optional[str] = None,
+        params: Optional[str] = None,
+        robots: Optional[int] = None,
+        pucks: Optional[int] = None,
+        kinds: Optional[int] = None,
+        scale_robots: Optional[int] = None,
+        max_steps: int = 2000,
+        pc_target: Optional[float] = None,
+        reward: str = "pc_change",
+        grid: int = 16,
+        seed: int = 0,
+    ) -> None: ...
+    def reset(self, seed: int) -> None: ...
+    @property
+    def agents(self) -> int: ...
+    @property
+    def kinds(self) -> int: ...
+    @property
+    def layout(self) -> tuple[int, int, int, int]:
+        """(map channels, grid cells per side, gripper length, pose length)."""
+    def observe(
+        self,
+        map: npt.NDArray[np.float32],
+        gripper: npt.NDArray[np.float32],
+        pose: npt.NDArray[np.float32],
+    ) -> None: ...
+    def step(self, actions: npt.NDArray[np.float64]) -> tuple[float, float, bool, bool]:
+        """(robots, 2) forward and turn: (reward, pc, terminated, truncated)."""
+    def step_discrete(self, actions: npt.NDArray[np.uint32]) -> tuple[float, float, bool, bool]: ...
+    def reference(self, method_name: str) -> npt.NDArray[np.float64]: ...
+    @property
+    def pc(self) -> float: ...
+    @property
+    def twc(self) -> float: ...
+    @property
+    def steps(self) -> int: ...
+    def render(self, width: int, height: int) -> npt.NDArray[np.uint8]: ...
+    def vision_packets(self) -> list[bytes]: ...
+    @staticmethod
+    def discrete_actions() -> npt.NDArray[np.float64]: ...
+    @staticmethod
+    def discrete_action_names() -> list[str]: ...
+
+class SortBatch:
+    """Many sorting worlds stepped together; ``colony.batch.SortingBatch`` wraps it."""
+
+    def __init__(
+        self,
+        *,
+        worlds: int,
+        scene: Optional[str] = None,
+        params: Optional[str] = None,
+        robots: Optional[int] = None,
+        pucks: Optional[int] = None,
+        kinds: Optional[int] = None,
+        scale_robots: Optional[int] = None,
+        max_steps: int = 2000,
+        pc_target: Optional[float] = None,
+        reward: str = "pc_change",
+        grid: int = 16,
+        seed: int = 0,
+    ) -> None: ...
+    @property
+    def worlds(self) -> int: ...
+    @property
+    def agents(self) -> int: ...
+    @property
+    def layout(self) -> tuple[int, int, int, int]: ...
+    def reset(self, seeds: Optional[list[int]] = None) -> None: ...
+    def observe(
+        self,
+        map: npt.NDArray[np.float32],
+        gripper: npt.NDArray[np.float32],
+        pose: npt.NDArray[np.float32],
+    ) -> None: ...
+    def step(
+        self,
+        actions: npt.NDArray[np.float64],
+        map: npt.NDArray[np.float32],
+        gripper: npt.NDArray[np.float32],
+        pose: npt.NDArray[np.float32],
+        reward: npt.NDArray[np.float64],
+        terminated: npt.NDArray[np.bool_],
+        truncated: npt.NDArray[np.bool_],
+        last: npt.NDArray[np.float64],
+    ) -> None: ...
+    def reference(self, method_name: str) -> npt.NDArray[np.float64]: ...
+    def pc(self) -> npt.NDArray[np.float64]: ...

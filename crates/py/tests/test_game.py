@@ -1,0 +1,196 @@
+"""Capture the Flag and Death Match under PettingZoo's and Gymnasium's own
+checkers, batched matches, and the "human" view over a real hub."""
+
+import os
+import select
+import sys
+import time
+import unittest
+import warnings
+
+import numpy as np
+from gymnasium.utils.env_checker import check_env
+from pettingzoo.test import parallel_api_test, parallel_seed_test
+
+from colony import CaptureTheFlagEnv, DeathMatchEnv, GameBatch, GameEnv, JointEnv
+
+# The protocol client and its test harness's hub, from the repository's python/.
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..")
+sys.path[:0] = [os.path.join(ROOT, "python"), os.path.join(ROOT, "python", "tests")]
+import colony_client  # noqa: E402
+from test_client import Hub  # noqa: E402
+
+
+def toward_enemy_flag(obs):
+    """A scripted learner: drive at the enemy flag, fire at the nearest enemy, grab the flag."""
+    flag = obs["flags"][1]
+    turn = float(np.clip(np.arctan2(flag[2], flag[1]), -1, 1))
+    return {"wheels": np.array([0.8, turn]), "fire": 1, "pickup": 1}
+
+
+def episode(env, seed, steps):
+    obs, _ = env.reset(seed=seed)
+    trace = []
+    for _ in range(steps):
+        if not env.agents:
+            break
+        obs, rew, term, trunc, info = env.step({a: toward_enemy_flag(obs[a]) for a in env.agents})
+        trace.append(
+            (
+                tuple(sorted(rew.items())),
+                tuple(sorted(term.items())),
+                sum(float(o["own"].sum() + o["nearby"].sum() + o["patch"].sum()) for o in obs.values()),
+            )
+        )
+    return trace
+
+
+class PettingZooChecks(unittest.TestCase):
+    def test_parallel_api_test_passes_for_capture_the_flag_and_death_match(self):
+        parallel_api_test(CaptureTheFlagEnv(max_steps=150), num_cycles=150)
+        parallel_api_test(DeathMatchEnv(max_steps=150), num_cycles=150)
+
+    def test_parallel_api_test_passes_with_squad_orders_against_the_scripted_player(self):
+        parallel_api_test(CaptureTheFlagEnv(max_steps=150, control="squad"), num_cycles=150)
+
+    def test_parallel_seed_test_passes(self):
+        parallel_seed_test(lambda: CaptureTheFlagEnv(max_steps=60), num_cycles=60)
+
+
+class GymnasiumChecks(unittest.TestCase):
+    def test_the_env_checker_passes_for_the_team_as_one_agent(self):
+        with warnings.catch_warnings():
+            # Velocities in `own` are unbounded (a shoved robot outruns its top
+            # speed) and actions are float64; the checker warns of both.
+            warnings.simplefilter("ignore")
+            check_env(JointEnv(CaptureTheFlagEnv(max_steps=50, render_mode="rgb_array")), skip_render_check=False)
+            check_env(JointEnv(DeathMatchEnv(max_steps=50, control="squad")), skip_render_check=True)
+
+
+class Episodes(unittest.TestCase):
+    def test_the_same_seed_gives_identical_episodes_and_another_seed_differs(self):
+        a = episode(CaptureTheFlagEnv(max_steps=200), seed=5, steps=200)
+        self.assertEqual(a, episode(CaptureTheFlagEnv(max_steps=200), seed=5, steps=200))
+        self.assertNotEqual(a, episode(CaptureTheFlagEnv(max_steps=200), seed=6, steps=200))
+
+    def test_a_match_against_the_scripted_player_plays_to_its_end(self):
+        env = CaptureTheFlagEnv(max_steps=600)
+        obs, _ = env.reset(seed=3)
+        total, steps = 0.0, 0
+        while env.agents:
+            obs, rew, term, trunc, info = env.step({a: toward_enemy_flag(obs[a]) for a in env.agents})
+            total += sum(rew.values())
+            steps += 1
+        self.assertLessEqual(steps, 600)
+        score = env.score()
+        self.assertEqual(set(score), {"red", "blue", "winner"})
+        # Fighting happened: rewards include damage dealt and taken.
+        self.assertNotEqual(total, 0.0)
+
+    def test_destroyed_robots_leave_the_episode_and_never_come_back(self):
+        # Two scouts walk into six robots that fire on their own.
+        env = DeathMatchEnv(learner="alpha:scout,scout", max_steps=1500)
+        obs, _ = env.reset(seed=1)
+        gone = set()
+        while env.agents:
+            obs, rew, term, trunc, info = env.step({a: toward_enemy_flag(obs[a]) for a in env.agents})
+            for a in term:
+                self.assertNotIn(a, gone)
+                if term[a] or trunc[a]:
+                    gone.add(a)
+        self.assertEqual(gone, set(env.possible_agents))
+
+    def test_bad_actions_and_configuration_are_clear_errors_never_crashes(self):
+        env = CaptureTheFlagEnv(max_steps=20)
+        env.reset(seed=0)
+        wild = {"wheels": np.array([np.nan, np.inf]), "fire": 10**9, "pickup": 1}
+        env.step({a: wild for a in env.agents})
+        with self.assertRaises(ValueError):
+            env.step({"robot_999": wild})
+        for kwargs in (
+            {"mode": "chess"},
+            {"learner": "alpha:dragon"},
+            {"opponent_policy": "cheating"},
+            {"control": "telepathy"},
+            {"patch": 0},
+            {"nearby": 10**9},
+            {"max_steps": 0},
+            {"rewards": {"money": 1.0}},
+            {"rewards": {"score": float("nan")}},
+            {"map": "/nonexistent.map"},
+        ):
+            with self.subTest(**{k: str(v) for k, v in kwargs.items()}):
+                with self.assertRaises((ValueError, OSError, TypeError)):
+                    GameEnv(**kwargs)
+
+    def test_rgb_array_rendering_gives_an_image_of_the_battlefield(self):
+        env = CaptureTheFlagEnv(render_mode="rgb_array", render_size=160)
+        env.reset(seed=2)
+        image = env.render()
+        self.assertEqual((image.shape, image.dtype), ((160, 160, 3), np.uint8))
+        self.assertGreater(len(np.unique(image.reshape(-1, 3), axis=0)), 4)
+
+
+class HumanView(unittest.TestCase):
+    def test_human_mode_publishes_the_match_to_a_hub_a_subscriber_reads(self):
+        hub = Hub()
+        self.addCleanup(hub.log.close)
+        hub.start()
+        self.addCleanup(hub.stop)
+        watcher = colony_client.Client(hub.addr)
+        self.addCleanup(watcher.close)
+        watcher.subscribe("game.state")
+        env = CaptureTheFlagEnv(max_steps=300, render_mode="human", hub=hub.addr_text, render_speed=10.0)
+        self.addCleanup(env.close)
+        obs, _ = env.reset(seed=1)
+        states = []
+
+        def listen(seconds):
+            # The subscriber owns its loop: it answers the hub's cookie and reads.
+            select.select([watcher], [], [], seconds)
+            watcher.poll()
+            while (p := watcher.recv()) is not None:
+                states.append(p)
+
+        deadline = time.monotonic() + 20
+        while env.agents and not states and time.monotonic() < deadline:
+            obs, _, _, _, _ = env.step({a: toward_enemy_flag(obs[a]) for a in env.agents})
+            listen(0.0)
+        while not states and time.monotonic() < deadline:
+            listen(0.2)
+        self.assertTrue(states, "a subscriber of game.state heard the match")
+        self.assertIn("game.state", states[0].subjects)
+
+
+class Batches(unittest.TestCase):
+    def test_a_batch_of_matches_steps_like_the_same_matches_one_at_a_time(self):
+        batch = GameBatch(2, max_steps=30)
+        obs = batch.reset(seed=40)
+        n = batch.agents
+        singles = [CaptureTheFlagEnv(max_steps=30) for _ in range(2)]
+        for b, env in enumerate(singles):
+            env.reset(seed=40 + b)
+        rng = np.random.default_rng(1)
+        for t in range(29):
+            wheels = rng.uniform(-1, 1, (2, n, 2))
+            fire = rng.integers(0, 3, (2, n))
+            pickup = rng.integers(0, 2, (2, n)).astype(bool)
+            obs, reward, term, trunc, final = batch.step(wheels, fire, pickup)
+            for b, env in enumerate(singles):
+                acts = {
+                    a: {"wheels": wheels[b, i], "fire": fire[b, i], "pickup": pickup[b, i]}
+                    for i, a in enumerate(env.possible_agents)
+                    if a in env.agents
+                }
+                o, r, _, _, _ = env.step(acts)
+                for i, a in enumerate(env.possible_agents):
+                    if a in o:
+                        np.testing.assert_array_equal(obs["own"][b, i], o[a]["own"])
+                        self.assertEqual(reward[b, i], r[a])
+        obs, reward, term, trunc, final = batch.step(np.zeros((2, n, 2)), np.zeros((2, n)), np.zeros((2, n), bool))
+        self.assertTrue(trunc.all(), "the 30th step ends both matches, which start again")
+        self.assertTrue((obs["own"][:, :, 13] == 0).all(), "steps / max_steps is 0 after the reset")
+
+
+if __name__ == "__main__":
+    unittest.main()

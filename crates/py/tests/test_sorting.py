@@ -1,0 +1,199 @@
+"""The sorting environment under PettingZoo's and Gymnasium's own checkers, and
+its built-in methods against `colony sort run`."""
+
+import csv
+import os
+import subprocess
+import tempfile
+import unittest
+import warnings
+
+import numpy as np
+from gymnasium.utils.env_checker import check_env
+from pettingzoo.test import parallel_api_test, parallel_seed_test
+
+from colony import JointEnv, SortingBatch, SortingEnv
+
+COLONY = os.environ.get("COLONY_BIN", "colony")
+
+
+def small(**kwargs):
+    kwargs.setdefault("robots", 4)
+    kwargs.setdefault("max_steps", 150)
+    return SortingEnv(**kwargs)
+
+
+def episode(env, seed, steps, actions_seed=5):
+    """Rewards, PCs and a digest of the observations of `steps` random steps."""
+    rng = np.random.default_rng(actions_seed)
+    obs, _ = env.reset(seed=seed)
+    trace = [sum(float(o["map"].sum() + o["pose"].sum()) for o in obs.values())]
+    for _ in range(steps):
+        if not env.agents:
+            break
+        actions = {a: rng.uniform(-1, 1, 2) for a in env.agents}
+        obs, rew, term, trunc, info = env.step(actions)
+        trace.append(
+            (
+                sum(rew.values()),
+                next(iter(info.values()))["pc"],
+                sum(float(o["map"].sum() + o["gripper"].sum() + o["pose"].sum()) for o in obs.values()),
+            )
+        )
+    return trace
+
+
+class PettingZooChecks(unittest.TestCase):
+    def test_parallel_api_test_passes_with_continuous_actions(self):
+        parallel_api_test(small(), num_cycles=200)
+
+    def test_parallel_api_test_passes_with_discrete_actions(self):
+        parallel_api_test(small(actions="discrete", reward="twc_change"), num_cycles=200)
+
+    def test_parallel_seed_test_passes(self):
+        parallel_seed_test(lambda: small(max_steps=60), num_cycles=60)
+
+
+class GymnasiumChecks(unittest.TestCase):
+    def test_the_env_checker_passes_for_the_swarm_as_one_agent(self):
+        with warnings.catch_warnings():
+            # The checker warns that float64 actions are not float32: they are
+            # float64 so the built-in methods' commands cross to Rust exactly.
+            warnings.simplefilter("ignore")
+            check_env(JointEnv(small(render_mode="rgb_array")), skip_render_check=False)
+        check_env(JointEnv(small(actions="discrete")), skip_render_check=True)
+
+
+class Determinism(unittest.TestCase):
+    def test_the_same_seed_gives_identical_episodes_twice_and_another_seed_differs(self):
+        a = episode(small(), seed=11, steps=120)
+        b = episode(small(), seed=11, steps=120)
+        self.assertEqual(a, b)
+        # One environment reset with the same seed repeats itself too.
+        env = small()
+        self.assertEqual(episode(env, seed=11, steps=120), episode(env, seed=11, steps=120))
+        self.assertNotEqual(a, episode(small(), seed=12, steps=120))
+
+    def test_resets_without_a_seed_give_new_episodes_that_repeat_from_the_first_seed(self):
+        def three(env):
+            env.reset(seed=3)
+            return [episode_start(env) for _ in range(2)]
+
+        def episode_start(env):
+            obs, _ = env.reset()
+            return float(sum(o["pose"].sum() for o in obs.values()))
+
+        first, second = three(small()), three(small())
+        self.assertEqual(first, second)
+        self.assertNotEqual(first[0], first[1])
+
+
+class Observations(unittest.TestCase):
+    def test_observations_lie_in_their_spaces_and_do_not_change_under_a_caller(self):
+        env = small()
+        obs, _ = env.reset(seed=2)
+        kept = {a: {k: v.copy() for k, v in o.items()} for a, o in obs.items()}
+        space = env.observation_space(env.agents[0])
+        for o in obs.values():
+            self.assertTrue(space.contains(o), o)
+        env.step({a: np.array([1.0, 0.3]) for a in env.agents})
+        for a, o in obs.items():
+            for k in o:
+                np.testing.assert_array_equal(o[k], kept[a][k])
+
+    def test_bad_actions_are_refused_or_made_safe_never_a_crash(self):
+        env = small()
+        env.reset(seed=1)
+        # Non-finite and out-of-range commands: the wheels' clamp and NaN as zero.
+        env.step({a: np.array([np.nan, np.inf]) for a in env.agents})
+        env.step({a: np.array([1e300, -1e300]) for a in env.agents})
+        self.assertTrue(np.isfinite(env.pc))
+        with self.assertRaises(ValueError):
+            env.step({env.agents[0]: np.array([1.0, 2.0, 3.0])})
+        d = small(actions="discrete")
+        d.reset(seed=1)
+        with self.assertRaises(ValueError):
+            d.step({a: 999 for a in d.agents})
+
+    def test_bad_configuration_is_a_clear_error(self):
+        for kwargs in (
+            {"robots": 0},
+            {"grid": 0},
+            {"reward": "money"},
+            {"actions": "telepathy"},
+            {"scene": "/nonexistent/scene.toml"},
+            {"pc_target": float("nan")},
+        ):
+            with self.subTest(**{k: str(v) for k, v in kwargs.items()}):
+                with self.assertRaises((ValueError, OSError)):
+                    SortingEnv(**kwargs)
+
+    def test_rgb_array_rendering_gives_an_image_of_the_arena(self):
+        env = small(render_mode="rgb_array", render_size=120)
+        env.reset(seed=4)
+        image = env.render()
+        self.assertEqual(image.shape, (120, 120, 3))
+        self.assertEqual(image.dtype, np.uint8)
+        self.assertGreater(len(np.unique(image.reshape(-1, 3), axis=0)), 3, "arena, pucks and robots")
+
+
+class ReferencePolicies(unittest.TestCase):
+    def test_cachecons_through_the_environment_reaches_the_pc_of_colony_sort_run(self):
+        steps, seed = 400, 9
+        with tempfile.TemporaryDirectory() as out:
+            subprocess.run(
+                [COLONY, "sort", "run", "--method", "cachecons", "--trials", "1",
+                 "--steps", str(steps), "--seed", str(seed), "--out", out],
+                check=True, capture_output=True, timeout=300,
+            )
+            with open(os.path.join(out, "cachecons-types2-trial00.csv")) as f:
+                series = {int(r["step"]): float(r["pc"]) for r in csv.DictReader(f)}
+        env = SortingEnv(max_steps=steps)
+        env.reset(seed=seed)
+        ours = {0: env.pc}
+        for step in range(1, steps + 1):
+            _, _, _, _, info = env.step(env.reference_actions("cachecons"))
+            ours[step] = next(iter(info.values()))["pc"]
+        self.assertFalse(env.agents, "truncated at max_steps")
+        for step, pc in series.items():
+            self.assertAlmostEqual(ours[step], pc, places=4, msg=f"PC at step {step}")
+        self.assertGreater(series[steps], 0.0)
+
+
+class Batches(unittest.TestCase):
+    def test_a_batch_steps_like_the_same_worlds_one_at_a_time(self):
+        batch = SortingBatch(3, robots=4, max_steps=40)
+        obs = batch.reset(seed=20)
+        self.assertEqual(obs["map"].shape[:2], (3, 4))
+        rng = np.random.default_rng(0)
+        actions = rng.uniform(-1, 1, (40, 3, 4, 2))
+        singles = [small(max_steps=40) for _ in range(3)]
+        for b, env in enumerate(singles):
+            env.reset(seed=20 + b)
+        for t in range(39):
+            obs, reward, term, trunc, final = batch.step(actions[t])
+            for b, env in enumerate(singles):
+                o, r, _, _, _ = env.step({a: actions[t, b, i] for i, a in enumerate(env.agents)})
+                np.testing.assert_array_equal(obs["pose"][b], np.stack([o[a]["pose"] for a in env.possible_agents]))
+                self.assertEqual(reward[b, 0], r["robot_0"])
+        self.assertFalse(term.any() or trunc.any())
+        # The 40th step ends every world; each is reset within the call.
+        obs, reward, term, trunc, final = batch.step(actions[39])
+        for b, env in enumerate(singles):
+            env.step({a: actions[39, b, i] for i, a in enumerate(env.agents)})
+        self.assertTrue(trunc.all())
+        np.testing.assert_allclose(final, [env.pc for env in singles], atol=0)
+
+    def test_the_batch_returns_the_same_arrays_without_a_copy_unless_asked(self):
+        batch = SortingBatch(2, robots=4, max_steps=10)
+        first = batch.reset()
+        again = batch.step(np.zeros((2, 4, 2)))[0]
+        self.assertIs(first["map"], again["map"])
+        copied = batch.step(np.zeros((2, 4, 2)), copy=True)[0]
+        self.assertIsNot(copied["map"], first["map"])
+        with self.assertRaises(ValueError):
+            batch.step(np.zeros((3, 4, 2)))
+
+
+if __name__ == "__main__":
+    unittest.main()
