@@ -12,7 +12,7 @@
 //! skipped silently.
 
 use std::io::Read;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::thread;
 use std::time::{Duration, Instant};
@@ -90,6 +90,49 @@ fn unittest(what: &str, dir: &str, pythonpath: &[PathBuf], limit: Duration) {
     }
 }
 
+/// The newest modification time of the files under `dir` (recursively).
+fn newest(dir: &Path) -> std::time::SystemTime {
+    let mut latest = std::time::UNIX_EPOCH;
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let path = entry.path();
+        let t = if path.is_dir() {
+            newest(&path)
+        } else {
+            entry
+                .metadata()
+                .and_then(|m| m.modified())
+                .unwrap_or(latest)
+        };
+        latest = latest.max(t);
+    }
+    latest
+}
+
+/// Fails when the installed extension is older than the Rust or Python it is
+/// built from: a plain `cargo test` after an edit would otherwise test the old code.
+fn stale_check(installed: &Path) {
+    let built = std::fs::metadata(installed.join("_native.abi3.so"))
+        .and_then(|m| m.modified())
+        .unwrap_or(std::time::UNIX_EPOCH);
+    let sources = [
+        "crates/py/src",
+        "crates/py/python",
+        "crates/sort/src",
+        "crates/game/src",
+        "crates/sim/src",
+        "crates/proto/src",
+    ];
+    for source in sources {
+        let newer = newest(&root().join(source));
+        assert!(
+            newer <= built,
+            "the installed `colony` package ({}) is older than {source}: run the README's \
+             test command, `scripts/test`, which builds and installs it again",
+            installed.display()
+        );
+    }
+}
+
 #[test]
 fn python_client_unittests_pass_against_the_real_hub() {
     unittest(
@@ -119,6 +162,7 @@ fn python_environments_pass_pettingzoo_and_gymnasium_checks() {
             dir.display()
         );
     }
+    stale_check(&package.join("colony"));
     unittest(
         "the colony package",
         "crates/py/tests",

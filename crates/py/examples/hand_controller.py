@@ -2,7 +2,7 @@
 local map and gripper), compared with random robots and CACHECONS on the same seeds.
 
 The rule, per robot: steer away from walls and robots close ahead; with an empty
-gripper, drive at the nearest lone puck (a puck with few of its kind around it);
+gripper, drive at the nearest lone puck (a puck with few pucks of any kind around it);
 carrying a puck of kind k, drive at the largest group of kind k in view, and on
 reaching it back away, which leaves the puck there (the gripper holds a puck only
 while the robot pushes it).
@@ -67,7 +67,7 @@ def run(policy: str, steps: int, seed: int) -> float:
         elif policy == "hand":
             actions = {a: hand.act(a, obs[a], rng) for a in env.agents}
         else:
-            actions = {a: env.action_space(a).sample() for a in env.agents}
+            actions = {a: rng.uniform(-1.0, 1.0, 2) for a in env.agents}
         obs, _, _, _, _ = env.step(actions)
     return env.pc
 

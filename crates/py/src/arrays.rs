@@ -3,6 +3,20 @@
 //! A wrong buffer is a `ValueError` naming it, never a panic or a silent reshape.
 
 use numpy::{Element, PyReadonlyArrayDyn, PyReadwriteArrayDyn, PyUntypedArrayMethods};
+
+/// Fortran order is contiguous too, and `as_slice` would take it: the values
+/// would then be read in the wrong order, silently.
+fn c_order<T, E>(is_c: bool, name: &str, slice: Result<T, E>) -> PyResult<T> {
+    match (is_c, slice) {
+        (true, Ok(s)) => Ok(s),
+        (false, _) => Err(PyValueError::new_err(format!(
+            "{name} is not a C-order contiguous array (np.ascontiguousarray makes one)"
+        ))),
+        (true, Err(_)) => Err(PyValueError::new_err(format!(
+            "{name} is not an aligned array of its type (np.require(..., requirements=\"CA\") makes one)"
+        ))),
+    }
+}
 use pyo3::exceptions::PyValueError;
 use pyo3::PyResult;
 
@@ -22,8 +36,7 @@ pub fn read<'a, T: Element>(
     shape: &[usize],
 ) -> PyResult<&'a [T]> {
     check(name, a.shape(), shape)?;
-    a.as_slice()
-        .map_err(|_| PyValueError::new_err(format!("{name} is not a contiguous C-order array")))
+    c_order(a.is_c_contiguous(), name, a.as_slice())
 }
 
 /// The elements of a writable array of exactly `shape`, to fill in place.
@@ -33,6 +46,6 @@ pub fn write<'a, T: Element>(
     shape: &[usize],
 ) -> PyResult<&'a mut [T]> {
     check(name, a.shape(), shape)?;
-    a.as_slice_mut()
-        .map_err(|_| PyValueError::new_err(format!("{name} is not a contiguous C-order array")))
+    let is_c = a.is_c_contiguous();
+    c_order(is_c, name, a.as_slice_mut())
 }

@@ -18,7 +18,7 @@ use pyo3::types::PyDict;
 use rayon::prelude::*;
 
 use crate::arrays::{read, write};
-use crate::seeds::{next_seed, MAX_WORLDS};
+use crate::seeds::{check_budget, next_seed, MAX_WORLDS};
 
 fn error(e: EnvError) -> PyErr {
     PyValueError::new_err(e.to_string())
@@ -122,9 +122,11 @@ const MAX_NEARBY: usize = 256;
 const MAX_PATCH: usize = 255;
 
 fn build(setup: &Setup, rewards: Option<&Bound<'_, PyDict>>, seed: u64) -> PyResult<GameEnv> {
-    if setup.nearby > MAX_NEARBY || setup.patch > MAX_PATCH {
+    // At least one each: a part of no values is no observation, and a batch cuts
+    // its buffers in pieces of each part's size.
+    if !(1..=MAX_NEARBY).contains(&setup.nearby) || !(1..=MAX_PATCH).contains(&setup.patch) {
         return Err(invalid(format!(
-            "nearby is at most {MAX_NEARBY} and patch at most {MAX_PATCH}"
+            "nearby must be 1 to {MAX_NEARBY} and patch 1 to {MAX_PATCH}"
         )));
     }
     GameEnv::new(setup.config(rewards)?, seed).map_err(error)
@@ -444,6 +446,12 @@ impl GameBatch {
             patch,
         };
         let seeds: Vec<u64> = (0..worlds as u64).map(|b| seed.wrapping_add(b)).collect();
+        let first = build(&setup, rewards.as_ref(), seed)?;
+        let l = first.layout();
+        let values = l.agents * (l.own_len() + l.nearby_len() + l.flags_len() + l.patch_len());
+        // A battlefield's cells weigh as much as bodies: the walls are the simulator's.
+        let bodies = first.game().roster().len() + first.config().map.grid.cells().len();
+        check_budget(worlds, bodies as u64, values as u64).map_err(PyValueError::new_err)?;
         let envs = seeds
             .iter()
             .map(|&s| Ok(Locked(Mutex::new(build(&setup, rewards.as_ref(), s)?))))

@@ -2,9 +2,35 @@
 //! episode ended starts its next from a seed drawn from its last, so a batch is
 //! reproducible from its first seeds alone, whatever the order worlds end in.
 
-/// The most worlds one batch holds: far past what memory allows for real scenes,
-/// there only so that a typo cannot ask for a billion.
+/// The most worlds one batch holds.
 pub const MAX_WORLDS: usize = 65_536;
+
+/// The most bodies (robots and pucks, or a battlefield's cells, over every
+/// world) a batch is built with: about 1.3 KB each in the simulator (a cell
+/// about 0.25 KB), so some 5 GB at most. A batch past it is refused with an
+/// error, where building it would abort the process when memory ran out.
+pub const MAX_BATCH_BODIES: u64 = 4_000_000;
+
+/// The most observation values (over every world and agent) a batch is built
+/// with: 8 GB of float32.
+pub const MAX_BATCH_VALUES: u64 = 1 << 31;
+
+/// Refuses a batch of `worlds` worlds of `bodies` bodies and `values`
+/// observation values each, past the budgets above.
+pub fn check_budget(worlds: usize, bodies: u64, values: u64) -> Result<(), String> {
+    let worlds = worlds as u64;
+    if worlds.saturating_mul(bodies) > MAX_BATCH_BODIES {
+        return Err(format!(
+            "{worlds} worlds of {bodies} bodies is more than the {MAX_BATCH_BODIES} bodies a batch takes"
+        ));
+    }
+    if worlds.saturating_mul(values) > MAX_BATCH_VALUES {
+        return Err(format!(
+            "{worlds} worlds of {values} observation values is more than the {MAX_BATCH_VALUES} a batch takes"
+        ));
+    }
+    Ok(())
+}
 
 /// The seed after `seed` (SplitMix64's mix of `seed` plus its increment): well
 /// spread, so consecutive worlds' follow-on seeds do not collide.

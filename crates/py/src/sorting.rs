@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use colony_sim::WheelCommand;
-use colony_sort::env::{EnvConfig, EnvError, RewardKind, SortEnv, DISCRETE_ACTIONS};
+use colony_sort::env::{EnvConfig, EnvError, RewardKind, SortEnv, DISCRETE_ACTIONS, MAX_ROBOTS};
 use colony_sort::Method;
 use numpy::{
     PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArrayDyn, PyReadwriteArrayDyn,
@@ -14,7 +14,7 @@ use pyo3::prelude::*;
 use rayon::prelude::*;
 
 use crate::arrays::{read, write};
-use crate::seeds::next_seed;
+use crate::seeds::{check_budget, next_seed, MAX_WORLDS};
 
 pub fn error(e: EnvError) -> PyErr {
     PyValueError::new_err(e.to_string())
@@ -50,8 +50,11 @@ impl Setup {
         let mut config =
             EnvConfig::from_files(self.scene.as_deref(), self.params.as_deref()).map_err(error)?;
         if let Some(n) = self.scale_robots {
-            if n == 0 {
-                return Err(PyValueError::new_err("scale_robots must be at least 1"));
+            // Checked before scaling, which multiplies it (10 pucks a robot).
+            if n == 0 || n > MAX_ROBOTS {
+                return Err(PyValueError::new_err(format!(
+                    "scale_robots must be 1 to {MAX_ROBOTS}, not {n}"
+                )));
             }
             config = config.with_scaled_robots(n);
         }
@@ -214,6 +217,12 @@ impl SortCore {
         self.env.steps()
     }
 
+    /// Simulated seconds of one control step (the scene's physics step times its substeps).
+    #[getter]
+    fn step_seconds(&self) -> f64 {
+        self.env.config().scene.control_step_seconds()
+    }
+
     /// The arena as an image, (height, width, 3) uint8.
     fn render<'py>(
         &self,
@@ -282,10 +291,9 @@ impl SortBatch {
         grid: usize,
         seed: u64,
     ) -> PyResult<SortBatch> {
-        if worlds == 0 || worlds > crate::seeds::MAX_WORLDS {
+        if worlds == 0 || worlds > MAX_WORLDS {
             return Err(PyValueError::new_err(format!(
-                "worlds must be 1 to {}, not {worlds}",
-                crate::seeds::MAX_WORLDS
+                "worlds must be 1 to {MAX_WORLDS}, not {worlds}"
             )));
         }
         let setup = Setup {
@@ -301,6 +309,15 @@ impl SortBatch {
             grid,
         };
         let config = setup.config()?;
+        let scene = &config.scene;
+        let bodies = (scene.robots.count + scene.pucks.count) as u64;
+        // The bodies first, before a world is built to read its observation's size.
+        check_budget(worlds, bodies, 0).map_err(PyValueError::new_err)?;
+        let values = SortEnv::new(config.clone(), seed)
+            .map_err(error)?
+            .layout()
+            .map_total() as u64;
+        check_budget(worlds, bodies, values).map_err(PyValueError::new_err)?;
         let envs = py
             .detach(|| {
                 (0..worlds as u64)

@@ -2,17 +2,21 @@
 its built-in methods against `colony sort run`."""
 
 import csv
+import gc
 import os
 import subprocess
 import tempfile
 import unittest
 import warnings
 
+import time
+import weakref
+
 import numpy as np
 from gymnasium.utils.env_checker import check_env
 from pettingzoo.test import parallel_api_test, parallel_seed_test
 
-from colony import JointEnv, SortingBatch, SortingEnv
+from colony import JointEnv, SortingBatch, SortingEnv, _native
 
 COLONY = os.environ.get("COLONY_BIN", "colony")
 
@@ -114,6 +118,73 @@ class Observations(unittest.TestCase):
         d.reset(seed=1)
         with self.assertRaises(ValueError):
             d.step({a: 999 for a in d.agents})
+
+    def test_unknown_agents_and_actions_outside_their_space_are_refused(self):
+        env = small()
+        env.reset(seed=1)
+        for bad in ({"typo": np.zeros(2)}, {"robot_0": 1.0}, {"robot_0": np.zeros(3)}):
+            with self.subTest(bad=str(bad)):
+                with self.assertRaises(ValueError):
+                    env.step(bad)
+        d = small(actions="discrete")
+        d.reset(seed=1)
+        for bad in (2.7, -1, 7, "3"):
+            with self.subTest(action=bad):
+                with self.assertRaises(ValueError):
+                    d.step({"robot_0": bad})
+        d.step({"robot_0": np.int64(3), "robot_1": 1})
+
+    def test_a_seed_the_world_refuses_leaves_the_episode_as_it_was(self):
+        env, twin = small(), small()
+        env.reset(seed=4)
+        twin.reset(seed=4)
+        with self.assertRaises((OverflowError, ValueError)):
+            env.reset(seed=2**64)
+        self.assertEqual(env.agents, twin.agents)
+        go = {a: np.array([1.0, 0.2]) for a in env.agents}
+        a, b = env.step(go), twin.step(go)
+        np.testing.assert_array_equal(a[0]["robot_0"]["pose"], b[0]["robot_0"]["pose"])
+        # The seeds of later resets still follow from 4.
+        np.testing.assert_array_equal(env.reset()[0]["robot_1"]["pose"], twin.reset()[0]["robot_1"]["pose"])
+
+    def test_an_environment_is_freed_when_it_is_dropped(self):
+        env = small()
+        env.observation_space("robot_0")
+        JointEnv(env)
+        gone = weakref.ref(env)
+        del env
+        gc.collect()
+        self.assertIsNone(gone(), "nothing keeps an environment alive")
+
+    def test_fortran_order_and_misshapen_buffers_are_refused_not_misread(self):
+        core = _native.SortCore(robots=3, pucks=10, kinds=2, grid=4)
+        channels, g, gripper, pose = core.layout
+        m = np.zeros((3, channels, g, g), np.float32)
+        grip = np.zeros((3, gripper), np.float32)
+        with self.assertRaises(ValueError):
+            core.observe(m, grip, np.asfortranarray(np.zeros((3, pose), np.float32)))
+        with self.assertRaises(ValueError):
+            core.step(np.asfortranarray(np.zeros((3, 2))))
+        with self.assertRaises(ValueError):
+            core.step(np.zeros(6))
+
+    def test_sizes_past_what_a_machine_holds_are_clear_errors(self):
+        # A huge scale once overflowed (10 pucks a robot) and panicked.
+        for kwargs in ({"scale_robots": 2**62}, {"scale_robots": 2**64 - 1}, {"scale_robots": 0}):
+            with self.assertRaises((ValueError, OverflowError)):
+                _native.SortCore(**kwargs)
+        with self.assertRaises(ValueError):
+            SortingBatch(65536, scale_robots=1000)
+
+    def test_the_human_view_is_paced_to_the_scenes_control_step(self):
+        env = small(render_mode="human", hub="127.0.0.1:9", render_speed=20.0)
+        self.addCleanup(env.close)
+        env.reset(seed=1)
+        started = time.monotonic()
+        for _ in range(10):
+            env.step({})
+        # Ten steps of 3/14 s at 20 times real time take at least 0.1 s.
+        self.assertGreaterEqual(time.monotonic() - started, 10 * (3 / 14) / 20 * 0.99)
 
     def test_bad_configuration_is_a_clear_error(self):
         for kwargs in (

@@ -60,6 +60,9 @@ class SortCore:
     def twc(self) -> float: ...
     @property
     def steps(self) -> int: ...
+    @property
+    def step_seconds(self) -> float:
+        """Simulated seconds of one control step."""
     def render(self, width: int, height: int) -> npt.NDArray[np.uint8]: ...
     def vision_packets(self) -> list[bytes]: ...
     @staticmethod
@@ -112,3 +115,103 @@ class SortBatch:
     ) -> None: ...
     def reference(self, method_name: str) -> npt.NDArray[np.float64]: ...
     def pc(self) -> npt.NDArray[np.float64]: ...
+
+_Step = tuple[list[float], bool, bool, tuple[int, int], Optional[str], int, int, int]
+
+class GameCore:
+    """One Capture the Flag or Death Match match; ``colony.game.GameEnv`` wraps it."""
+
+    def __init__(
+        self,
+        *,
+        mode: str = "ctf",
+        map: Optional[str] = None,
+        learner: Optional[str] = None,
+        opponent: Optional[str] = None,
+        opponent_policy: str = "scripted",
+        control: str = "robot",
+        max_steps: int = 3000,
+        nearby: int = 8,
+        patch: int = 11,
+        rewards: Optional[dict[str, float]] = None,
+        seed: int = 0,
+    ) -> None: ...
+    def reset(self, seed: int) -> None: ...
+    @property
+    def agents(self) -> list[tuple[int, str, str]]:
+        """(robot id, type, squad) per agent."""
+    @property
+    def squads(self) -> list[str]: ...
+    @property
+    def teams(self) -> tuple[str, str]: ...
+    @property
+    def layout(self) -> list[tuple[str, list[int]]]:
+        """Each observation part's name and shape per agent: own, nearby, flags, patch."""
+    def alive(self) -> list[bool]: ...
+    def observe(
+        self,
+        own: npt.NDArray[np.float32],
+        nearby: npt.NDArray[np.float32],
+        flags: npt.NDArray[np.float32],
+        patch: npt.NDArray[np.float32],
+    ) -> None: ...
+    def step(
+        self,
+        wheels: npt.NDArray[np.float64],
+        fire: npt.NDArray[np.int64],
+        pickup: npt.NDArray[np.bool_],
+    ) -> _Step:
+        """(rewards, terminated, truncated, score, winner, refused, refused orders, invalid shots)."""
+    def step_squads(self, orders: list[int]) -> _Step: ...
+    def render(self, width: int, height: int) -> npt.NDArray[np.uint8]: ...
+    def set_record(self, on: bool) -> None: ...
+    def take_packets(self) -> list[bytes]: ...
+    @staticmethod
+    def squad_orders() -> list[str]: ...
+
+class GameBatch:
+    """Many matches stepped together; ``colony.batch.GameBatch`` wraps it."""
+
+    def __init__(
+        self,
+        *,
+        worlds: int,
+        mode: str = "ctf",
+        map: Optional[str] = None,
+        learner: Optional[str] = None,
+        opponent: Optional[str] = None,
+        opponent_policy: str = "scripted",
+        max_steps: int = 3000,
+        nearby: int = 8,
+        patch: int = 11,
+        rewards: Optional[dict[str, float]] = None,
+        seed: int = 0,
+    ) -> None: ...
+    @property
+    def worlds(self) -> int: ...
+    @property
+    def agents(self) -> int: ...
+    @property
+    def layout(self) -> dict[str, list[int]]: ...
+    def reset(self, seeds: Optional[list[int]] = None) -> None: ...
+    def observe(
+        self,
+        own: npt.NDArray[np.float32],
+        nearby: npt.NDArray[np.float32],
+        flags: npt.NDArray[np.float32],
+        patch: npt.NDArray[np.float32],
+    ) -> None: ...
+    def step(
+        self,
+        wheels: npt.NDArray[np.float64],
+        fire: npt.NDArray[np.int64],
+        pickup: npt.NDArray[np.bool_],
+        own: npt.NDArray[np.float32],
+        nearby: npt.NDArray[np.float32],
+        flags: npt.NDArray[np.float32],
+        patch: npt.NDArray[np.float32],
+        reward: npt.NDArray[np.float64],
+        terminated: npt.NDArray[np.bool_],
+        truncated: npt.NDArray[np.bool_],
+        last: npt.NDArray[np.float64],
+    ) -> None: ...

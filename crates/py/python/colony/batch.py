@@ -8,7 +8,8 @@ with no copy per step (pass ``copy=True`` to get fresh ones). A world whose
 episode ends is reset within the same call (its next seed is drawn from its
 previous one), so the arrays always hold live worlds; ``terminated`` and
 ``truncated`` say which worlds ended on this step, and ``final`` holds the
-measure they ended with (PC for sorting, the learner's score for the game).
+measure they ended with (PC for sorting; for the game, the learner's score
+less the opponent's).
 """
 
 from __future__ import annotations
@@ -29,7 +30,8 @@ def _seeds(worlds: int, seed: Optional[int], seeds: Optional[Sequence[int]]) -> 
             raise ValueError(f"{len(seeds)} seeds for {worlds} worlds")
         return seeds
     if seed is not None:
-        return [int(seed) + b for b in range(worlds)]
+        # As the native side: seeds wrap around at 2**64.
+        return [(int(seed) + b) % 2**64 for b in range(worlds)]
     return None
 
 
@@ -134,7 +136,8 @@ class GameBatch(_Batch):
     """``worlds`` Capture the Flag or Death Match games with robot-level control;
     takes :class:`~colony.game.GameEnv`'s configuration. Actions are
     ``wheels`` ``(worlds, robots, 2)`` float64, ``fire`` and ``pickup``
-    ``(worlds, robots)`` (fire: 0 holds fire, k fires at the k-th nearest robot)."""
+    ``(worlds, robots)`` (fire: 0 holds, 1 fires at the nearest enemy, ``2 + k``
+    at the k-th robot of ``nearby``; any other code holds)."""
 
     def __init__(self, worlds: int, mode: str = "ctf", **config):
         self.core = _native.GameBatch(worlds=worlds, mode=mode, **config)

@@ -23,7 +23,6 @@ side.
 
 from __future__ import annotations
 
-import functools
 from typing import Any, Optional
 
 import numpy as np
@@ -31,6 +30,7 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from . import _native
+from ._actions import agent_index, choice, wheels
 from ._render import HumanView
 
 SQUAD_ORDERS = tuple(_native.GameCore.squad_orders())
@@ -172,22 +172,23 @@ class GameEnv(ParallelEnv):
         self._index = {a: i for i, a in enumerate(self.possible_agents)}
         self.agents = []
 
-    @functools.lru_cache(maxsize=None)
+    # The same space object for every agent and call (PettingZoo checks it is),
+    # kept on the environment rather than in a cache that would outlive it.
     def observation_space(self, agent: str) -> spaces.Space:
         return self._obs_space
 
-    @functools.lru_cache(maxsize=None)
     def action_space(self, agent: str) -> spaces.Space:
         return self._act_space
 
     def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
         # As SortingEnv: an explicit seed is the episode's; later ones follow from it.
+        # Nothing changes unless the match starts: a seed it refuses leaves the episode as it was.
         if seed is not None:
-            self._seed = int(seed)
-            self._seeds = np.random.default_rng(self._seed)
+            self.core.reset(int(seed))
+            self._seed, self._seeds = int(seed), np.random.default_rng(int(seed))
         else:
             self._seed = int(self._seeds.integers(0, 2**63))
-        self.core.reset(self._seed)
+            self.core.reset(self._seed)
         self.agents = list(self.possible_agents)
         self._score, self._winner = (0, 0), None
         self._observe()
@@ -198,19 +199,22 @@ class GameEnv(ParallelEnv):
         if not self.agents:
             raise RuntimeError("the episode is over: call reset()")
         if self.squad_control:
-            orders = [int(actions.get(a, 0)) for a in self.possible_agents]
+            # A squad with no order this step holds.
+            orders = [0] * len(self.possible_agents)
+            for a, act in actions.items():
+                orders[agent_index(a, self._index, self.agents)] = choice(a, act, len(SQUAD_ORDERS), "the order")
             result = self.core.step_squads(orders)
         else:
+            # A robot with no action this step stands, holds fire and picks nothing up.
             self._wheels.fill(0.0)
             self._fire.fill(0)
             self._pickup.fill(False)
+            fire_codes = self._act_space["fire"].n
             for a, act in actions.items():
-                i = self._index.get(a)
-                if i is None:
-                    raise ValueError(f"no agent {a!r}")
-                self._wheels[i] = act["wheels"]
-                self._fire[i] = int(act["fire"])
-                self._pickup[i] = bool(act["pickup"])
+                i = agent_index(a, self._index, self.agents)
+                self._wheels[i] = wheels(a, act["wheels"])
+                self._fire[i] = choice(a, act["fire"], fire_codes, "fire")
+                self._pickup[i] = choice(a, act["pickup"], 2, "pickup")
             result = self.core.step(self._wheels, self._fire, self._pickup)
         rewards, terminated, truncated, score, winner, refused, refused_orders, invalid = result
         self._score, self._winner = score, winner

@@ -14,7 +14,6 @@ with them on the same seeds.
 
 from __future__ import annotations
 
-import functools
 from typing import Any, Optional
 
 import numpy as np
@@ -22,6 +21,7 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from . import _native
+from ._actions import agent_index, choice, wheels
 from ._render import HumanView
 
 REWARDS = ("pc", "pc_change", "twc_change")
@@ -96,11 +96,13 @@ class SortingEnv(ParallelEnv):
         self.discrete = actions == "discrete"
         self.render_mode = render_mode
         self.render_size = render_size
-        self._human = HumanView(hub, self.metadata["render_fps"] * render_speed) if render_mode == "human" else None
+        # Real time is one control step per its simulated seconds (3/14 s in the paper's scene).
+        self._human = HumanView(hub, render_speed / self.core.step_seconds) if render_mode == "human" else None
         self._seeds = np.random.default_rng(seed)
         self._seed = seed
         n = self.core.agents
         self.possible_agents = [f"robot_{i}" for i in range(n)]
+        self._index = {a: i for i, a in enumerate(self.possible_agents)}
         self.agents = []
         channels, grid_cells, gripper, pose = self.core.layout
         self._map = np.zeros((n, channels, grid_cells, grid_cells), np.float32)
@@ -122,23 +124,24 @@ class SortingEnv(ParallelEnv):
         else:
             self._act_space = spaces.Box(-1.0, 1.0, (2,), np.float64)
 
-    @functools.lru_cache(maxsize=None)
+    # The same space object for every agent and call (PettingZoo checks it is),
+    # kept on the environment rather than in a cache that would outlive it.
     def observation_space(self, agent: str) -> spaces.Space:
         return self._obs_space
 
-    @functools.lru_cache(maxsize=None)
     def action_space(self, agent: str) -> spaces.Space:
         return self._act_space
 
     def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
         # An explicit seed is the episode's own (the same as `colony sort run --seed`);
         # later resets without one draw theirs from it, so episodes differ but repeat.
+        # Nothing changes unless the world starts: a seed it refuses leaves the episode as it was.
         if seed is not None:
-            self._seed = int(seed)
-            self._seeds = np.random.default_rng(self._seed)
+            self.core.reset(int(seed))
+            self._seed, self._seeds = int(seed), np.random.default_rng(int(seed))
         else:
             self._seed = int(self._seeds.integers(0, 2**63))
-        self.core.reset(self._seed)
+            self.core.reset(self._seed)
         self.agents = list(self.possible_agents)
         self.core.observe(self._map, self._gripper, self._pose)
         if self._human is not None:
@@ -149,17 +152,16 @@ class SortingEnv(ParallelEnv):
         if not self.agents:
             raise RuntimeError("the episode is over: call reset()")
         # A robot with no action this step stands still.
+        n = len(self.discrete_actions)
         if self.discrete:
             self._indices.fill(0)
-            for i, a in enumerate(self.possible_agents):
-                if a in actions:
-                    self._indices[i] = int(actions[a])
+            for a, act in actions.items():
+                self._indices[agent_index(a, self._index, self.agents)] = choice(a, act, n, "the action")
             reward, pc, terminated, truncated = self.core.step_discrete(self._indices)
         else:
             self._actions.fill(0.0)
-            for i, a in enumerate(self.possible_agents):
-                if a in actions:
-                    self._actions[i] = actions[a]
+            for a, act in actions.items():
+                self._actions[agent_index(a, self._index, self.agents)] = wheels(a, act)
             reward, pc, terminated, truncated = self.core.step(self._actions)
         self.core.observe(self._map, self._gripper, self._pose)
         obs = self._observations()

@@ -1,0 +1,177 @@
+"""Environment steps per second: colony's Python environments beside peer
+environments from PyPI (PettingZoo's MPE, VMAS on CPU), measured in one run on
+one machine. Run by ``scripts/bench-envs.sh``, which installs everything in a
+virtual environment and passes the Rust-only rates (``--rust``) so the cost of
+crossing between Python and Rust per step can be told apart.
+
+Every figure is the best of three timed runs of at least ``--seconds`` each.
+Physics costs more when robots push things, so every colony loop (and the Rust
+example) drives robot ``i`` with the same fixed command, forward 0.8 and turn
+0.5 sin(i), from seed 1; peers get one fixed random action per agent. Actions
+are made beforehand so that making them is not measured.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+from typing import Callable, Optional
+
+import numpy as np
+
+
+def timed(step: Callable[[], None], seconds: float) -> float:
+    """Steps per second: the best of three runs of at least `seconds`."""
+    best = 0.0
+    for _ in range(3):
+        n, start = 0, time.perf_counter()
+        while True:
+            step()
+            n += 1
+            elapsed = time.perf_counter() - start
+            if elapsed >= seconds and n >= 3:
+                break
+        best = max(best, n / elapsed)
+    return best
+
+
+def fixed_commands(n: int) -> np.ndarray:
+    """Robot i: forward 0.8, turn 0.5 sin(i) (the Rust example's commands too)."""
+    return np.stack([np.full(n, 0.8), 0.5 * np.sin(np.arange(n))], axis=1)
+
+
+def parallel_env_rate(env, seconds: float, actions: Optional[dict] = None, seed: int = 1) -> float:
+    """A PettingZoo ParallelEnv stepped through its dict API with fixed actions."""
+    env.reset(seed=seed)
+    if actions is None:
+        for i, a in enumerate(env.possible_agents):
+            env.action_space(a).seed(seed + i)
+        actions = {a: env.action_space(a).sample() for a in env.possible_agents}
+
+    def step():
+        if not env.agents:
+            env.reset()
+        env.step({a: actions[a] for a in env.agents})
+
+    return timed(step, seconds)
+
+
+def colony_rows(seconds: float, rust: dict, batch_worlds: int) -> list:
+    from colony import CaptureTheFlagEnv, GameBatch, SortingBatch, SortingEnv
+
+    rows = []
+    for robots in (4, 64, 256):
+        scene = {"robots": 4} if robots == 4 else {"scale_robots": robots}
+        env = SortingEnv(max_steps=10**9, **scene)
+        acts = fixed_commands(robots)
+        single = parallel_env_rate(env, seconds, {a: acts[i] for i, a in enumerate(env.possible_agents)})
+        core = env.core
+        core.reset(1)
+
+        def native():
+            core.step(acts)
+            core.observe(env._map, env._gripper, env._pose)
+
+        raw = timed(native, seconds)
+        worlds = max(1, batch_worlds if robots <= 64 else batch_worlds // 4)
+        batch = SortingBatch(worlds, max_steps=10**9, **scene)
+        batch.reset(seed=1)
+        bacts = np.broadcast_to(acts, (worlds, robots, 2)).copy()
+        batched = timed(lambda: batch.step(bacts), seconds) * worlds
+        rows.append(("colony sorting", robots, single, raw, batched, worlds, rust.get(f"sorting-{robots}")))
+        getter = timed(lambda: core.steps, seconds / 4)
+    env = CaptureTheFlagEnv(max_steps=10**9)
+    core, n = env.core, len(env.possible_agents)
+    wheels = fixed_commands(n)
+    fire, pickup = np.ones(n, np.int64), np.ones(n, np.bool_)
+    game_actions = {a: {"wheels": wheels[i], "fire": 1, "pickup": 1} for i, a in enumerate(env.possible_agents)}
+    single = parallel_env_rate(env, seconds, game_actions)
+
+    def native_game():
+        _, terminated, truncated, *_ = core.step(wheels, fire, pickup)
+        if terminated or truncated:
+            core.reset(2)
+        env._observe()
+
+    core.reset(1)
+    raw = timed(native_game, seconds)
+    worlds = batch_worlds
+    batch = GameBatch(worlds, max_steps=10**9)
+    batch.reset(seed=1)
+    bw = np.broadcast_to(wheels, (worlds, n, 2)).copy()
+    bf, bp = np.ones((worlds, n), np.int64), np.ones((worlds, n), np.bool_)
+    batched = timed(lambda: batch.step(bw, bf, bp), seconds) * worlds
+    # 12 robots play; 6 of them are agents.
+    rows.append(("colony Capture the Flag (6 v 6)", 12, single, raw, batched, worlds, rust.get("ctf-12")))
+    return rows, getter
+
+
+def mpe_rows(seconds: float) -> list:
+    from mpe2 import simple_spread_v3, simple_tag_v3
+
+    rows = []
+    for n in (4, 64, 256):
+        env = simple_spread_v3.parallel_env(N=n, max_cycles=10**9, continuous_actions=True)
+        rows.append(("MPE simple_spread (mpe2)", n, parallel_env_rate(env, seconds), None, None, None, None))
+    env = simple_tag_v3.parallel_env(num_good=6, num_adversaries=6, num_obstacles=2, max_cycles=10**9, continuous_actions=True)
+    rows.append(("MPE simple_tag (mpe2, 6 v 6)", 12, parallel_env_rate(env, seconds), None, None, None, None))
+    return rows
+
+
+def vmas_rows(seconds: float, batch_worlds: int) -> list:
+    import torch
+    import vmas
+
+    torch.set_num_threads(2)
+    rows = []
+    for n in (4, 64, 256):
+        per = {}
+        for worlds in (1, batch_worlds if n <= 64 else max(1, batch_worlds // 4)):
+            env = vmas.make_env("dispersion", num_envs=worlds, device="cpu", continuous_actions=True, seed=0, n_agents=n)
+            env.reset()
+            acts = [torch.rand(worlds, 2) * 2 - 1 for _ in range(n)]
+            per[worlds] = timed(lambda: env.step(acts), seconds) * worlds
+        r1, (wb, rb) = per[1], max(per.items())
+        rows.append(("VMAS dispersion (CPU, torch)", n, r1, None, rb, wb, None))
+    return rows
+
+
+def rate(r: Optional[float]) -> str:
+    if not r:
+        return "—"
+    return f"{r:,.0f}" if r >= 10 else f"{r:.2g}"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=2.0)
+    parser.add_argument("--batch", type=int, default=16, help="worlds in a batch (a quarter of it for 256 robots)")
+    parser.add_argument("--rust", default="", help="NAME=RATE,... from the env_speed example")
+    parser.add_argument("--peers", default="mpe,vmas")
+    a = parser.parse_args()
+    rust = {k: float(v) for k, v in (kv.split("=") for kv in a.rust.split(",") if kv)}
+    rows, getter = colony_rows(a.seconds, rust, a.batch)
+    peers = a.peers.split(",")
+    if "mpe" in peers:
+        rows += mpe_rows(a.seconds)
+    if "vmas" in peers:
+        rows += vmas_rows(a.seconds, a.batch)
+    print(f"machine: {platform.machine()}, {platform.processor() or '?'}; python {platform.python_version()}")
+    print()
+    print("| environment | robots | env steps/s (ParallelEnv) | agent-steps/s | native call steps/s | batched world-steps/s (worlds) | Rust alone steps/s | Python-Rust crossing per step |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    for name, robots, single, raw, batched, worlds, rs in rows:
+        agents = 6 if robots == 12 and "colony" in name else robots
+        cross = f"{(1 / raw - 1 / rs) * 1e6:.1f} µs" if raw and rs else "—"
+        print(
+            f"| {name} | {robots} | {rate(single)} | {rate(single * agents)} | "
+            f"{rate(raw)} | {f'{rate(batched)} ({worlds})' if batched else '—'} | "
+            f"{rate(rs)} | {cross} |"
+        )
+    print()
+    print(f"a bare call into the extension (a getter): {1e9 / getter:.0f} ns")
+
+
+if __name__ == "__main__":
+    main()
