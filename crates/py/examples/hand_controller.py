@@ -5,7 +5,10 @@ The rule, per robot: steer away from walls and robots close ahead; with an empty
 gripper, drive at the nearest lone puck (a puck with few pucks of any kind around it);
 carrying a puck of kind k, drive at the largest group of kind k in view, and on
 reaching it back away, which leaves the puck there (the gripper holds a puck only
-while the robot pushes it).
+while the robot pushes it). It beats random robots by a little and is far from
+CACHECONS (about 18 % PC against 12 % and 100 % after 3000 steps on seeds 1-3):
+a reactive rule with no memory of where clusters are is what the paper's methods
+improve on.
 
     python hand_controller.py --steps 3000
 """

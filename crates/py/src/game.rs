@@ -18,7 +18,7 @@ use pyo3::types::PyDict;
 use rayon::prelude::*;
 
 use crate::arrays::{read, write};
-use crate::seeds::{check_budget, next_seed, MAX_WORLDS};
+use crate::seeds::{check_budget, next_seed, restart};
 
 fn error(e: EnvError) -> PyErr {
     PyValueError::new_err(e.to_string())
@@ -26,19 +26,6 @@ fn error(e: EnvError) -> PyErr {
 
 fn invalid(what: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(what.to_string())
-}
-
-/// The configuration the Python side passes, as one value.
-struct Setup {
-    mode: String,
-    map: Option<PathBuf>,
-    learner: Option<String>,
-    opponent: Option<String>,
-    opponent_policy: String,
-    control: String,
-    max_steps: u64,
-    nearby: usize,
-    patch: usize,
 }
 
 /// Reads the reward weights a Python dict names; unknown names are an error.
@@ -71,21 +58,45 @@ fn weights(dict: &Bound<'_, PyDict>) -> PyResult<RewardWeights> {
     Ok(w)
 }
 
-impl Setup {
-    fn config(&self, rewards: Option<&Bound<'_, PyDict>>) -> PyResult<GameEnvConfig> {
-        let mode: Mode = self.mode.parse().map_err(invalid)?;
-        let mut config = match &self.map {
+/// A game environment's configuration, checked once (see `colony.game.GameEnv` for
+/// what each value means); one match or a batch is made from it.
+#[pyclass(module = "colony._native", frozen)]
+pub struct GameConfig {
+    config: GameEnvConfig,
+}
+
+#[pymethods]
+impl GameConfig {
+    #[new]
+    #[pyo3(signature = (*, mode="ctf", map=None, learner=None, opponent=None,
+        opponent_policy="scripted", control="robot", max_steps=3000, nearby=8, patch=11,
+        rewards=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        mode: &str,
+        map: Option<PathBuf>,
+        learner: Option<&str>,
+        opponent: Option<&str>,
+        opponent_policy: &str,
+        control: &str,
+        max_steps: u64,
+        nearby: usize,
+        patch: usize,
+        rewards: Option<Bound<'_, PyDict>>,
+    ) -> PyResult<GameConfig> {
+        let mode: Mode = mode.parse().map_err(invalid)?;
+        let mut config = match &map {
             Some(path) => GameEnvConfig::from_path(mode, path),
             None => GameEnvConfig::shipped(mode),
         }
         .map_err(error)?;
-        let team = |name: &str, text: &Option<String>, default: &TeamSetup| match text {
-            Some(t) => TeamSetup::parse(name, t).map_err(invalid),
+        let team = |text: Option<&str>, default: &TeamSetup| match text {
+            Some(t) => TeamSetup::parse(&default.name, t).map_err(invalid),
             None => Ok(default.clone()),
         };
-        config.learner = team(&config.learner.name, &self.learner, &config.learner)?;
-        config.opponent = team(&config.opponent.name, &self.opponent, &config.opponent)?;
-        config.opponent_policy = match self.opponent_policy.as_str() {
+        config.learner = team(learner, &config.learner)?;
+        config.opponent = team(opponent, &config.opponent)?;
+        config.opponent_policy = match opponent_policy {
             "scripted" => Opponent::Scripted,
             "idle" => Opponent::Idle,
             other => {
@@ -94,7 +105,7 @@ impl Setup {
                 )))
             }
         };
-        config.control = match self.control.as_str() {
+        config.control = match control {
             "robot" => Control::Robot,
             "squad" => Control::Squad,
             other => {
@@ -103,16 +114,23 @@ impl Setup {
                 )))
             }
         };
-        if self.max_steps == 0 {
+        if max_steps == 0 {
             return Err(invalid("max_steps must be at least 1"));
         }
-        config.max_steps = self.max_steps;
-        config.nearby = self.nearby;
-        config.patch = self.patch;
-        if let Some(d) = rewards {
-            config.rewards = weights(d)?;
+        // At least one each: a part of no values is no observation, and a batch cuts
+        // its buffers in pieces of each part's size.
+        if !(1..=MAX_NEARBY).contains(&nearby) || !(1..=MAX_PATCH).contains(&patch) {
+            return Err(invalid(format!(
+                "nearby must be 1 to {MAX_NEARBY} and patch 1 to {MAX_PATCH}"
+            )));
         }
-        Ok(config)
+        config.max_steps = max_steps;
+        config.nearby = nearby;
+        config.patch = patch;
+        if let Some(d) = rewards {
+            config.rewards = weights(&d)?;
+        }
+        Ok(GameConfig { config })
     }
 }
 
@@ -121,15 +139,8 @@ impl Setup {
 const MAX_NEARBY: usize = 256;
 const MAX_PATCH: usize = 255;
 
-fn build(setup: &Setup, rewards: Option<&Bound<'_, PyDict>>, seed: u64) -> PyResult<GameEnv> {
-    // At least one each: a part of no values is no observation, and a batch cuts
-    // its buffers in pieces of each part's size.
-    if !(1..=MAX_NEARBY).contains(&setup.nearby) || !(1..=MAX_PATCH).contains(&setup.patch) {
-        return Err(invalid(format!(
-            "nearby must be 1 to {MAX_NEARBY} and patch 1 to {MAX_PATCH}"
-        )));
-    }
-    GameEnv::new(setup.config(rewards)?, seed).map_err(error)
+fn build(config: &GameConfig, seed: u64) -> PyResult<GameEnv> {
+    GameEnv::new(config.config.clone(), seed).map_err(error)
 }
 
 /// Each agent's action from the arrays: wheels (forward, turn), a fire code, a pick-up.
@@ -223,36 +234,10 @@ pub struct GameCore {
 #[pymethods]
 impl GameCore {
     #[new]
-    #[pyo3(signature = (*, mode="ctf".to_string(), map=None, learner=None, opponent=None,
-        opponent_policy="scripted".to_string(), control="robot".to_string(), max_steps=3000,
-        nearby=8, patch=11, rewards=None, seed=0))]
-    #[allow(clippy::too_many_arguments)]
-    fn new(
-        mode: String,
-        map: Option<PathBuf>,
-        learner: Option<String>,
-        opponent: Option<String>,
-        opponent_policy: String,
-        control: String,
-        max_steps: u64,
-        nearby: usize,
-        patch: usize,
-        rewards: Option<Bound<'_, PyDict>>,
-        seed: u64,
-    ) -> PyResult<GameCore> {
-        let setup = Setup {
-            mode,
-            map,
-            learner,
-            opponent,
-            opponent_policy,
-            control,
-            max_steps,
-            nearby,
-            patch,
-        };
+    #[pyo3(signature = (config, seed=0))]
+    fn new(config: &GameConfig, seed: u64) -> PyResult<GameCore> {
         Ok(GameCore {
-            env: Locked(Mutex::new(build(&setup, rewards.as_ref(), seed)?)),
+            env: Locked(Mutex::new(build(config, seed)?)),
             actions: Vec::new(),
         })
     }
@@ -412,49 +397,21 @@ pub struct GameBatch {
 #[pymethods]
 impl GameBatch {
     #[new]
-    #[pyo3(signature = (*, worlds, mode="ctf".to_string(), map=None, learner=None, opponent=None,
-        opponent_policy="scripted".to_string(), max_steps=3000, nearby=8, patch=11,
-        rewards=None, seed=0))]
-    #[allow(clippy::too_many_arguments)]
-    fn new(
-        worlds: usize,
-        mode: String,
-        map: Option<PathBuf>,
-        learner: Option<String>,
-        opponent: Option<String>,
-        opponent_policy: String,
-        max_steps: u64,
-        nearby: usize,
-        patch: usize,
-        rewards: Option<Bound<'_, PyDict>>,
-        seed: u64,
-    ) -> PyResult<GameBatch> {
-        if worlds == 0 || worlds > MAX_WORLDS {
-            return Err(invalid(format!(
-                "worlds must be 1 to {MAX_WORLDS}, not {worlds}"
-            )));
+    #[pyo3(signature = (config, worlds, seed=0))]
+    fn new(config: &GameConfig, worlds: usize, seed: u64) -> PyResult<GameBatch> {
+        if config.config.control != Control::Robot {
+            return Err(invalid("a batch of matches takes robot-level control"));
         }
-        let setup = Setup {
-            mode,
-            map,
-            learner,
-            opponent,
-            opponent_policy,
-            control: "robot".to_string(),
-            max_steps,
-            nearby,
-            patch,
-        };
-        let seeds: Vec<u64> = (0..worlds as u64).map(|b| seed.wrapping_add(b)).collect();
-        let first = build(&setup, rewards.as_ref(), seed)?;
+        let first = build(config, seed)?;
         let l = first.layout();
         let values = l.agents * (l.own_len() + l.nearby_len() + l.flags_len() + l.patch_len());
         // A battlefield's cells weigh as much as bodies: the walls are the simulator's.
         let bodies = first.game().roster().len() + first.config().map.grid.cells().len();
         check_budget(worlds, bodies as u64, values as u64).map_err(PyValueError::new_err)?;
+        let seeds: Vec<u64> = (0..worlds as u64).map(|b| seed.wrapping_add(b)).collect();
         let envs = seeds
             .iter()
-            .map(|&s| Ok(Locked(Mutex::new(build(&setup, rewards.as_ref(), s)?))))
+            .map(|&s| Ok(Locked(Mutex::new(build(config, s)?))))
             .collect::<PyResult<Vec<_>>>()?;
         Ok(GameBatch {
             actions: vec![Vec::new(); envs.len()],
@@ -486,17 +443,7 @@ impl GameBatch {
     /// Starts every match again with `seeds[b]`, or (None) the seed after its last.
     #[pyo3(signature = (seeds=None))]
     fn reset(&mut self, py: Python<'_>, seeds: Option<Vec<u64>>) -> PyResult<()> {
-        let seeds = match seeds {
-            Some(s) if s.len() != self.envs.len() => {
-                return Err(invalid(format!(
-                    "{} seeds for {} worlds",
-                    s.len(),
-                    self.envs.len()
-                )))
-            }
-            Some(s) => s,
-            None => self.seeds.iter().map(|&s| next_seed(s)).collect(),
-        };
+        let seeds = restart(seeds, &self.seeds).map_err(invalid)?;
         let envs = &mut self.envs;
         py.detach(|| {
             envs.par_iter_mut()

@@ -19,8 +19,10 @@ use pyo3::prelude::*;
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<hub::Publisher>()?;
+    m.add_class::<sorting::SortConfig>()?;
     m.add_class::<sorting::SortCore>()?;
     m.add_class::<sorting::SortBatch>()?;
+    m.add_class::<game::GameConfig>()?;
     m.add_class::<game::GameCore>()?;
     m.add_class::<game::GameBatch>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -15,9 +15,12 @@ pub const MAX_BATCH_BODIES: u64 = 4_000_000;
 /// with: 8 GB of float32.
 pub const MAX_BATCH_VALUES: u64 = 1 << 31;
 
-/// Refuses a batch of `worlds` worlds of `bodies` bodies and `values`
-/// observation values each, past the budgets above.
+/// Refuses a batch of no worlds, or of `worlds` worlds of `bodies` bodies and
+/// `values` observation values each past the budgets above.
 pub fn check_budget(worlds: usize, bodies: u64, values: u64) -> Result<(), String> {
+    if worlds == 0 || worlds > MAX_WORLDS {
+        return Err(format!("worlds must be 1 to {MAX_WORLDS}, not {worlds}"));
+    }
     let worlds = worlds as u64;
     if worlds.saturating_mul(bodies) > MAX_BATCH_BODIES {
         return Err(format!(
@@ -39,4 +42,16 @@ pub fn next_seed(seed: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)
+}
+
+/// The seeds a batch's worlds start again with: those given, one per world, or
+/// the seed after each world's last.
+pub fn restart(given: Option<Vec<u64>>, last: &[u64]) -> Result<Vec<u64>, String> {
+    match given {
+        Some(s) if s.len() != last.len() => {
+            Err(format!("{} seeds for {} worlds", s.len(), last.len()))
+        }
+        Some(s) => Ok(s),
+        None => Ok(last.iter().map(|&s| next_seed(s)).collect()),
+    }
 }

@@ -14,30 +14,38 @@ use pyo3::prelude::*;
 use rayon::prelude::*;
 
 use crate::arrays::{read, write};
-use crate::seeds::{check_budget, next_seed, MAX_WORLDS};
+use crate::seeds::{check_budget, next_seed, restart};
 
 pub fn error(e: EnvError) -> PyErr {
     PyValueError::new_err(e.to_string())
 }
 
-/// The configuration the Python side passes, as one value.
-#[derive(Clone)]
-struct Setup {
-    scene: Option<PathBuf>,
-    params: Option<PathBuf>,
-    robots: Option<usize>,
-    pucks: Option<usize>,
-    kinds: Option<usize>,
-    scale_robots: Option<usize>,
-    max_steps: u64,
-    pc_target: Option<f64>,
-    reward: String,
-    grid: usize,
+/// A sorting environment's configuration, checked once (see `colony.sorting.SortingEnv`
+/// for what each value means); one world or a batch is made from it.
+#[pyclass(module = "colony._native", frozen)]
+pub struct SortConfig {
+    config: EnvConfig,
 }
 
-impl Setup {
-    fn config(&self) -> PyResult<EnvConfig> {
-        let reward = match self.reward.as_str() {
+#[pymethods]
+impl SortConfig {
+    #[new]
+    #[pyo3(signature = (*, scene=None, params=None, robots=None, pucks=None, kinds=None,
+        scale_robots=None, max_steps=2000, pc_target=None, reward="pc_change", grid=16))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        scene: Option<PathBuf>,
+        params: Option<PathBuf>,
+        robots: Option<usize>,
+        pucks: Option<usize>,
+        kinds: Option<usize>,
+        scale_robots: Option<usize>,
+        max_steps: u64,
+        pc_target: Option<f64>,
+        reward: &str,
+        grid: usize,
+    ) -> PyResult<SortConfig> {
+        let reward = match reward {
             "pc" => RewardKind::Pc,
             "pc_change" => RewardKind::PcChange,
             "twc_change" => RewardKind::TwcChange,
@@ -48,8 +56,8 @@ impl Setup {
             }
         };
         let mut config =
-            EnvConfig::from_files(self.scene.as_deref(), self.params.as_deref()).map_err(error)?;
-        if let Some(n) = self.scale_robots {
+            EnvConfig::from_files(scene.as_deref(), params.as_deref()).map_err(error)?;
+        if let Some(n) = scale_robots {
             // Checked before scaling, which multiplies it (10 pucks a robot).
             if n == 0 || n > MAX_ROBOTS {
                 return Err(PyValueError::new_err(format!(
@@ -58,13 +66,13 @@ impl Setup {
             }
             config = config.with_scaled_robots(n);
         }
-        config = config.with_counts(self.robots, self.pucks, self.kinds);
-        config.max_steps = self.max_steps;
-        config.pc_target = self.pc_target;
+        config = config.with_counts(robots, pucks, kinds);
+        config.max_steps = max_steps;
+        config.pc_target = pc_target;
         config.reward = reward;
-        config.grid = self.grid;
+        config.grid = grid;
         config.validate().map_err(error)?;
-        Ok(config)
+        Ok(SortConfig { config })
     }
 }
 
@@ -92,38 +100,10 @@ pub struct SortCore {
 #[pymethods]
 impl SortCore {
     #[new]
-    #[pyo3(signature = (*, scene=None, params=None, robots=None, pucks=None, kinds=None,
-        scale_robots=None, max_steps=2000, pc_target=None, reward="pc_change".to_string(),
-        grid=16, seed=0))]
-    #[allow(clippy::too_many_arguments)]
-    fn new(
-        scene: Option<PathBuf>,
-        params: Option<PathBuf>,
-        robots: Option<usize>,
-        pucks: Option<usize>,
-        kinds: Option<usize>,
-        scale_robots: Option<usize>,
-        max_steps: u64,
-        pc_target: Option<f64>,
-        reward: String,
-        grid: usize,
-        seed: u64,
-    ) -> PyResult<SortCore> {
-        let setup = Setup {
-            scene,
-            params,
-            robots,
-            pucks,
-            kinds,
-            scale_robots,
-            max_steps,
-            pc_target,
-            reward,
-            grid,
-        };
-        let env = SortEnv::new(setup.config()?, seed).map_err(error)?;
+    #[pyo3(signature = (config, seed=0))]
+    fn new(config: &SortConfig, seed: u64) -> PyResult<SortCore> {
         Ok(SortCore {
-            env,
+            env: SortEnv::new(config.config.clone(), seed).map_err(error)?,
             commands: Vec::new(),
         })
     }
@@ -272,43 +252,9 @@ pub struct SortBatch {
 #[pymethods]
 impl SortBatch {
     #[new]
-    #[pyo3(signature = (*, worlds, scene=None, params=None, robots=None, pucks=None, kinds=None,
-        scale_robots=None, max_steps=2000, pc_target=None, reward="pc_change".to_string(),
-        grid=16, seed=0))]
-    #[allow(clippy::too_many_arguments)]
-    fn new(
-        py: Python<'_>,
-        worlds: usize,
-        scene: Option<PathBuf>,
-        params: Option<PathBuf>,
-        robots: Option<usize>,
-        pucks: Option<usize>,
-        kinds: Option<usize>,
-        scale_robots: Option<usize>,
-        max_steps: u64,
-        pc_target: Option<f64>,
-        reward: String,
-        grid: usize,
-        seed: u64,
-    ) -> PyResult<SortBatch> {
-        if worlds == 0 || worlds > MAX_WORLDS {
-            return Err(PyValueError::new_err(format!(
-                "worlds must be 1 to {MAX_WORLDS}, not {worlds}"
-            )));
-        }
-        let setup = Setup {
-            scene,
-            params,
-            robots,
-            pucks,
-            kinds,
-            scale_robots,
-            max_steps,
-            pc_target,
-            reward,
-            grid,
-        };
-        let config = setup.config()?;
+    #[pyo3(signature = (config, worlds, seed=0))]
+    fn new(py: Python<'_>, config: &SortConfig, worlds: usize, seed: u64) -> PyResult<SortBatch> {
+        let config = &config.config;
         let scene = &config.scene;
         let bodies = (scene.robots.count + scene.pucks.count) as u64;
         // The bodies first, before a world is built to read its observation's size.
@@ -351,17 +297,8 @@ impl SortBatch {
     /// Starts every world again with `seeds[b]`, or (None) the seed after its last.
     #[pyo3(signature = (seeds=None))]
     fn reset(&mut self, py: Python<'_>, seeds: Option<Vec<u64>>) -> PyResult<()> {
-        let seeds = match seeds {
-            Some(s) if s.len() != self.envs.len() => {
-                return Err(PyValueError::new_err(format!(
-                    "{} seeds for {} worlds",
-                    s.len(),
-                    self.envs.len()
-                )))
-            }
-            Some(s) => s,
-            None => self.envs.iter().map(|e| next_seed(e.seed())).collect(),
-        };
+        let last: Vec<u64> = self.envs.iter().map(SortEnv::seed).collect();
+        let seeds = restart(seeds, &last).map_err(PyValueError::new_err)?;
         let envs = &mut self.envs;
         py.detach(|| {
             envs.par_iter_mut()

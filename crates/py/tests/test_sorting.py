@@ -157,7 +157,7 @@ class Observations(unittest.TestCase):
         self.assertIsNone(gone(), "nothing keeps an environment alive")
 
     def test_fortran_order_and_misshapen_buffers_are_refused_not_misread(self):
-        core = _native.SortCore(robots=3, pucks=10, kinds=2, grid=4)
+        core = _native.SortCore(_native.SortConfig(robots=3, pucks=10, kinds=2, grid=4))
         channels, g, gripper, pose = core.layout
         m = np.zeros((3, channels, g, g), np.float32)
         grip = np.zeros((3, gripper), np.float32)
@@ -172,7 +172,7 @@ class Observations(unittest.TestCase):
         # A huge scale once overflowed (10 pucks a robot) and panicked.
         for kwargs in ({"scale_robots": 2**62}, {"scale_robots": 2**64 - 1}, {"scale_robots": 0}):
             with self.assertRaises((ValueError, OverflowError)):
-                _native.SortCore(**kwargs)
+                _native.SortConfig(**kwargs)
         with self.assertRaises(ValueError):
             SortingBatch(65536, scale_robots=1000)
 

@@ -18,8 +18,8 @@ class Publisher:
     @property
     def hub(self) -> str: ...
 
-class SortCore:
-    """One sorting world; ``colony.sorting.SortingEnv`` wraps it."""
+class SortConfig:
+    """A sorting environment's configuration, checked once (``SortingEnv`` documents each value)."""
 
     def __init__(
         self,
@@ -34,8 +34,12 @@ class SortCore:
         pc_target: Optional[float] = None,
         reward: str = "pc_change",
         grid: int = 16,
-        seed: int = 0,
     ) -> None: ...
+
+class SortCore:
+    """One sorting world; ``colony.sorting.SortingEnv`` wraps it."""
+
+    def __init__(self, config: SortConfig, seed: int = 0) -> None: ...
     def reset(self, seed: int) -> None: ...
     @property
     def agents(self) -> int: ...
@@ -73,22 +77,7 @@ class SortCore:
 class SortBatch:
     """Many sorting worlds stepped together; ``colony.batch.SortingBatch`` wraps it."""
 
-    def __init__(
-        self,
-        *,
-        worlds: int,
-        scene: Optional[str] = None,
-        params: Optional[str] = None,
-        robots: Optional[int] = None,
-        pucks: Optional[int] = None,
-        kinds: Optional[int] = None,
-        scale_robots: Optional[int] = None,
-        max_steps: int = 2000,
-        pc_target: Optional[float] = None,
-        reward: str = "pc_change",
-        grid: int = 16,
-        seed: int = 0,
-    ) -> None: ...
+    def __init__(self, config: SortConfig, worlds: int, seed: int = 0) -> None: ...
     @property
     def worlds(self) -> int: ...
     @property
@@ -118,8 +107,8 @@ class SortBatch:
 
 _Step = tuple[list[float], bool, bool, tuple[int, int], Optional[str], int, int, int]
 
-class GameCore:
-    """One Capture the Flag or Death Match match; ``colony.game.GameEnv`` wraps it."""
+class GameConfig:
+    """A game environment's configuration, checked once (``GameEnv`` documents each value)."""
 
     def __init__(
         self,
@@ -134,8 +123,12 @@ class GameCore:
         nearby: int = 8,
         patch: int = 11,
         rewards: Optional[dict[str, float]] = None,
-        seed: int = 0,
     ) -> None: ...
+
+class GameCore:
+    """One Capture the Flag or Death Match match; ``colony.game.GameEnv`` wraps it."""
+
+    def __init__(self, config: GameConfig, seed: int = 0) -> None: ...
     def reset(self, seed: int) -> None: ...
     @property
     def agents(self) -> list[tuple[int, str, str]]:
@@ -170,23 +163,9 @@ class GameCore:
     def squad_orders() -> list[str]: ...
 
 class GameBatch:
-    """Many matches stepped together; ``colony.batch.GameBatch`` wraps it."""
+    """Many matches (robot-level control) stepped together; ``colony.batch.GameBatch`` wraps it."""
 
-    def __init__(
-        self,
-        *,
-        worlds: int,
-        mode: str = "ctf",
-        map: Optional[str] = None,
-        learner: Optional[str] = None,
-        opponent: Optional[str] = None,
-        opponent_policy: str = "scripted",
-        max_steps: int = 3000,
-        nearby: int = 8,
-        patch: int = 11,
-        rewards: Optional[dict[str, float]] = None,
-        seed: int = 0,
-    ) -> None: ...
+    def __init__(self, config: GameConfig, worlds: int, seed: int = 0) -> None: ...
     @property
     def worlds(self) -> int: ...
     @property

@@ -59,8 +59,8 @@ class _Batch:
 
 class SortingBatch(_Batch):
     """``worlds`` sorting worlds; takes :class:`~colony.sorting.SortingEnv`'s
-    configuration (continuous actions: an array ``(worlds, robots, 2)`` of
-    forward and turn)."""
+    configuration (``robots``, ``scale_robots``, ``max_steps``, ``reward``...;
+    continuous actions: an array ``(worlds, robots, 2)`` of forward and turn)."""
 
     def __init__(
         self,
@@ -68,30 +68,10 @@ class SortingBatch(_Batch):
         scene: Optional[str] = None,
         params: Optional[str] = None,
         *,
-        robots: Optional[int] = None,
-        pucks: Optional[int] = None,
-        kinds: Optional[int] = None,
-        scale_robots: Optional[int] = None,
-        max_steps: int = 2000,
-        pc_target: Optional[float] = None,
-        reward: str = "pc_change",
-        grid: int = 16,
         seed: int = 0,
+        **config,
     ):
-        self.core = _native.SortBatch(
-            worlds=worlds,
-            scene=scene,
-            params=params,
-            robots=robots,
-            pucks=pucks,
-            kinds=kinds,
-            scale_robots=scale_robots,
-            max_steps=max_steps,
-            pc_target=pc_target,
-            reward=reward,
-            grid=grid,
-            seed=seed,
-        )
+        self.core = _native.SortBatch(_native.SortConfig(scene=scene, params=params, **config), worlds, seed)
         self.worlds = self.core.worlds
         self.agents = self.core.agents
         channels, cells, gripper, pose = self.core.layout
@@ -139,8 +119,8 @@ class GameBatch(_Batch):
     ``(worlds, robots)`` (fire: 0 holds, 1 fires at the nearest enemy, ``2 + k``
     at the k-th robot of ``nearby``; any other code holds)."""
 
-    def __init__(self, worlds: int, mode: str = "ctf", **config):
-        self.core = _native.GameBatch(worlds=worlds, mode=mode, **config)
+    def __init__(self, worlds: int, mode: str = "ctf", map: Optional[str] = None, *, seed: int = 0, **config):
+        self.core = _native.GameBatch(_native.GameConfig(mode=mode, map=map, **config), worlds, seed)
         self.worlds = self.core.worlds
         self.agents = self.core.agents
         self._arrays({name: (self.agents, *shape) for name, shape in self.core.layout.items()})

@@ -32,6 +32,7 @@ from pettingzoo import ParallelEnv
 from . import _native
 from ._actions import agent_index, choice, wheels
 from ._render import HumanView
+from ._seeding import EpisodeSeeds
 
 SQUAD_ORDERS = tuple(_native.GameCore.squad_orders())
 """The squad orders, by action index: Hold, Gather, AttackNearest, CaptureFlag,
@@ -98,7 +99,7 @@ class GameEnv(ParallelEnv):
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, not {render_mode!r}")
-        self.core = _native.GameCore(
+        config = _native.GameConfig(
             mode=mode,
             map=map,
             learner=learner,
@@ -109,8 +110,8 @@ class GameEnv(ParallelEnv):
             nearby=nearby,
             patch=patch,
             rewards=rewards,
-            seed=seed,
         )
+        self.core = _native.GameCore(config, seed)
         self.mode = mode
         self.squad_control = control == "squad"
         self.render_mode = render_mode
@@ -119,8 +120,7 @@ class GameEnv(ParallelEnv):
         if render_mode == "human":
             self._human = HumanView(hub, self.metadata["render_fps"] * render_speed)
             self.core.set_record(True)
-        self._seed = seed
-        self._seeds = np.random.default_rng(seed)
+        self._seeds = EpisodeSeeds(seed)
         self.teams = self.core.teams
         self.robots = self.core.agents
         n = len(self.robots)
@@ -181,14 +181,7 @@ class GameEnv(ParallelEnv):
         return self._act_space
 
     def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
-        # As SortingEnv: an explicit seed is the episode's; later ones follow from it.
-        # Nothing changes unless the match starts: a seed it refuses leaves the episode as it was.
-        if seed is not None:
-            self.core.reset(int(seed))
-            self._seed, self._seeds = int(seed), np.random.default_rng(int(seed))
-        else:
-            self._seed = int(self._seeds.integers(0, 2**63))
-            self.core.reset(self._seed)
+        self._seeds.start(seed, self.core.reset)
         self.agents = list(self.possible_agents)
         self._score, self._winner = (0, 0), None
         self._observe()

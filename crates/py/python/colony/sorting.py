@@ -23,8 +23,8 @@ from pettingzoo import ParallelEnv
 from . import _native
 from ._actions import agent_index, choice, wheels
 from ._render import HumanView
+from ._seeding import EpisodeSeeds
 
-REWARDS = ("pc", "pc_change", "twc_change")
 METHODS = ("bhd", "probseek", "cachecons")
 
 
@@ -74,13 +74,11 @@ class SortingEnv(ParallelEnv):
         render_speed: float = 1.0,
         seed: int = 0,
     ):
-        if reward not in REWARDS:
-            raise ValueError(f"reward must be one of {REWARDS}, not {reward!r}")
         if actions not in ("continuous", "discrete"):
             raise ValueError(f"actions must be 'continuous' or 'discrete', not {actions!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, not {render_mode!r}")
-        self.core = _native.SortCore(
+        config = _native.SortConfig(
             scene=scene,
             params=params,
             robots=robots,
@@ -91,15 +89,14 @@ class SortingEnv(ParallelEnv):
             pc_target=pc_target,
             reward=reward,
             grid=grid,
-            seed=seed,
         )
+        self.core = _native.SortCore(config, seed)
         self.discrete = actions == "discrete"
         self.render_mode = render_mode
         self.render_size = render_size
         # Real time is one control step per its simulated seconds (3/14 s in the paper's scene).
         self._human = HumanView(hub, render_speed / self.core.step_seconds) if render_mode == "human" else None
-        self._seeds = np.random.default_rng(seed)
-        self._seed = seed
+        self._seeds = EpisodeSeeds(seed)
         n = self.core.agents
         self.possible_agents = [f"robot_{i}" for i in range(n)]
         self._index = {a: i for i, a in enumerate(self.possible_agents)}
@@ -133,15 +130,7 @@ class SortingEnv(ParallelEnv):
         return self._act_space
 
     def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
-        # An explicit seed is the episode's own (the same as `colony sort run --seed`);
-        # later resets without one draw theirs from it, so episodes differ but repeat.
-        # Nothing changes unless the world starts: a seed it refuses leaves the episode as it was.
-        if seed is not None:
-            self.core.reset(int(seed))
-            self._seed, self._seeds = int(seed), np.random.default_rng(int(seed))
-        else:
-            self._seed = int(self._seeds.integers(0, 2**63))
-            self.core.reset(self._seed)
+        self._seeds.start(seed, self.core.reset)
         self.agents = list(self.possible_agents)
         self.core.observe(self._map, self._gripper, self._pose)
         if self._human is not None:
