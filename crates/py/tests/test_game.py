@@ -136,6 +136,7 @@ class Episodes(unittest.TestCase):
             {"rewards": {"money": 1.0}},
             {"rewards": {"score": float("nan")}},
             {"map": "/nonexistent.map"},
+            {"render_mode": "hologram"},
         ):
             with self.subTest(**{k: str(v) for k, v in kwargs.items()}):
                 with self.assertRaises((ValueError, OSError, TypeError)):

@@ -194,6 +194,7 @@ class Observations(unittest.TestCase):
             {"actions": "telepathy"},
             {"scene": "/nonexistent/scene.toml"},
             {"pc_target": float("nan")},
+            {"render_mode": "hologram"},
         ):
             with self.subTest(**{k: str(v) for k, v in kwargs.items()}):
                 with self.assertRaises((ValueError, OSError)):

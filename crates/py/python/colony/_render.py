@@ -12,6 +12,12 @@ import time
 from . import _native
 
 
+def check_mode(metadata: dict, render_mode) -> None:
+    """An environment's `render_mode` is None or one its metadata names."""
+    if render_mode is not None and render_mode not in metadata["render_modes"]:
+        raise ValueError(f"render_mode must be one of {metadata['render_modes']}, not {render_mode!r}")
+
+
 class HumanView:
     def __init__(self, hub: str, fps: float):
         if not fps > 0:

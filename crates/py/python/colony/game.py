@@ -31,7 +31,7 @@ from pettingzoo import ParallelEnv
 
 from . import _native
 from ._actions import agent_index, choice, wheels
-from ._render import HumanView
+from ._render import HumanView, check_mode
 from ._seeding import EpisodeSeeds
 
 SQUAD_ORDERS = tuple(_native.GameCore.squad_orders())
@@ -97,8 +97,7 @@ class GameEnv(ParallelEnv):
         render_speed: float = 1.0,
         seed: int = 0,
     ):
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, not {render_mode!r}")
+        check_mode(self.metadata, render_mode)
         config = _native.GameConfig(
             mode=mode,
             map=map,

@@ -22,7 +22,7 @@ from pettingzoo import ParallelEnv
 
 from . import _native
 from ._actions import agent_index, choice, wheels
-from ._render import HumanView
+from ._render import HumanView, check_mode
 from ._seeding import EpisodeSeeds
 
 METHODS = ("bhd", "probseek", "cachecons")
@@ -76,8 +76,7 @@ class SortingEnv(ParallelEnv):
     ):
         if actions not in ("continuous", "discrete"):
             raise ValueError(f"actions must be 'continuous' or 'discrete', not {actions!r}")
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, not {render_mode!r}")
+        check_mode(self.metadata, render_mode)
         config = _native.SortConfig(
             scene=scene,
             params=params,
