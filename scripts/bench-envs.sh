@@ -17,5 +17,5 @@ PATH="$PWD/$venv/bin:$PATH" "$venv/bin/pip" install --quiet --disable-pip-versio
     --force-reinstall --no-deps --no-build-isolation ./crates/py
 
 cargo build --release --quiet -p colony-py --example env_speed
-rust=$(target/release/examples/env_speed 2 | awk '{printf "%s%s=%s", (NR > 1 ? "," : ""), $1, $2}')
+rust=$(target/release/examples/env_speed | awk '{printf "%s%s=%s", (NR > 1 ? "," : ""), $1, $2}')
 "$venv/bin/python" crates/py/bench/env_speed.py --rust "$rust" "$@"

@@ -4,11 +4,13 @@ one machine. Run by ``scripts/bench-envs.sh``, which installs everything in a
 virtual environment and passes the Rust-only rates (``--rust``) so the cost of
 crossing between Python and Rust per step can be told apart.
 
-Every figure is the best of three timed runs of at least ``--seconds`` each.
-Physics costs more when robots push things, so every colony loop (and the Rust
-example) drives robot ``i`` with the same fixed command, forward 0.8 and turn
-0.5 sin(i), from seed 1; peers get one fixed random action per agent. Actions
-are made beforehand so that making them is not measured.
+Every figure is the best of three timed runs. Physics costs more when robots
+push things, so colony's loops (and the Rust example) run the same steps: from
+seed 1, robot ``i`` driven with forward 0.8 and turn 0.5 sin(i), the same number
+of steps per scene (``STEPS``), a batch's worlds all from seed 1; the difference
+between a loop in Python and the Rust example is then what crossing costs. Peers
+run at least ``--seconds`` with one fixed random action per agent. Actions are
+made beforehand so that making them is not measured.
 """
 
 from __future__ import annotations
@@ -57,36 +59,60 @@ def parallel_env_rate(env, seconds: float, actions: Optional[dict] = None, seed:
     return timed(step, seconds)
 
 
-def colony_rows(seconds: float, rust: dict, batch_worlds: int) -> list:
+# Steps per timed run for each scene (robots; 12 is Capture the Flag): the Rust
+# example (examples/env_speed.rs) runs exactly these, from the same seed.
+STEPS = {4: 4000, 64: 400, 256: 100, 12: 2000}
+
+
+def runs(steps: int, reset: Callable[[], None], step: Callable[[], None]) -> float:
+    """The best of three runs of `steps` steps, each after `reset`, in steps per second."""
+    best = float("inf")
+    for _ in range(3):
+        reset()
+        start = time.perf_counter()
+        for _ in range(steps):
+            step()
+        best = min(best, time.perf_counter() - start)
+    return steps / best
+
+
+def colony_rows(rust: dict, batch_worlds: int) -> tuple:
     from colony import CaptureTheFlagEnv, GameBatch, SortingBatch, SortingEnv
 
     rows = []
     for robots in (4, 64, 256):
         scene = {"robots": 4} if robots == 4 else {"scale_robots": robots}
+        n = STEPS[robots]
         env = SortingEnv(max_steps=10**9, **scene)
         acts = fixed_commands(robots)
-        single = parallel_env_rate(env, seconds, {a: acts[i] for i, a in enumerate(env.possible_agents)})
+        by_agent = {a: acts[i] for i, a in enumerate(env.possible_agents)}
+        single = runs(n, lambda: env.reset(seed=1), lambda: env.step(by_agent))
         core = env.core
-        core.reset(1)
 
         def native():
             core.step(acts)
             core.observe(env._map, env._gripper, env._pose)
 
-        raw = timed(native, seconds)
+        raw = runs(n, lambda: core.reset(1), native)
+        # Every world of the batch from the same seed: the same work as the single world's.
         worlds = max(1, batch_worlds if robots <= 64 else batch_worlds // 4)
         batch = SortingBatch(worlds, max_steps=10**9, **scene)
-        batch.reset(seed=1)
         bacts = np.broadcast_to(acts, (worlds, robots, 2)).copy()
-        batched = timed(lambda: batch.step(bacts), seconds) * worlds
+        batched = runs(n, lambda: batch.reset(seeds=[1] * worlds), lambda: batch.step(bacts)) * worlds
         rows.append(("colony sorting", robots, single, raw, batched, worlds, rust.get(f"sorting-{robots}")))
-        getter = timed(lambda: core.steps, seconds / 4)
+    getter = timed(lambda: core.steps, 0.5)
     env = CaptureTheFlagEnv(max_steps=10**9)
-    core, n = env.core, len(env.possible_agents)
-    wheels = fixed_commands(n)
-    fire, pickup = np.ones(n, np.int64), np.ones(n, np.bool_)
+    core, agents = env.core, len(env.possible_agents)
+    wheels = fixed_commands(agents)
+    fire, pickup = np.ones(agents, np.int64), np.ones(agents, np.bool_)
     game_actions = {a: {"wheels": wheels[i], "fire": 1, "pickup": 1} for i, a in enumerate(env.possible_agents)}
-    single = parallel_env_rate(env, seconds, game_actions)
+
+    def step_env():
+        if not env.agents:
+            env.reset(seed=2)
+        env.step({a: game_actions[a] for a in env.agents})
+
+    single = runs(STEPS[12], lambda: env.reset(seed=1), step_env)
 
     def native_game():
         _, terminated, truncated, *_ = core.step(wheels, fire, pickup)
@@ -94,14 +120,12 @@ def colony_rows(seconds: float, rust: dict, batch_worlds: int) -> list:
             core.reset(2)
         env._observe()
 
-    core.reset(1)
-    raw = timed(native_game, seconds)
+    raw = runs(STEPS[12], lambda: core.reset(1), native_game)
     worlds = batch_worlds
     batch = GameBatch(worlds, max_steps=10**9)
-    batch.reset(seed=1)
-    bw = np.broadcast_to(wheels, (worlds, n, 2)).copy()
-    bf, bp = np.ones((worlds, n), np.int64), np.ones((worlds, n), np.bool_)
-    batched = timed(lambda: batch.step(bw, bf, bp), seconds) * worlds
+    bw = np.broadcast_to(wheels, (worlds, agents, 2)).copy()
+    bf, bp = np.ones((worlds, agents), np.int64), np.ones((worlds, agents), np.bool_)
+    batched = runs(STEPS[12], lambda: batch.reset(seeds=[1] * worlds), lambda: batch.step(bw, bf, bp)) * worlds
     # 12 robots play; 6 of them are agents.
     rows.append(("colony Capture the Flag (6 v 6)", 12, single, raw, batched, worlds, rust.get("ctf-12")))
     return rows, getter
@@ -151,7 +175,7 @@ def main() -> None:
     parser.add_argument("--peers", default="mpe,vmas")
     a = parser.parse_args()
     rust = {k: float(v) for k, v in (kv.split("=") for kv in a.rust.split(",") if kv)}
-    rows, getter = colony_rows(a.seconds, rust, a.batch)
+    rows, getter = colony_rows(rust, a.batch)
     peers = a.peers.split(",")
     if "mpe" in peers:
         rows += mpe_rows(a.seconds)
