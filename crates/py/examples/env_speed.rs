@@ -114,7 +114,10 @@ fn capture_the_flag() -> anyhow::Result<f64> {
         || {
             let mut env = env.borrow_mut();
             // A match that ends starts again, as the Python loop does.
-            if env.step_robots(&actions).is_ok_and(|i| i.terminated || i.truncated) {
+            if env
+                .step_robots(&actions)
+                .is_ok_and(|i| i.terminated || i.truncated)
+            {
                 let _ = env.reset(2);
             }
             let [own, nearby, flags, patch] = &mut bufs;

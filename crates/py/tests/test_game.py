@@ -1,9 +1,6 @@
 """Capture the Flag and Death Match under PettingZoo's and Gymnasium's own
 checkers, batched matches, and the "human" view over a real hub."""
 
-import os
-import select
-import sys
 import time
 import unittest
 import warnings
@@ -14,11 +11,7 @@ from pettingzoo.test import parallel_api_test, parallel_seed_test
 
 from colony import CaptureTheFlagEnv, DeathMatchEnv, GameBatch, GameEnv, JointEnv
 
-# The protocol client and its test harness's hub, from the repository's python/.
-ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..")
-sys.path[:0] = [os.path.join(ROOT, "python"), os.path.join(ROOT, "python", "tests")]
-import colony_client  # noqa: E402
-from test_client import Hub  # noqa: E402
+from hubwatch import heard
 
 
 def toward_enemy_flag(obs):
@@ -152,31 +145,15 @@ class Episodes(unittest.TestCase):
 
 class HumanView(unittest.TestCase):
     def test_human_mode_publishes_the_match_to_a_hub_a_subscriber_reads(self):
-        hub = Hub()
-        self.addCleanup(hub.log.close)
-        hub.start()
-        self.addCleanup(hub.stop)
-        watcher = colony_client.Client(hub.addr)
-        self.addCleanup(watcher.close)
-        watcher.subscribe("game.state")
-        env = CaptureTheFlagEnv(max_steps=300, render_mode="human", hub=hub.addr_text, render_speed=10.0)
-        self.addCleanup(env.close)
-        obs, _ = env.reset(seed=1)
-        states = []
+        def make(hub):
+            env = CaptureTheFlagEnv(max_steps=300, render_mode="human", hub=hub, render_speed=10.0)
+            env.last_obs, _ = env.reset(seed=1)
+            return env
 
-        def listen(seconds):
-            # The subscriber owns its loop: it answers the hub's cookie and reads.
-            select.select([watcher], [], [], seconds)
-            watcher.poll()
-            while (p := watcher.recv()) is not None:
-                states.append(p)
+        def step(env):
+            env.last_obs = env.step({a: toward_enemy_flag(env.last_obs[a]) for a in env.agents})[0]
 
-        deadline = time.monotonic() + 20
-        while env.agents and not states and time.monotonic() < deadline:
-            obs, _, _, _, _ = env.step({a: toward_enemy_flag(obs[a]) for a in env.agents})
-            listen(0.0)
-        while not states and time.monotonic() < deadline:
-            listen(0.2)
+        states = heard(self, "game.state", make, step)
         self.assertTrue(states, "a subscriber of game.state heard the match")
         self.assertIn("game.state", states[0].subjects)
 

@@ -17,6 +17,7 @@ from gymnasium.utils.env_checker import check_env
 from pettingzoo.test import parallel_api_test, parallel_seed_test
 
 from colony import JointEnv, SortingBatch, SortingEnv, _native
+from hubwatch import heard
 
 COLONY = os.environ.get("COLONY_BIN", "colony")
 
@@ -207,6 +208,18 @@ class Observations(unittest.TestCase):
         self.assertEqual(image.shape, (120, 120, 3))
         self.assertEqual(image.dtype, np.uint8)
         self.assertGreater(len(np.unique(image.reshape(-1, 3), axis=0)), 3, "arena, pucks and robots")
+
+
+class HumanView(unittest.TestCase):
+    def test_human_mode_publishes_the_live_vision_a_subscriber_reads(self):
+        def make(hub):
+            env = small(render_mode="human", hub=hub, render_speed=50.0)
+            env.reset(seed=1)
+            return env
+
+        frames = heard(self, "vision", make, lambda env: env.step({}))
+        self.assertTrue(frames, "a subscriber of vision heard the swarm")
+        self.assertIn("vision", frames[0].subjects)
 
 
 class ReferencePolicies(unittest.TestCase):
