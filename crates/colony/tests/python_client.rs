@@ -114,13 +114,20 @@ fn stale_check(installed: &Path) {
     let built = std::fs::metadata(installed.join("_native.abi3.so"))
         .and_then(|m| m.modified())
         .unwrap_or(std::time::UNIX_EPOCH);
+    // The extension's crate and every crate of colony it is built from.
     let sources = [
         "crates/py/src",
         "crates/py/python",
         "crates/sort/src",
         "crates/game/src",
+        "crates/behave/src",
         "crates/sim/src",
+        "crates/node/src",
+        "crates/hub/src",
+        "crates/client/src",
         "crates/proto/src",
+        "crates/wire/src",
+        "crates/sys/src",
     ];
     for source in sources {
         let newer = newest(&root().join(source));

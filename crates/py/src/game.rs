@@ -18,7 +18,7 @@ use pyo3::types::PyDict;
 use rayon::prelude::*;
 
 use crate::arrays::{read, write};
-use crate::seeds::{check_budget, next_seed, restart};
+use crate::seeds::{autoreset, check_budget, firsts, restart};
 
 fn error(e: EnvError) -> PyErr {
     PyValueError::new_err(e.to_string())
@@ -408,7 +408,7 @@ impl GameBatch {
         // A battlefield's cells weigh as much as bodies: the walls are the simulator's.
         let bodies = first.game().roster().len() + first.config().map.grid.cells().len();
         check_budget(worlds, bodies as u64, values as u64).map_err(PyValueError::new_err)?;
-        let seeds: Vec<u64> = (0..worlds as u64).map(|b| seed.wrapping_add(b)).collect();
+        let seeds = firsts(seed, worlds);
         let envs = seeds
             .iter()
             .map(|&s| Ok(Locked(Mutex::new(build(config, s)?))))
@@ -440,10 +440,16 @@ impl GameBatch {
         Ok(d)
     }
 
-    /// Starts every match again with `seeds[b]`, or (None) the seed after its last.
-    #[pyo3(signature = (seeds=None))]
-    fn reset(&mut self, py: Python<'_>, seeds: Option<Vec<u64>>) -> PyResult<()> {
-        let seeds = restart(seeds, &self.seeds).map_err(invalid)?;
+    /// Starts every match again: with `seeds[b]`, or `seed + b`, or (neither)
+    /// the seed after its last.
+    #[pyo3(signature = (seed=None, seeds=None))]
+    fn reset(
+        &mut self,
+        py: Python<'_>,
+        seed: Option<u64>,
+        seeds: Option<Vec<u64>>,
+    ) -> PyResult<()> {
+        let seeds = restart(seed, seeds, &self.seeds).map_err(invalid)?;
         let envs = &mut self.envs;
         py.detach(|| {
             envs.par_iter_mut()
@@ -483,9 +489,10 @@ impl GameBatch {
         .map_err(error)
     }
 
-    /// Steps every match, resets those that ended, and writes observations,
-    /// rewards, flags and each ended match's final score difference (learner's
-    /// minus opponent's) into the arrays given.
+    /// Steps every match, resets those that ended, and writes into the arrays
+    /// given: observations (a reset match's first), rewards, the flags, and each
+    /// match's score difference (learner's less opponent's) after the step and
+    /// before any reset (for a match that ended, what it ended with).
     #[allow(clippy::too_many_arguments)]
     fn step(
         &mut self,
@@ -553,8 +560,7 @@ impl GameBatch {
                         (*term, *trunc) = (info.terminated, info.truncated);
                         *fin = f64::from(info.score[0]) - f64::from(info.score[1]);
                         if info.terminated || info.truncated {
-                            *seed = next_seed(*seed);
-                            env.reset(*seed)?;
+                            autoreset(seed, |s| env.reset(s))?;
                         }
                         env.observe(o, nb, fl, pa)
                     },

@@ -26,5 +26,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<game::GameCore>()?;
     m.add_class::<game::GameBatch>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("MAX_RENDER_SIDE", colony_sort::env::MAX_RENDER_SIDE)?;
     Ok(())
 }

@@ -44,14 +44,44 @@ pub fn next_seed(seed: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-/// The seeds a batch's worlds start again with: those given, one per world, or
-/// the seed after each world's last.
-pub fn restart(given: Option<Vec<u64>>, last: &[u64]) -> Result<Vec<u64>, String> {
-    match given {
-        Some(s) if s.len() != last.len() => {
+/// The seeds a batch's worlds start again with: those given, one per world;
+/// or `seed + b` for world `b`; or (neither) the seed after each world's last.
+pub fn restart(
+    seed: Option<u64>,
+    given: Option<Vec<u64>>,
+    last: &[u64],
+) -> Result<Vec<u64>, String> {
+    match (seed, given) {
+        (Some(_), Some(_)) => Err("give seed or seeds, not both".to_string()),
+        (None, Some(s)) if s.len() != last.len() => {
             Err(format!("{} seeds for {} worlds", s.len(), last.len()))
         }
-        Some(s) => Ok(s),
-        None => Ok(last.iter().map(|&s| next_seed(s)).collect()),
+        (None, Some(s)) => Ok(s),
+        (Some(first), None) => Ok(firsts(first, last.len())),
+        (None, None) => Ok(last.iter().map(|&s| next_seed(s)).collect()),
+    }
+}
+
+/// World `b`'s first seed, `seed + b` (wrapping at 2^64).
+pub fn firsts(seed: u64, worlds: usize) -> Vec<u64> {
+    (0..worlds as u64).map(|b| seed.wrapping_add(b)).collect()
+}
+
+/// How many seeds a world that ended tries before its reset fails: a crowded
+/// scene cannot be laid out from every seed.
+pub const RESET_TRIES: usize = 16;
+
+/// Starts a world that ended again from the seed after `*seed`, or from the
+/// seeds after that while its world cannot be laid out; `*seed` becomes the seed
+/// it started from (or the last one tried), so a failure is not retried forever
+/// from the same seed and a batch stays reproducible from its first seeds.
+pub fn autoreset<E>(seed: &mut u64, mut reset: impl FnMut(u64) -> Result<(), E>) -> Result<(), E> {
+    let mut tries = 1;
+    loop {
+        *seed = next_seed(*seed);
+        match reset(*seed) {
+            Err(_) if tries < RESET_TRIES => tries += 1,
+            done => return done,
+        }
     }
 }

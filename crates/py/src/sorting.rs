@@ -14,7 +14,7 @@ use pyo3::prelude::*;
 use rayon::prelude::*;
 
 use crate::arrays::{read, write};
-use crate::seeds::{check_budget, next_seed, restart};
+use crate::seeds::{autoreset, check_budget, firsts, restart};
 
 pub fn error(e: EnvError) -> PyErr {
     PyValueError::new_err(e.to_string())
@@ -76,6 +76,19 @@ impl SortConfig {
     }
 }
 
+/// The first world of `worlds` with `config`, once they are known to fit the
+/// budgets: the bodies are checked before a world is built, the observation's
+/// size (which a built world gives) after.
+fn sized(config: &EnvConfig, worlds: usize, seed: u64) -> PyResult<SortEnv> {
+    let scene = &config.scene;
+    let bodies = (scene.robots.count + scene.pucks.count) as u64;
+    check_budget(worlds, bodies, 0).map_err(PyValueError::new_err)?;
+    let first = SortEnv::new(config.clone(), seed).map_err(error)?;
+    check_budget(worlds, bodies, first.layout().map_total() as u64)
+        .map_err(PyValueError::new_err)?;
+    Ok(first)
+}
+
 fn method(name: &str) -> PyResult<Method> {
     name.parse::<Method>()
         .map_err(|e| PyValueError::new_err(e.to_string()))
@@ -103,7 +116,7 @@ impl SortCore {
     #[pyo3(signature = (config, seed=0))]
     fn new(config: &SortConfig, seed: u64) -> PyResult<SortCore> {
         Ok(SortCore {
-            env: SortEnv::new(config.config.clone(), seed).map_err(error)?,
+            env: sized(&config.config, 1, seed)?,
             commands: Vec::new(),
         })
     }
@@ -246,6 +259,8 @@ impl SortCore {
 #[pyclass(module = "colony._native")]
 pub struct SortBatch {
     envs: Vec<SortEnv>,
+    /// The seed each world's episode started from.
+    seeds: Vec<u64>,
     commands: Vec<Vec<WheelCommand>>,
 }
 
@@ -255,26 +270,21 @@ impl SortBatch {
     #[pyo3(signature = (config, worlds, seed=0))]
     fn new(py: Python<'_>, config: &SortConfig, worlds: usize, seed: u64) -> PyResult<SortBatch> {
         let config = &config.config;
-        let scene = &config.scene;
-        let bodies = (scene.robots.count + scene.pucks.count) as u64;
-        // The bodies first, before a world is built to read its observation's size.
-        check_budget(worlds, bodies, 0).map_err(PyValueError::new_err)?;
-        let values = SortEnv::new(config.clone(), seed)
-            .map_err(error)?
-            .layout()
-            .map_total() as u64;
-        check_budget(worlds, bodies, values).map_err(PyValueError::new_err)?;
-        let envs = py
+        let first = sized(config, worlds, seed)?;
+        let seeds = firsts(seed, worlds);
+        let rest = py
             .detach(|| {
-                (0..worlds as u64)
-                    .into_par_iter()
-                    .map(|b| SortEnv::new(config.clone(), seed.wrapping_add(b)))
+                seeds[1..]
+                    .par_iter()
+                    .map(|&s| SortEnv::new(config.clone(), s))
                     .collect::<Result<Vec<_>, _>>()
             })
             .map_err(error)?;
+        let envs: Vec<SortEnv> = std::iter::once(first).chain(rest).collect();
         Ok(SortBatch {
             commands: vec![Vec::new(); envs.len()],
             envs,
+            seeds,
         })
     }
 
@@ -294,18 +304,25 @@ impl SortBatch {
         (l.channels, l.grid, l.gripper, l.pose)
     }
 
-    /// Starts every world again with `seeds[b]`, or (None) the seed after its last.
-    #[pyo3(signature = (seeds=None))]
-    fn reset(&mut self, py: Python<'_>, seeds: Option<Vec<u64>>) -> PyResult<()> {
-        let last: Vec<u64> = self.envs.iter().map(SortEnv::seed).collect();
-        let seeds = restart(seeds, &last).map_err(PyValueError::new_err)?;
+    /// Starts every world again: with `seeds[b]`, or `seed + b`, or (neither)
+    /// the seed after its last.
+    #[pyo3(signature = (seed=None, seeds=None))]
+    fn reset(
+        &mut self,
+        py: Python<'_>,
+        seed: Option<u64>,
+        seeds: Option<Vec<u64>>,
+    ) -> PyResult<()> {
+        let seeds = restart(seed, seeds, &self.seeds).map_err(PyValueError::new_err)?;
         let envs = &mut self.envs;
         py.detach(|| {
             envs.par_iter_mut()
-                .zip(seeds)
-                .try_for_each(|(e, s)| e.reset(s))
+                .zip(&seeds)
+                .try_for_each(|(e, &s)| e.reset(s))
         })
-        .map_err(error)
+        .map_err(error)?;
+        self.seeds = seeds;
+        Ok(())
     }
 
     fn observe(
@@ -331,8 +348,9 @@ impl SortBatch {
     }
 
     /// Steps every world with `actions` (worlds, robots, 2), resets the worlds
-    /// whose episode ended, and writes observations, rewards, flags and each
-    /// ended world's final PC into the arrays given.
+    /// whose episode ended, and writes into the arrays given: observations (a
+    /// reset world's first), rewards, the flags, and each world's PC after the
+    /// step and before any reset (for a world that ended, what it ended with).
     #[allow(clippy::too_many_arguments)]
     fn step(
         &mut self,
@@ -355,10 +373,11 @@ impl SortBatch {
         let terminated = write(&mut terminated, "terminated", &[b])?;
         let truncated = write(&mut truncated, "truncated", &[b])?;
         let last = write(&mut last, "final", &[b])?;
-        let (envs, commands) = (&mut self.envs, &mut self.commands);
+        let (envs, commands, seeds) = (&mut self.envs, &mut self.commands, &mut self.seeds);
         py.detach(|| {
             envs.par_iter_mut()
                 .zip(commands.par_iter_mut())
+                .zip(seeds.par_iter_mut())
                 .zip(actions.par_chunks(l.agents * 2))
                 .zip(map.par_chunks_mut(l.map_total()))
                 .zip(gripper.par_chunks_mut(l.gripper_total()))
@@ -368,14 +387,14 @@ impl SortBatch {
                 .zip(truncated.par_iter_mut())
                 .zip(last.par_iter_mut())
                 .try_for_each(
-                    |(((((((((env, cmds), a), m), g), p), r), term), trunc), fin)| {
+                    |((((((((((env, cmds), seed), a), m), g), p), r), term), trunc), fin)| {
                         to_commands(a, cmds);
                         let info = env.step(cmds)?;
                         r.fill(info.reward);
                         (*term, *trunc) = (info.terminated, info.truncated);
                         *fin = info.pc;
                         if info.terminated || info.truncated {
-                            env.reset(next_seed(env.seed()))?;
+                            autoreset(seed, |s| env.reset(s))?;
                         }
                         env.observe(m, g, p)
                     },

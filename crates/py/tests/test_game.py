@@ -82,18 +82,24 @@ class Episodes(unittest.TestCase):
         # Fighting happened: rewards include damage dealt and taken.
         self.assertNotEqual(total, 0.0)
 
-    def test_destroyed_robots_leave_the_episode_and_never_come_back(self):
+    def test_destroyed_robots_leave_the_episode_terminated_and_never_come_back(self):
         # Two scouts walk into six robots that fire on their own.
         env = DeathMatchEnv(learner="alpha:scout,scout", max_steps=1500)
         obs, _ = env.reset(seed=1)
-        gone = set()
+        destroyed, cut_off = set(), set()
         while env.agents:
             obs, rew, term, trunc, info = env.step({a: toward_enemy_flag(obs[a]) for a in env.agents})
+            alive = dict(zip(env.possible_agents, env.core.alive()))
             for a in term:
-                self.assertNotIn(a, gone)
-                if term[a] or trunc[a]:
-                    gone.add(a)
-        self.assertEqual(gone, set(env.possible_agents))
+                self.assertNotIn(a, destroyed | cut_off, "an agent that left came back")
+                self.assertFalse(term[a] and trunc[a])
+                if term[a] and not alive[a]:
+                    destroyed.add(a)
+                elif term[a] or trunc[a]:
+                    cut_off.add(a)
+                else:
+                    self.assertTrue(alive[a], "a destroyed robot is still an agent")
+        self.assertTrue(destroyed, "a scout was destroyed, and left terminated")
 
     def test_bad_actions_and_configuration_are_clear_errors_never_crashes(self):
         env = CaptureTheFlagEnv(max_steps=20)
@@ -103,6 +109,9 @@ class Episodes(unittest.TestCase):
         robot = env.agents[0]
         for bad in (
             {"robot_999": wild},
+            {robot: {"wheels": [0.0, 0.0]}},
+            {robot: {**wild, "jump": 1}},
+            {robot: [0.0, 0.0, 1, 1]},
             {robot: {**wild, "fire": 10**9}},
             {robot: {**wild, "fire": -1}},
             {robot: {**wild, "fire": 1.0}},
@@ -130,10 +139,19 @@ class Episodes(unittest.TestCase):
             {"rewards": {"score": float("nan")}},
             {"map": "/nonexistent.map"},
             {"render_mode": "hologram"},
+            {"render_mode": "rgb_array", "render_size": 10**5},
+            {"render_mode": "rgb_array", "render_size": -1},
         ):
             with self.subTest(**{k: str(v) for k, v in kwargs.items()}):
                 with self.assertRaises((ValueError, OSError, TypeError)):
                     GameEnv(**kwargs)
+
+    def test_closing_the_human_view_stops_keeping_the_matchs_packets(self):
+        env = CaptureTheFlagEnv(max_steps=20, render_mode="human", hub="127.0.0.1:9", render_speed=100.0)
+        env.reset(seed=1)
+        env.close()
+        env.step({})
+        self.assertEqual(env.core.take_packets(), [])
 
     def test_rgb_array_rendering_gives_an_image_of_the_battlefield(self):
         env = CaptureTheFlagEnv(render_mode="rgb_array", render_size=160)
@@ -165,6 +183,8 @@ class Batches(unittest.TestCase):
             GameBatch(2, nearby=0)
         with self.assertRaises(ValueError):
             GameBatch(65536)
+        with self.assertRaises(ValueError):
+            GameBatch(2, control="squad")
 
     def test_a_batch_of_matches_steps_like_the_same_matches_one_at_a_time(self):
         batch = GameBatch(2, max_steps=30)

@@ -10,12 +10,21 @@ from typing import Any
 import numpy as np
 
 
-def agent_index(agent: Any, index: dict, live: list) -> int:
-    """The position of `agent` among the possible agents; it must be live."""
+def agent_index(agent: Any, index: dict, live: set) -> int:
+    """The position of `agent` among the possible agents; it must be live (a set,
+    so checking a step's actions costs one lookup an agent)."""
     i = index.get(agent)
     if i is None or agent not in live:
-        raise ValueError(f"{agent!r} is not an agent in this episode (agents: {live})")
+        raise ValueError(f"{agent!r} is not an agent in this episode ({len(live)} agents are)")
     return i
+
+
+def fields(agent: str, value: Any, names: tuple) -> Any:
+    """A dict action with exactly these keys."""
+    if not isinstance(value, dict) or set(value) != set(names):
+        got = sorted(value) if isinstance(value, dict) else type(value).__name__
+        raise ValueError(f"{agent}: the action must be a dict of {', '.join(names)}, not {got}")
+    return value
 
 
 def wheels(agent: str, value: Any) -> np.ndarray:

@@ -7,15 +7,19 @@ person watches, and an environment can step thousands of times a second.
 
 from __future__ import annotations
 
+import operator
 import time
 
 from . import _native
 
 
-def check_mode(metadata: dict, render_mode) -> None:
-    """An environment's `render_mode` is None or one its metadata names."""
+def check_mode(metadata: dict, render_mode, render_size: int) -> None:
+    """An environment's `render_mode` is None or one its metadata names, and its
+    pictures' side one the extension draws."""
     if render_mode is not None and render_mode not in metadata["render_modes"]:
         raise ValueError(f"render_mode must be one of {metadata['render_modes']}, not {render_mode!r}")
+    if not 0 <= operator.index(render_size) <= _native.MAX_RENDER_SIDE:
+        raise ValueError(f"render_size must be 0 to {_native.MAX_RENDER_SIDE}, not {render_size}")
 
 
 class HumanView:

@@ -4,6 +4,7 @@ one draw theirs from it, so episodes differ but a run repeats from its first see
 
 from __future__ import annotations
 
+import operator
 from typing import Callable, Optional
 
 import numpy as np
@@ -11,15 +12,23 @@ import numpy as np
 
 class EpisodeSeeds:
     def __init__(self, seed: int):
-        self.seed = int(seed)
+        self.seed = operator.index(seed)
         self._draws = np.random.default_rng(self.seed)
 
     def start(self, seed: Optional[int], reset: Callable[[int], None]) -> None:
         """Calls `reset` with the next episode's seed. Nothing changes unless it
         succeeds: a seed the world refuses leaves the episode as it was."""
         if seed is not None:
-            reset(int(seed))
-            self.seed, self._draws = int(seed), np.random.default_rng(int(seed))
+            # An integer: a float would be truncated into another episode's seed.
+            seed = operator.index(seed)
+            reset(seed)
+            self.seed, self._draws = seed, np.random.default_rng(seed)
         else:
-            self.seed = int(self._draws.integers(0, 2**63))
-            reset(self.seed)
+            state = self._draws.bit_generator.state
+            drawn = int(self._draws.integers(0, 2**63))
+            try:
+                reset(drawn)
+            except BaseException:
+                self._draws.bit_generator.state = state
+                raise
+            self.seed = drawn

@@ -7,9 +7,13 @@ writes in place: :meth:`step` returns the *same* arrays every call, overwritten,
 with no copy per step (pass ``copy=True`` to get fresh ones). A world whose
 episode ends is reset within the same call (its next seed is drawn from its
 previous one), so the arrays always hold live worlds; ``terminated`` and
-``truncated`` say which worlds ended on this step, and ``final`` holds the
-measure they ended with (PC for sorting; for the game, the learner's score
-less the opponent's).
+``truncated`` say which worlds ended on this step, and ``final`` holds each
+world's measure after the step, before any reset (PC for sorting; for the
+game, the learner's score less the opponent's): for a world that ended, what
+it ended with. The observation a world ended on is not kept (its reset's first
+is in its place), so a learner that bootstraps from it must step worlds
+singly. A world whose next seed cannot be laid out (a crowded scene) tries the
+seeds after it.
 """
 
 from __future__ import annotations
@@ -21,20 +25,6 @@ import numpy as np
 from . import _native
 
 
-def _seeds(worlds: int, seed: Optional[int], seeds: Optional[Sequence[int]]) -> Optional[list]:
-    if seed is not None and seeds is not None:
-        raise ValueError("give seed or seeds, not both")
-    if seeds is not None:
-        seeds = [int(s) for s in seeds]
-        if len(seeds) != worlds:
-            raise ValueError(f"{len(seeds)} seeds for {worlds} worlds")
-        return seeds
-    if seed is not None:
-        # As the native side: seeds wrap around at 2**64.
-        return [(int(seed) + b) % 2**64 for b in range(worlds)]
-    return None
-
-
 class _Batch:
     def _arrays(self, parts: dict[str, tuple]) -> None:
         b = self.worlds
@@ -43,6 +33,15 @@ class _Batch:
         self.final = np.zeros(b, np.float64)
         self.terminated = np.zeros(b, np.bool_)
         self.truncated = np.zeros(b, np.bool_)
+
+    def reset(
+        self, seed: Optional[int] = None, seeds: Optional[Sequence[int]] = None, copy: bool = False
+    ) -> dict[str, np.ndarray]:
+        """Starts every world again: world ``b`` with ``seeds[b]``, or ``seed + b``,
+        or (neither given) a seed drawn from its last one."""
+        self.core.reset(seed, seeds)
+        self._observe()
+        return {k: v.copy() for k, v in self.obs.items()} if copy else self.obs
 
     def _result(self, copy: bool):
         out = (self.obs, self.reward, self.terminated, self.truncated, self.final)
@@ -79,14 +78,8 @@ class SortingBatch(_Batch):
             {"map": (self.agents, channels, cells, cells), "gripper": (self.agents, gripper), "pose": (self.agents, pose)}
         )
 
-    def reset(
-        self, seed: Optional[int] = None, seeds: Optional[Sequence[int]] = None, copy: bool = False
-    ) -> dict[str, np.ndarray]:
-        """Starts every world again: world ``b`` with ``seeds[b]``, or ``seed + b``,
-        or (neither given) a seed drawn from its last one."""
-        self.core.reset(_seeds(self.worlds, seed, seeds))
+    def _observe(self) -> None:
         self.core.observe(self.obs["map"], self.obs["gripper"], self.obs["pose"])
-        return {k: v.copy() for k, v in self.obs.items()} if copy else self.obs
 
     def step(self, actions: np.ndarray, copy: bool = False):
         """Steps every world: returns ``(obs, reward, terminated, truncated, final)``."""
@@ -126,14 +119,8 @@ class GameBatch(_Batch):
         self._arrays({name: (self.agents, *shape) for name, shape in self.core.layout.items()})
         self._names = list(self.core.layout.keys())
 
-    def reset(
-        self, seed: Optional[int] = None, seeds: Optional[Sequence[int]] = None, copy: bool = False
-    ) -> dict[str, np.ndarray]:
-        """Starts every world again: world ``b`` with ``seeds[b]``, or ``seed + b``,
-        or (neither given) a seed drawn from its last one."""
-        self.core.reset(_seeds(self.worlds, seed, seeds))
+    def _observe(self) -> None:
         self.core.observe(*(self.obs[n] for n in self._names))
-        return {k: v.copy() for k, v in self.obs.items()} if copy else self.obs
 
     def step(self, wheels: np.ndarray, fire: np.ndarray, pickup: np.ndarray, copy: bool = False):
         """Steps every world: returns ``(obs, reward, terminated, truncated, final)``."""

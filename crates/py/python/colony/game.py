@@ -30,7 +30,7 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from . import _native
-from ._actions import agent_index, choice, wheels
+from ._actions import agent_index, choice, fields, wheels
 from ._render import HumanView, check_mode
 from ._seeding import EpisodeSeeds
 
@@ -97,7 +97,7 @@ class GameEnv(ParallelEnv):
         render_speed: float = 1.0,
         seed: int = 0,
     ):
-        check_mode(self.metadata, render_mode)
+        check_mode(self.metadata, render_mode, render_size)
         config = _native.GameConfig(
             mode=mode,
             map=map,
@@ -190,11 +190,12 @@ class GameEnv(ParallelEnv):
     def step(self, actions: dict[str, Any]):
         if not self.agents:
             raise RuntimeError("the episode is over: call reset()")
+        live = set(self.agents)
         if self.squad_control:
             # A squad with no order this step holds.
             orders = [0] * len(self.possible_agents)
             for a, act in actions.items():
-                orders[agent_index(a, self._index, self.agents)] = choice(a, act, len(SQUAD_ORDERS), "the order")
+                orders[agent_index(a, self._index, live)] = choice(a, act, len(SQUAD_ORDERS), "the order")
             result = self.core.step_squads(orders)
         else:
             # A robot with no action this step stands, holds fire and picks nothing up.
@@ -203,7 +204,8 @@ class GameEnv(ParallelEnv):
             self._pickup.fill(False)
             fire_codes = self._act_space["fire"].n
             for a, act in actions.items():
-                i = agent_index(a, self._index, self.agents)
+                i = agent_index(a, self._index, live)
+                act = fields(a, act, ("wheels", "fire", "pickup"))
                 self._wheels[i] = wheels(a, act["wheels"])
                 self._fire[i] = choice(a, act["fire"], fire_codes, "fire")
                 self._pickup[i] = choice(a, act["pickup"], 2, "pickup")
@@ -239,6 +241,8 @@ class GameEnv(ParallelEnv):
         if self._human is not None:
             self._human.close()
             self._human = None
+            # Nothing takes the match's packets any more: stop keeping them.
+            self.core.set_record(False)
 
     def _members_of(self, agent: str) -> list:
         return self._members[agent] if self.squad_control else [self._index[agent]]

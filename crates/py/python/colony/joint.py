@@ -83,9 +83,10 @@ class JointEnv(gymnasium.Env):
         actions = {a: _pick(action, i, self._agent_act) for i, a in enumerate(self.agents) if a in live}
         obs, rewards, terms, truncs, infos = self.env.step(actions)
         reward = float(sum(rewards.values()))
+        # Ended by the clock if any agent was cut off by it, else by the game.
         over = not self.env.agents
-        terminated = over and any(terms.values())
-        truncated = over and not terminated
+        truncated = over and any(truncs.values())
+        terminated = over and not truncated
         return self._joint(obs), reward, terminated, truncated, {"agents": infos}
 
     def render(self):

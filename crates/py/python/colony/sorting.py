@@ -52,7 +52,9 @@ class SortingEnv(ParallelEnv):
             shows the run live, paced to ``render_speed`` times real time).
     """
 
-    metadata = {"name": "colony_sorting_v0", "render_modes": ["rgb_array", "human"], "render_fps": 14}
+    # One frame a control step: 14/3 a second in the paper's scene (each instance
+    # sets its own scene's rate).
+    metadata = {"name": "colony_sorting_v0", "render_modes": ["rgb_array", "human"], "render_fps": 14 / 3}
 
     def __init__(
         self,
@@ -76,7 +78,7 @@ class SortingEnv(ParallelEnv):
     ):
         if actions not in ("continuous", "discrete"):
             raise ValueError(f"actions must be 'continuous' or 'discrete', not {actions!r}")
-        check_mode(self.metadata, render_mode)
+        check_mode(self.metadata, render_mode, render_size)
         config = _native.SortConfig(
             scene=scene,
             params=params,
@@ -93,8 +95,8 @@ class SortingEnv(ParallelEnv):
         self.discrete = actions == "discrete"
         self.render_mode = render_mode
         self.render_size = render_size
-        # Real time is one control step per its simulated seconds (3/14 s in the paper's scene).
-        self._human = HumanView(hub, render_speed / self.core.step_seconds) if render_mode == "human" else None
+        self.metadata = {**SortingEnv.metadata, "render_fps": 1.0 / self.core.step_seconds}
+        self._human = HumanView(hub, self.metadata["render_fps"] * render_speed) if render_mode == "human" else None
         self._seeds = EpisodeSeeds(seed)
         n = self.core.agents
         self.possible_agents = [f"robot_{i}" for i in range(n)]
@@ -141,15 +143,16 @@ class SortingEnv(ParallelEnv):
             raise RuntimeError("the episode is over: call reset()")
         # A robot with no action this step stands still.
         n = len(self.discrete_actions)
+        live = set(self.agents)
         if self.discrete:
             self._indices.fill(0)
             for a, act in actions.items():
-                self._indices[agent_index(a, self._index, self.agents)] = choice(a, act, n, "the action")
+                self._indices[agent_index(a, self._index, live)] = choice(a, act, n, "the action")
             reward, pc, terminated, truncated = self.core.step_discrete(self._indices)
         else:
             self._actions.fill(0.0)
             for a, act in actions.items():
-                self._actions[agent_index(a, self._index, self.agents)] = wheels(a, act)
+                self._actions[agent_index(a, self._index, live)] = wheels(a, act)
             reward, pc, terminated, truncated = self.core.step(self._actions)
         self.core.observe(self._map, self._gripper, self._pose)
         obs = self._observations()
