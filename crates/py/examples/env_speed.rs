@@ -5,7 +5,7 @@
 //!
 //! `cargo run --release -p colony-py --example env_speed`
 //!
-//! Each line: `NAME STEPS_PER_SECOND` for one world: the best of three runs of
+//! Each line: `NAME STEPS_PER_SECOND` for one world: the best of five runs of
 //! the same steps from seed 1 (the number per scene is in `STEPS`, the same in
 //! `bench/env_speed.py`), robot `i` driven with forward 0.8 and turn 0.5 sin(i),
 //! the observation written every step. The Python benchmark runs exactly these
@@ -19,12 +19,12 @@ use colony_sim::WheelCommand;
 use colony_sort::env::{EnvConfig, SortEnv};
 
 /// Steps per run for each scene (robots; 12 is Capture the Flag).
-const STEPS: [(usize, u32); 4] = [(4, 4000), (64, 400), (256, 100), (12, 2000)];
+const STEPS: [(usize, u32); 4] = [(4, 4000), (64, 800), (256, 300), (12, 2000)];
 
-/// The best of three runs of `steps` calls of `step`, each after `reset`, in steps per second.
+/// The best of five runs of `steps` calls of `step`, each after `reset`, in steps per second.
 fn rate(steps: u32, mut reset: impl FnMut(), mut step: impl FnMut()) -> f64 {
     let mut best = f64::INFINITY;
-    for _ in 0..3 {
+    for _ in 0..5 {
         reset();
         let started = Instant::now();
         for _ in 0..steps {
