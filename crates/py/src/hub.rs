@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use colony_client::UdpClient;
+use colony_client::{ClientError, UdpClient};
 use pyo3::exceptions::{PyConnectionError, PyValueError};
 use pyo3::prelude::*;
 
@@ -36,9 +36,16 @@ impl Publisher {
         // socket's buffer never fills.
         while let Ok(Some(_)) = self.client.recv_any() {}
         for p in &packets {
-            self.client
-                .publish(p)
-                .map_err(|e| PyValueError::new_err(e.to_string()))?;
+            self.client.publish(p).map_err(|e| match e {
+                ClientError::Io(_) | ClientError::Address { .. } => {
+                    PyConnectionError::new_err(e.to_string())
+                }
+                // The parser's verdict says where: keep it in the message.
+                ClientError::Malformed(why) => {
+                    PyValueError::new_err(format!("refusing to publish a malformed packet: {why}"))
+                }
+                other => PyValueError::new_err(other.to_string()),
+            })?;
             self.sent += 1;
         }
         Ok(())

@@ -28,5 +28,17 @@ class Stubs(unittest.TestCase):
             self.assertEqual(stubbed[name], built[name], name)
 
 
+class Publisher(unittest.TestCase):
+    def test_a_malformed_packet_is_refused_saying_where(self):
+        # Nothing listens on port 9: datagrams are fire and forget.
+        publisher = _native.Publisher("127.0.0.1:9")
+        publisher.publish([b"@ <vision> 0\nstep n 1\n"])
+        self.assertEqual(publisher.sent, 1)
+        with self.assertRaisesRegex(ValueError, "malformed packet: .*line"):
+            publisher.publish([b"@ <vision> 0\nstep n 1\n\x00\n"])
+        with self.assertRaises(OSError):
+            _native.Publisher("no.such.host.invalid:7400")
+
+
 if __name__ == "__main__":
     unittest.main()
