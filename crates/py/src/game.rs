@@ -409,9 +409,10 @@ impl GameBatch {
         let bodies = first.game().roster().len() + first.config().map.grid.cells().len();
         check_budget(worlds, bodies as u64, values as u64).map_err(PyValueError::new_err)?;
         let seeds = firsts(seed, worlds);
-        let envs = seeds
-            .iter()
-            .map(|&s| Ok(Locked(Mutex::new(build(config, s)?))))
+        // The first match, built to size the batch, is world 0.
+        let envs = std::iter::once(Ok(first))
+            .chain(seeds[1..].iter().map(|&s| build(config, s)))
+            .map(|env| Ok(Locked(Mutex::new(env?))))
             .collect::<PyResult<Vec<_>>>()?;
         Ok(GameBatch {
             actions: vec![Vec::new(); envs.len()],
