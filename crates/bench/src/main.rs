@@ -73,7 +73,8 @@ struct Args {
     #[arg(long, default_value_t = 30.0, value_parser = seconds_arg)]
     quiet_wait: f64,
     /// Also run the relay with UDP GSO (`UDP_SEGMENT`), sending each run of
-    /// equal-length packets to a subscriber as one datagram train: an
+    /// equal-length packets (and a shorter one after it) to a subscriber as
+    /// one datagram train: an
     /// experiment showing what fewer trips through the stack would give.
     #[arg(long)]
     relay_gso: bool,

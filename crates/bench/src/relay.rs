@@ -4,8 +4,8 @@
 //! No parsing, no routing table: what a perfect UDP hub could reach.
 //!
 //! Optionally (`--relay-gso`) it also shows what UDP generic segmentation
-//! offload would give: a run of equal-length datagrams for one destination
-//! goes through the stack once and is split only where it is delivered.
+//! offload would give: a run of equal-length datagrams (and a shorter one
+//! after it) for one destination goes through the stack once and is split only where it is delivered.
 
 use std::io;
 use std::net::{SocketAddr, UdpSocket};
@@ -27,8 +27,8 @@ pub struct RelayThread {
 
 impl RelayThread {
     /// Starts a relay to `dests` (IPv4 only), kept on `cpu` if one is given.
-    /// With `gso`, runs of equal-length datagrams go out as one UDP GSO send
-    /// (`UDP_SEGMENT`) per destination.
+    /// With `gso`, runs of equal-length datagrams (and a shorter one after
+    /// each) go out as one UDP GSO send (`UDP_SEGMENT`) per destination.
     pub fn start(dests: Vec<SocketAddr>, cpu: Option<usize>, gso: bool) -> io::Result<RelayThread> {
         let sock = UdpSocket::bind("127.0.0.1:0")?;
         sock.set_nonblocking(true)?;

@@ -391,10 +391,10 @@ pub fn render(r: &Report<'_>) -> String {
         let _ = writeln!(
             w,
             "*{RELAY_GSO}* is not a peer but a what-if: the same relay sending each run of \
-             equal-length datagrams to a subscriber as one UDP GSO send (`UDP_SEGMENT`), which \
-             the kernel splits only when it delivers them (the hub sends runs the same way). \
-             Only runs of equal lengths gain: fully with fixed-length packets, next to nothing \
-             with lengths that differ from packet to packet."
+             equal-length datagrams to a subscriber (and a shorter one after it) as one UDP GSO \
+             send (`UDP_SEGMENT`), which the kernel splits only when it delivers them (the hub \
+             sends runs the same way). Long runs gain most: fixed-length packets fully; lengths \
+             that differ from packet to packet only pair up, which gains little."
         );
     }
     let send_failed: u64 = r.fanout.iter().map(|x| x.hub_drops.send_failed).sum();

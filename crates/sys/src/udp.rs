@@ -1,7 +1,7 @@
 //! Many datagrams per system call: `recvmmsg` and `sendmmsg` on Linux, one
 //! datagram at a time elsewhere; UDP generic segmentation offload (a run of
-//! equal-length datagrams for one destination handed to the kernel as one
-//! send, split only where it is delivered); and the kernel's count of the
+//! equal-length datagrams for one destination, and a shorter one after it,
+//! handed to the kernel as one send, split only where it is delivered); and the kernel's count of the
 //! datagrams it dropped because a socket's receive buffer was full.
 
 use std::io;

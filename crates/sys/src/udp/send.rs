@@ -2,7 +2,8 @@
 //! Linux allows: a [`SendPlan`] says which datagram goes where, a [`Sender`]
 //! hands the whole plan to the kernel in one `sendmmsg` (per `UIO_MAXIOV`
 //! messages), with each run of equal-length datagrams for one destination
-//! as one UDP GSO message (`UDP_SEGMENT`) where the kernel takes it.
+//! (and a shorter one after it) as one UDP GSO message (`UDP_SEGMENT`)
+//! where the kernel takes it.
 
 use std::io;
 use std::net::{SocketAddr, UdpSocket};
@@ -130,7 +131,8 @@ pub struct Sender {
 
 impl Sender {
     /// A sender; with `gso`, runs of equal-length datagrams for one
-    /// destination go out as one GSO message (Linux only; ignored elsewhere).
+    /// destination, and a shorter one after each, go out as one GSO message
+    /// (Linux only; ignored elsewhere).
     pub fn new(gso: bool) -> Sender {
         Sender {
             gso: gso && cfg!(target_os = "linux"),
@@ -182,7 +184,7 @@ impl Sender {
 /// Repeats every datagram of a [`RecvBatch`] to a fixed list of
 /// destinations with one [`Sender`]: what a perfect UDP hub could reach, for
 /// the benchmarks' floor. With `gso`, each run of equal-length datagrams
-/// goes out as one send per destination.
+/// (and a shorter one after it) goes out as one send per destination.
 pub struct Repeater {
     dests: Vec<SocketAddr>,
     plan: SendPlan,
@@ -308,25 +310,19 @@ mod imp {
                 iov_len: d.len(),
             }
         }));
-        // Units: one datagram each, or with GSO a run of equal-length
-        // datagrams of one group, which the kernel splits at delivery.
+        // Units: one datagram each, or with GSO a run of datagrams of one
+        // group (`gso_run`), which the kernel splits at delivery.
         s.units.clear();
         let mut messages = 0;
         let mut runs = 0;
         for (g, group) in plan.groups.iter().enumerate() {
             let mut i = group.payloads.start;
             while i < group.payloads.end {
-                let len = s.iovs[i].iov_len;
-                let mut end = i + 1;
-                if *gso && (1..=MAX_SEGMENT).contains(&len) {
-                    while end < group.payloads.end
-                        && s.iovs[end].iov_len == len
-                        && end - i < MAX_SEGMENTS
-                        && (end - i + 1) * len <= MAX_GSO_BYTES
-                    {
-                        end += 1;
-                    }
-                }
+                let end = if *gso {
+                    i + gso_run(&s.iovs[i..group.payloads.end])
+                } else {
+                    i + 1
+                };
                 if end - i > 1 {
                     runs += 1;
                 }
@@ -404,6 +400,36 @@ mod imp {
         });
         report.sent = plan.deliveries - report.full - report.failed;
         report
+    }
+
+    /// How many of the leading datagrams of `iovs` (all for one destination)
+    /// go out as one GSO message: a run of equal lengths, and after it one
+    /// shorter datagram, since the kernel cuts a GSO payload every segment's
+    /// length and the last piece may be shorter. That pairs about half the
+    /// datagrams of a stream whose lengths differ from packet to packet.
+    /// At least 1; 1 for a datagram too long to be a segment.
+    pub(super) fn gso_run(iovs: &[libc::iovec]) -> usize {
+        let Some(len) = iovs.first().map(|v| v.iov_len) else {
+            return 0;
+        };
+        if !(1..=MAX_SEGMENT).contains(&len) {
+            return 1;
+        }
+        let mut n = 1;
+        while n < iovs.len()
+            && iovs[n].iov_len == len
+            && n < MAX_SEGMENTS
+            && (n + 1) * len <= MAX_GSO_BYTES
+        {
+            n += 1;
+        }
+        if n < iovs.len() && n < MAX_SEGMENTS {
+            let short = iovs[n].iov_len;
+            if (1..len).contains(&short) && n * len + short <= MAX_GSO_BYTES {
+                n += 1;
+            }
+        }
+        n
     }
 
     /// Sends each datagram of a GSO message on its own.
@@ -523,6 +549,74 @@ mod tests {
                 .collect();
             assert_eq!(read(&subs[0], only_first.len()), only_first, "gso {gso}");
             for s in &subs[1..] {
+                assert_eq!(read(s, data.len()), data, "gso {gso}");
+            }
+        }
+    }
+
+    /// Lengths as the kernel would read them from a run of iovecs.
+    fn runs_of(lengths: &[usize]) -> Vec<usize> {
+        let iovs: Vec<libc::iovec> = lengths
+            .iter()
+            .map(|&n| libc::iovec {
+                iov_base: std::ptr::null_mut(),
+                iov_len: n,
+            })
+            .collect();
+        let mut runs = Vec::new();
+        let mut i = 0;
+        while i < iovs.len() {
+            let n = imp::gso_run(&iovs[i..]);
+            runs.push(n);
+            i += n;
+        }
+        runs
+    }
+
+    #[test]
+    fn a_gso_run_is_equal_lengths_then_at_most_one_shorter() {
+        // Equal lengths, then a shorter one closes the run.
+        assert_eq!(runs_of(&[100, 100, 100, 60, 60]), [4, 1]);
+        // A longer one starts a run of its own; so does anything after the shorter one.
+        assert_eq!(runs_of(&[60, 100, 100, 60, 59]), [1, 3, 1]);
+        // Lengths that differ from packet to packet pair where they fall.
+        assert_eq!(runs_of(&[300, 200, 100, 400, 399, 398]), [2, 1, 2, 1]);
+        // Nothing empty is a segment, and nothing too long for one.
+        assert_eq!(runs_of(&[100, 0, 100]), [1, 1, 1]);
+        assert_eq!(runs_of(&[2000, 2000, 10]), [1, 1, 1]);
+        // At most 64 segments, the shorter one included.
+        assert_eq!(runs_of(&[[10; 64].as_slice(), &[5]].concat()), [64, 1]);
+        assert_eq!(runs_of(&[[10; 63].as_slice(), &[5, 5]].concat()), [64, 1]);
+        // At most one IPv4 datagram of payload: 45 segments of 1,452 bytes
+        // fill 65,340 of 65,507; a 168-byte tail would pass the limit.
+        assert_eq!(runs_of(&[[1452; 45].as_slice(), &[168]].concat()), [45, 1]);
+        assert_eq!(runs_of(&[[1452; 45].as_slice(), &[167]].concat()), [46]);
+    }
+
+    #[test]
+    fn datagrams_of_differing_lengths_arrive_whole_and_in_order() {
+        for gso in [false, true] {
+            let from = socket();
+            let subs: Vec<UdpSocket> = (0..2).map(|_| socket()).collect();
+            let a: Vec<SocketAddr> = subs.iter().map(|s| s.local_addr().unwrap()).collect();
+            // Lengths from 1 to 400 in a scrambled order, with equal runs
+            // and one-byte tails among them.
+            let mut lengths: Vec<usize> = (0..150).map(|i| 1 + (i * 97) % 400).collect();
+            lengths.extend([50, 50, 50, 1, 7, 7, 6, 400, 1]);
+            let data: Vec<Vec<u8>> = lengths
+                .iter()
+                .enumerate()
+                .map(|(i, &n)| (0..n).map(|k| (i + k) as u8).collect())
+                .collect();
+            let mut plan = SendPlan::new();
+            for i in 0..data.len() {
+                plan.push(i, &a);
+            }
+            let mut sender = Sender::new(gso);
+            let report = sender.send(&from, &plan, |i| &data[i]);
+            assert_eq!(report.sent, plan.deliveries(), "gso {gso}");
+            assert_eq!(sender.gso(), gso);
+            for s in &subs {
                 assert_eq!(read(s, data.len()), data, "gso {gso}");
             }
         }
