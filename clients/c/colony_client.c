@@ -36,6 +36,16 @@ static uint64_t unix_micros(void)
     return t.tv_sec < 0 ? 0 : (uint64_t)t.tv_sec * 1000000u + (uint64_t)t.tv_nsec / 1000u;
 }
 
+/* Whether a send or receive error concerns one datagram rather than the
+ * socket: an ICMP error that came back for an earlier datagram (port refused,
+ * host or network unreachable or down), a full buffer, or a signal. The next
+ * datagram may well pass, so a robot's program outlives a Wi-Fi gap. */
+static int transient(int e)
+{
+    return e == ECONNREFUSED || e == EHOSTUNREACH || e == ENETUNREACH || e == EHOSTDOWN ||
+           e == ENETDOWN || e == ENOBUFS || e == EAGAIN || e == EWOULDBLOCK || e == EINTR;
+}
+
 static void tick(colony_client *c, int64_t now)
 {
     if (now > c->clock) c->clock = now;
@@ -56,9 +66,7 @@ static colony_status send_datagram(colony_client *c, const char *data, size_t le
         if (st != COLONY_OK) return COLONY_TOO_LARGE;
         data = c->out;
     }
-    if (send(c->fd, data, len, 0) < 0 && errno != ECONNREFUSED && errno != EAGAIN &&
-        errno != EWOULDBLOCK && errno != EINTR)
-        return COLONY_SYSTEM;
+    if (send(c->fd, data, len, 0) < 0 && !transient(errno)) return COLONY_SYSTEM;
     return COLONY_OK;
 }
 
@@ -304,9 +312,10 @@ colony_status colony_recv(colony_client *c, colony_packet *p, colony_error *err,
                 c->since_poll--; /* nothing was taken */
                 return COLONY_AGAIN;
             }
-            /* Refused: the hub's port was closed when we last sent. It is down,
-             * and the silent channels will be asked for again once it is back. */
-            if (errno == ECONNREFUSED || errno == EINTR) {
+            /* An error that came back for an earlier datagram: the hub's port
+             * was closed (it is down) or its network unreachable. The silent
+             * channels will be asked for again once it answers. */
+            if (transient(errno)) {
                 c->refused++;
                 continue;
             }

@@ -9,6 +9,8 @@ use colony_wire::{
     Packet, ParseError, Reply, Request, Subject, SubjectError, HUB_SUBJECT, MAX_PACKET,
 };
 
+use colony_sys::udp;
+
 use crate::session::{ClientConfig, HubState, Incoming, Session};
 
 /// Something the client was asked to do that cannot be done.
@@ -182,16 +184,10 @@ impl UdpClient {
     fn send(&self, datagram: &[u8]) -> io::Result<()> {
         match self.socket.send(datagram) {
             Ok(_) => Ok(()),
-            // Datagrams are fire and forget: a hub that is down (refused) or a
-            // full buffer loses this one packet, and the session recovers.
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::ConnectionRefused | io::ErrorKind::WouldBlock
-                ) =>
-            {
-                Ok(())
-            }
+            // Datagrams are fire and forget: a hub that is down (refused), a
+            // network briefly unreachable or a full buffer loses this one
+            // packet, and the session recovers.
+            Err(e) if udp::is_transient(&e) => Ok(()),
             Err(e) => Err(e),
         }
     }
@@ -297,16 +293,10 @@ impl UdpClient {
             let len = match self.socket.recv(&mut self.buf) {
                 Ok(len) => len,
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => return Ok(None),
-                // The hub's port was closed when we last sent: it is down, and
-                // the session will resubscribe once it is back.
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::ConnectionRefused | io::ErrorKind::Interrupted
-                    ) =>
-                {
-                    continue
-                }
+                // An error that came back for an earlier datagram: the hub's
+                // port was closed (it is down) or its network unreachable. The
+                // session resubscribes once the hub answers again.
+                Err(e) if udp::is_transient(&e) => continue,
                 Err(e) => return Err(e),
             };
             let now = Instant::now();

@@ -113,6 +113,31 @@ pub fn count_kernel_drops(sock: &UdpSocket) -> io::Result<()> {
     imp::count_kernel_drops(sock)
 }
 
+/// Whether an error from a connected UDP socket's `send` or `recv` concerns
+/// one datagram rather than the socket: an ICMP error that came back for an
+/// earlier datagram (port refused, host or network unreachable or down), a
+/// full buffer, or a signal. The next datagram may well pass, so a client that
+/// must outlive a hub restart or a Wi-Fi gap goes on past it.
+pub fn is_transient(err: &io::Error) -> bool {
+    use io::ErrorKind::*;
+    if matches!(
+        err.kind(),
+        ConnectionRefused
+            | HostUnreachable
+            | NetworkUnreachable
+            | NetworkDown
+            | WouldBlock
+            | Interrupted
+    ) {
+        return true;
+    }
+    #[cfg(unix)]
+    if matches!(err.raw_os_error(), Some(libc::ENOBUFS | libc::EHOSTDOWN)) {
+        return true;
+    }
+    false
+}
+
 /// Sends each datagram of `msgs` on a connected socket, in as few calls as
 /// the kernel allows. Returns how many were taken: it stops at the first that
 /// would block.
@@ -474,6 +499,32 @@ mod tests {
             }
         }
         panic!("fewer than {want} datagrams arrived");
+    }
+
+    #[test]
+    fn errors_about_one_datagram_are_transient_and_the_rest_are_not() {
+        let e = io::Error::from_raw_os_error;
+        for n in [
+            libc::ECONNREFUSED,
+            libc::EHOSTUNREACH,
+            libc::ENETUNREACH,
+            libc::EHOSTDOWN,
+            libc::ENETDOWN,
+            libc::ENOBUFS,
+            libc::EAGAIN,
+            libc::EINTR,
+        ] {
+            assert!(is_transient(&e(n)), "{}", e(n));
+        }
+        for n in [
+            libc::EBADF,
+            libc::ENOTSOCK,
+            libc::EINVAL,
+            libc::EACCES,
+            libc::EMSGSIZE,
+        ] {
+            assert!(!is_transient(&e(n)), "{}", e(n));
+        }
     }
 
     #[test]
