@@ -82,6 +82,33 @@ fn a_fast_forwarded_capture_the_flag_match_ends_and_its_record_replays() {
 }
 
 #[test]
+fn a_fast_forwarded_record_named_mcap_is_a_finished_mcap() {
+    let dir = tempfile::tempdir().unwrap();
+    let record = dir.path().join("dm.mcap");
+    let (ok, out, err) = run(&[
+        "game",
+        "dm",
+        "--fast",
+        "--time-limit",
+        "60",
+        "--record",
+        record.to_str().unwrap(),
+    ]);
+    assert!(ok, "{out}\n{err}");
+    // As the hub writes one: the MCAP magic, and a summary a reader finds (a log whose
+    // writer did not finish it would be reported torn).
+    let bytes = std::fs::read(&record).unwrap();
+    assert!(bytes.starts_with(colony_mcap::MAGIC), "not an MCAP");
+    let mut log = colony_mcap::TrafficReader::open(&record).unwrap();
+    let records = log.by_ref().filter_map(Result::ok).count();
+    assert!(records > 100, "{records} records");
+    assert_eq!(log.damage(), None);
+    let (ok, listed, err) = run(&["log", record.to_str().unwrap(), "-c", "game.state"]);
+    assert!(ok, "{err}");
+    assert!(listed.contains("game mode dm"), "{listed:.300}");
+}
+
+#[test]
 fn a_fast_forwarded_death_match_ends_with_a_team_standing_or_the_clock() {
     let (ok, out, err) = run(&["game", "dm", "--fast", "--time-limit", "300"]);
     assert!(ok, "{out}\n{err}");

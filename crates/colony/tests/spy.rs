@@ -256,7 +256,7 @@ fn publish_all(hub: &HubProcess, packets: impl IntoIterator<Item = (String, Dura
 }
 
 fn log_records(path: &Path) -> usize {
-    colony_hub::log::LogReader::open(path)
+    colony_mcap::TrafficReader::open(path)
         .map(|r| r.filter_map(Result::ok).count())
         .unwrap_or(0)
 }
@@ -334,6 +334,47 @@ fn the_spy_plays_a_log_the_hub_wrote() {
         screen.contains("min 59.5"),
         "only the last packet was before opening: {screen}"
     );
+    spy.keys(&["C-c"]);
+    spy.wait_for(Duration::from_secs(10), "its exit", |s| {
+        s.contains("[colony exited: 0]")
+    });
+}
+
+#[test]
+fn the_spy_plays_an_mcap_the_hub_wrote_and_says_what_a_kill_cut_short() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("traffic.mcap");
+    let log_text = log.to_str().unwrap().to_string();
+    let mut hub = HubProcess::start(&["--log", &log_text]);
+    let pose = (0..30).map(|i| {
+        (
+            format!("@ <pose> 3\nrobot id 7 x {i}.5 y -2\n"),
+            Duration::from_millis(10),
+        )
+    });
+    publish_all(&hub, pose);
+    // The hub closes a chunk once it is a second old: wait until all 30 are in whole chunks.
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while log_records(&log) < 30 {
+        assert!(
+            Instant::now() < deadline,
+            "the hub never logged the packets"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // Killed, the hub never writes the MCAP's summary.
+    hub.kill();
+
+    let spy = Tmux::start("mcap", &["spy", "--log", &log_text, "--speed", "4"]);
+    let screen = spy.wait_for(Duration::from_secs(20), "the end of the log", |s| {
+        s.contains("ended")
+    });
+    assert!(screen.contains("seen 30"), "{screen}");
+    let row = screen.lines().find(|l| l.starts_with("pose")).unwrap();
+    assert!(row.contains("robot id 7 x 29.5"), "{row}");
+    // The note is wrapped at word boundaries.
+    let words = screen.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(words.contains("before its writer finished it"), "{screen}");
     spy.keys(&["C-c"]);
     spy.wait_for(Duration::from_secs(10), "its exit", |s| {
         s.contains("[colony exited: 0]")

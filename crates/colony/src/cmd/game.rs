@@ -9,8 +9,9 @@ use std::time::{Duration, Instant, UNIX_EPOCH};
 use anyhow::Context as _;
 use colony_game::live_match::{self, LiveMatch, MatchPlan};
 use colony_game::rules::{Mode, Rules, TeamSetup};
-use colony_hub::log::LogWriter;
+use colony_hub::log::{LogSink, LogWriter};
 use colony_hub::{HubSite, HubSpec, StartError};
+use colony_mcap::McapLogWriter;
 use colony_monitor::{Monitor, MonitorConfig};
 
 mod measure;
@@ -72,7 +73,8 @@ pub struct MatchArgs {
     /// team is ready.
     #[arg(long, conflicts_with = "fast")]
     pub lobby: bool,
-    /// Write every packet of the match to this traffic log (`colony replay` shows it).
+    /// Write every packet of the match to this traffic log (`colony replay` shows it): MCAP
+    /// for a name ending in `.mcap`, a `.clog` otherwise.
     #[arg(long)]
     pub record: Option<PathBuf>,
     /// How many times faster than real time the world runs (live).
@@ -281,8 +283,10 @@ fn players(arg: &str) -> Vec<&str> {
 }
 
 fn fast(plan: &MatchPlan, args: &MatchArgs) -> anyhow::Result<()> {
-    let mut log = match &args.record {
-        Some(path) => Some(LogWriter::open(path)?.0),
+    // As the hub writes it: MCAP for a name ending in `.mcap`, a `.clog` otherwise.
+    let mut log: Option<Box<dyn LogSink>> = match &args.record {
+        Some(path) if super::hub::writes_mcap(path) => Some(Box::new(McapLogWriter::create(path)?)),
+        Some(path) => Some(Box::new(LogWriter::open(path)?.0)),
         None => None,
     };
     let source: std::net::SocketAddr = ([127, 0, 0, 1], 0).into();
@@ -306,7 +310,7 @@ fn fast(plan: &MatchPlan, args: &MatchArgs) -> anyhow::Result<()> {
         return Err(e).context("cannot write the traffic log");
     }
     if let Some(w) = &mut log {
-        w.flush().context("cannot write the traffic log")?;
+        w.finish().context("cannot write the traffic log")?;
     }
     let outcome = outcome?;
     println!("{}", outcome.result);

@@ -22,8 +22,9 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use colony_client::{Delivery, HubState};
-use colony_hub::log::{LogReader, Record};
+use colony_hub::log::Record;
 use colony_hub::replay::Pacer;
+use colony_mcap::TrafficReader;
 use colony_wire::{Packet, Reply, Request, HUB_SUBJECT};
 use ratatui::crossterm::event::{self, Event, KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
 use ratatui::DefaultTerminal;
@@ -67,7 +68,8 @@ pub struct Args {
     /// taps as a console, which a hub never refuses for too many taps.
     #[arg(long, value_name = "FILE", conflicts_with = "log")]
     pub key: Option<PathBuf>,
-    /// Play this traffic log (as written by `colony hub --log`) instead of tapping a hub.
+    /// Play this traffic log (a `.clog` or an MCAP, as `colony hub --log` writes them) instead
+    /// of tapping a hub.
     #[arg(long, value_name = "FILE")]
     pub log: Option<PathBuf>,
     /// With --log: how many times faster than it was recorded.
@@ -89,7 +91,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Everything that can fail for want of a hub or a file fails here, before the screen
     // changes, so the error reads as any other command's.
     let source = match &args.log {
-        Some(file) => Source::Log(LogReader::open(file)?),
+        Some(file) => Source::Log(Box::new(TrafficReader::open(file)?)),
         None => {
             let mut client = args.hub.connect()?;
             if let Some(key) = &args.key {
@@ -111,14 +113,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 || file.display().to_string(),
                 |n| n.to_string_lossy().into(),
             );
-            run_log(&mut terminal, reader, name, args.speed, window, &stop)
+            run_log(&mut terminal, *reader, name, args.speed, window, &stop)
         }
     }
 }
 
 enum Source {
     Hub(Box<colony_client::UdpClient>),
-    Log(LogReader),
+    Log(Box<TrafficReader>),
 }
 
 /// Puts the terminal back as it was when dropped.
@@ -235,7 +237,7 @@ fn enlarge_receive_buffer(client: &colony_client::UdpClient, bytes: usize) {
 
 fn run_log(
     terminal: &mut DefaultTerminal,
-    mut reader: LogReader,
+    mut reader: TrafficReader,
     file: String,
     speed: f64,
     window: Duration,
@@ -281,7 +283,7 @@ fn run_log(
                             break;
                         }
                         None => {
-                            set_log_state(&mut spy, LogState::Ended);
+                            set_log_state(&mut spy, LogState::Ended(reader.damage()));
                             break;
                         }
                     }

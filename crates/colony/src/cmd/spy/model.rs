@@ -188,8 +188,9 @@ pub enum HubLink {
 #[derive(Debug, Clone, PartialEq)]
 pub enum LogState {
     Playing,
-    /// Every record was played (the clock stops at the last one).
-    Ended,
+    /// Every record was played (the clock stops at the last one); with what a crash cut
+    /// short of the log, if anything.
+    Ended(Option<String>),
     /// The log could not be read further; what was read is shown.
     Failed(String),
 }

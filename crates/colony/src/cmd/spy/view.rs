@@ -30,7 +30,7 @@ pub fn draw(frame: &mut Frame<'_>, spy: &Spy) {
             ..
         }
         | Feed::Log {
-            state: LogState::Failed(why),
+            state: LogState::Failed(why) | LogState::Ended(Some(why)),
             ..
         } => Some(printable(why)),
         _ => None,
@@ -84,7 +84,7 @@ fn title_line(spy: &Spy) -> Line<'static> {
         Feed::Log { file, speed, state } => {
             let state = match state {
                 LogState::Playing => "playing".to_string(),
-                LogState::Ended => "ended".to_string(),
+                LogState::Ended(_) => "ended".to_string(),
                 LogState::Failed(_) => "STOPPED (below)".to_string(),
             };
             format!(
@@ -460,6 +460,16 @@ mod tests {
         assert!(lines[0].contains("STOPPED (below)"), "{lines:#?}");
         let text: String = lines[20..23].join(" ");
         assert!(text.contains("is corrupt (checksum)"), "{lines:#?}");
+        // A log played to its end says what a crash cut short of it.
+        s.feed = Feed::Log {
+            file: "t.mcap".into(),
+            speed: 1.0,
+            state: LogState::Ended(Some("t.mcap ends before its writer finished it".into())),
+        };
+        let lines = screen(&s);
+        assert!(lines[0].contains("ended"), "{lines:#?}");
+        let text: String = lines[20..23].join(" ");
+        assert!(text.contains("before its writer finished it"), "{lines:#?}");
     }
 
     #[test]
