@@ -249,6 +249,10 @@ describe('the monitor page, against a live swarm', { concurrency: false }, () =>
       assert.equal(outcome, 'refused');
       await monitor.waitFor(/refused a web request.*origin/, 10000);
       assert.equal(await page.evaluate(() => window.colony.held.length), 0, 'nothing was taken');
+      // The operator's page shows the refusal, within a hub report or two.
+      await until(page, () => (window.colony.monitor?.refused ?? 0) >= 1
+        && /web requests refused[^:]*: [1-9]/.test(document.querySelector('#monitor-counts').textContent),
+      null, 10000, 'the refusal on the page');
     } finally {
       await tab.close();
       evil.close();

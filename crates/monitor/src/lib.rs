@@ -8,7 +8,9 @@
 //!   and what they carry, cache points, and each controller's intentions
 //!   (FSM state and target) from the `debug` channel;
 //! - the hub: every channel with its rate and last packet, clients and their
-//!   subscriptions, drops by reason, and a box to forge and publish a packet;
+//!   subscriptions, drops by reason, what the monitor itself turned away or
+//!   dropped (refused web requests, Foxglove viewers past the cap or too
+//!   slow), and a box to forge and publish a packet;
 //! - the percentage completion of a sorting run over time;
 //! - a "stale since ..." banner when the hub or the vision falls silent.
 //!

@@ -131,6 +131,8 @@ struct App {
     tasks: watch::Receiver<Arc<str>>,
     shutdown: watch::Receiver<bool>,
     viewers: crate::foxglove::Viewers,
+    /// For the refusals the page shows.
+    guard: Arc<Guard>,
 }
 
 /// A running monitor: the web server and the hub bridge, each on its own
@@ -192,6 +194,7 @@ impl Monitor {
             tasks: handles.tasks,
             shutdown: shutdown.clone(),
             viewers: viewers.clone(),
+            guard: guard.clone(),
         };
         let server_guard = guard.clone();
         let server = std::thread::Builder::new()
@@ -296,7 +299,7 @@ impl Monitor {
 
     /// Requests refused so far (a foreign host, a foreign origin, no token).
     pub fn refused(&self) -> u64 {
-        self.guard.log.lock().map_or(0, |log| log.refused())
+        self.guard.refused()
     }
 
     /// Whether both threads are still running.
@@ -357,6 +360,29 @@ struct Guard {
     log: Mutex<RefusalLog>,
     /// Other sites' origins the operator let open the Foxglove endpoint (a hosted viewer).
     foxglove_origins: std::sync::RwLock<Vec<String>>,
+}
+
+impl Guard {
+    fn refused(&self) -> u64 {
+        self.log.lock().map_or(0, |log| log.refused())
+    }
+}
+
+/// What the monitor itself turned away or dropped, for the page (`{"t":"monitor"}`): losses
+/// are shown, never silent. Sent with each hub report, about once a second.
+fn monitor_json(app: &App) -> String {
+    let v = &app.viewers;
+    serde_json::json!({
+        "t": "monitor",
+        "refused": app.guard.refused(),
+        "foxglove": {
+            "viewers": v.connected(),
+            "dropped": v.dropped(),
+            "refused": v.refused(),
+            "not_advertised": v.not_advertised(),
+        },
+    })
+    .to_string()
 }
 
 /// Lets a request through [`Gate`] or answers 403, and adds the security headers to every
@@ -741,6 +767,9 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
                 }
                 let snapshot = hub.borrow_and_update().clone();
                 if socket.send(Message::Text(snapshot.as_ref().into())).await.is_err() {
+                    break;
+                }
+                if socket.send(Message::Text(monitor_json(&app).into())).await.is_err() {
                     break;
                 }
             }

@@ -153,6 +153,14 @@ fn a_page_of_another_site_cannot_open_the_websocket() {
             v["t"] == "world"
         });
     }
+    // The operator's page is told of the refusals, with each hub report.
+    let mut ws = Ws::handshake(addr, &path, &host, None).unwrap();
+    let counts = ws.until(Duration::from_secs(10), "the monitor's counts", |v| {
+        v["t"] == "monitor"
+    });
+    assert_eq!(counts["refused"], 3, "{counts}");
+    assert_eq!(counts["foxglove"]["viewers"], 0, "{counts}");
+    assert_eq!(counts["foxglove"]["dropped"], 0, "{counts}");
     m.shutdown().unwrap();
 }
 

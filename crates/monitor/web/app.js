@@ -1,7 +1,8 @@
 // colony monitor: the page's script. Plain JavaScript, no library.
 //
 // The server sends {"t":"world"} snapshots (at most 30 a second), {"t":"hub"}
-// about once a second and {"t":"reply"} answers; the page sends requests
+// about once a second with {"t":"monitor"} (what the monitor itself refused or
+// dropped) after it, and {"t":"reply"} answers; the page sends requests
 // (take, release, drive, goto, publish). window.colony exposes what the page
 // shows, for people at the console and for the browser tests. The socket,
 // the view transform, escaping and the banners are common.js's, shared with
@@ -41,7 +42,7 @@ const api = {
   connected: false, hubStale: false, visionStale: false, serverLostSince: null,
   hubStaleSince: null, visionStaleSince: null,
   held: [], all: false, selected: [], poses: {}, states: {}, pc: null,
-  channels: {}, minPriority: null, paused: false, worlds: 0, hubs: 0, lastReply: null,
+  channels: {}, minPriority: null, paused: false, worlds: 0, hubs: 0, lastReply: null, monitor: null,
   worldToClient, select, send,
 };
 window.colony = api;
@@ -57,6 +58,7 @@ function connect() {
     onMessage(msg) {
       if (msg.t === 'world') onWorld(msg);
       else if (msg.t === 'hub') onHub(msg);
+      else if (msg.t === 'monitor') onMonitor(msg);
       else if (msg.t === 'reply') onReply(msg);
     },
     onClose(wasConnected) {
@@ -584,6 +586,19 @@ function renderHub() {
   $('drops').innerHTML = h.drops.length
     ? h.drops.map((d) => `<div>${esc(d[0])}: ${d[1]}</div>`).join('')
     : '<div class="hint">none</div>';
+}
+
+// What the monitor turned away or dropped: refusals are someone knocking, and
+// drops are Foxglove viewers missing messages; neither may go unseen.
+function onMonitor(m) {
+  api.monitor = m;
+  const f = m.foxglove;
+  const lines = [
+    `web requests refused (another site, another host name, no token): ${m.refused}`,
+    `Foxglove viewers: ${f.viewers} connected, ${f.refused} refused past the cap, `
+      + `${f.dropped} messages dropped for slow ones, ${f.not_advertised} packets of topics past the channel list`,
+  ];
+  $('monitor-counts').innerHTML = lines.map((l) => `<div>${esc(l)}</div>`).join('');
 }
 
 // ---- selection and the override -------------------------------------------
