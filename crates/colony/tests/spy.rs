@@ -261,6 +261,18 @@ fn log_records(path: &Path) -> usize {
         .unwrap_or(0)
 }
 
+/// Waits (up to 10 s) until the log at `path` holds `n` records a reader can see.
+fn wait_logged(path: &Path, n: usize) {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while log_records(path) < n {
+        assert!(
+            Instant::now() < deadline,
+            "the hub never logged the packets"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
 #[test]
 fn the_spy_plays_a_log_the_hub_wrote() {
     let dir = tempfile::tempdir().unwrap();
@@ -279,14 +291,7 @@ fn the_spy_plays_a_log_the_hub_wrote() {
         ("@ <a> <b> 9\nv n 1\n".to_string(), Duration::ZERO),
     ];
     publish_all(&hub, pose.chain(other));
-    let deadline = Instant::now() + Duration::from_secs(10);
-    while log_records(&log) < 62 {
-        assert!(
-            Instant::now() < deadline,
-            "the hub never logged the packets"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    wait_logged(&log, 62);
     hub.kill();
 
     let spy = Tmux::start("log", &["spy", "--log", &log_text, "--speed", "2"]);
@@ -354,14 +359,7 @@ fn the_spy_plays_an_mcap_the_hub_wrote_and_says_what_a_kill_cut_short() {
     });
     publish_all(&hub, pose);
     // The hub closes a chunk once it is a second old: wait until all 30 are in whole chunks.
-    let deadline = Instant::now() + Duration::from_secs(10);
-    while log_records(&log) < 30 {
-        assert!(
-            Instant::now() < deadline,
-            "the hub never logged the packets"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    wait_logged(&log, 30);
     // Killed, the hub never writes the MCAP's summary.
     hub.kill();
 
