@@ -109,6 +109,75 @@ fn a_fast_forwarded_record_named_mcap_is_a_finished_mcap() {
 }
 
 #[test]
+fn a_live_match_records_mcap_for_a_name_ending_in_mcap() {
+    use std::io::{BufRead, BufReader};
+    let dir = tempfile::tempdir().unwrap();
+    let record = dir.path().join("live.mcap");
+    let mut game = Part(
+        colony()
+            .args([
+                "game",
+                "dm",
+                "--no-monitor",
+                "--player",
+                "none",
+                "--speed",
+                "50",
+                "--time-limit",
+                "20",
+                "--hub-bind",
+                "127.0.0.1:0",
+                "--record",
+                record.to_str().unwrap(),
+            ])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    // The match runs to its clock, then waits for Ctrl-C with its hub up.
+    let out = BufReader::new(game.0.stdout.take().unwrap());
+    let result = out
+        .lines()
+        .map_while(Result::ok)
+        .find(|l| l.starts_with("result: "));
+    assert!(result.is_some(), "the match printed no result");
+    let interrupted = std::process::Command::new("kill")
+        .args(["-INT", &game.0.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(interrupted.success());
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while game.0.try_wait().unwrap().is_none() {
+        assert!(
+            Instant::now() < deadline,
+            "the match did not stop on Ctrl-C"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // Stopped, the hub finished its MCAP: the magic, and the summary a reader finds.
+    let bytes = std::fs::read(&record).unwrap();
+    assert!(bytes.starts_with(colony_mcap::MAGIC), "not an MCAP");
+    let mut log = colony_mcap::TrafficReader::open(&record).unwrap();
+    assert!(log.by_ref().filter_map(Result::ok).count() > 100);
+    assert_eq!(log.damage(), None);
+}
+
+#[test]
+fn a_record_with_another_hub_is_refused() {
+    let (ok, _, err) = run(&[
+        "game",
+        "dm",
+        "--hub",
+        "127.0.0.1:7400",
+        "--record",
+        "x.clog",
+    ]);
+    assert!(!ok);
+    assert!(err.contains("--record") && err.contains("--hub"), "{err}");
+}
+
+#[test]
 fn a_fast_forwarded_death_match_ends_with_a_team_standing_or_the_clock() {
     let (ok, out, err) = run(&["game", "dm", "--fast", "--time-limit", "300"]);
     assert!(ok, "{out}\n{err}");

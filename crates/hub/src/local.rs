@@ -91,10 +91,7 @@ impl Server {
                 }
             })?;
         if let Some(path) = &spec.log {
-            let (mut log, torn) = LogWriter::open(path)?;
-            if let Some(t) = torn {
-                tracing::warn!(path = %path.display(), offset = t.offset, bytes = t.bytes, "cut a torn record from the end of the log");
-            }
+            let mut log = LogWriter::open_warning(path)?;
             if let Some(r) = spec.log_rotation {
                 log = log.with_rotation(r);
             }

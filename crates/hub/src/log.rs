@@ -193,6 +193,17 @@ pub struct LogWriter {
 }
 
 impl LogWriter {
+    /// Opens `path` for appending as [`open`](Self::open) does, and says on the
+    /// log (`tracing`) what it cut: what a hub or a recording program does.
+    pub fn open_warning(path: impl AsRef<Path>) -> Result<LogWriter, LogError> {
+        let path = path.as_ref();
+        let (log, torn) = LogWriter::open(path)?;
+        if let Some(t) = torn {
+            tracing::warn!(path = %path.display(), offset = t.offset, bytes = t.bytes, "cut a torn record from the end of the log");
+        }
+        Ok(log)
+    }
+
     /// Opens `path` for appending, creating it if needed. A torn tail from an
     /// earlier crash is cut off first, and reported; a log corrupt anywhere
     /// else is refused ([`LogError::WontCut`]) and left as it is.

@@ -10,7 +10,7 @@ use anyhow::Context as _;
 use colony_game::live_match::{self, LiveMatch, MatchPlan};
 use colony_game::rules::{Mode, Rules, TeamSetup};
 use colony_hub::log::{LogSink, LogWriter};
-use colony_hub::{HubSite, HubSpec, StartError};
+use colony_hub::{HubSite, HubSpec, HubThread};
 use colony_mcap::McapLogWriter;
 use colony_monitor::{Monitor, MonitorConfig};
 
@@ -74,8 +74,9 @@ pub struct MatchArgs {
     #[arg(long, conflicts_with = "fast")]
     pub lobby: bool,
     /// Write every packet of the match to this traffic log (`colony replay` shows it): MCAP
-    /// for a name ending in `.mcap`, a `.clog` otherwise.
-    #[arg(long)]
+    /// for a name ending in `.mcap`, a `.clog` otherwise. The match's own hub writes it, so
+    /// not with --hub (that hub's --log records it).
+    #[arg(long, conflicts_with = "hub")]
     pub record: Option<PathBuf>,
     /// How many times faster than real time the world runs (live).
     #[arg(long, default_value_t = 1.0, value_parser = super::SPEED)]
@@ -176,12 +177,16 @@ fn play(mode: Mode, args: MatchArgs) -> anyhow::Result<()> {
         log: args.record.clone(),
         ..HubSpec::new(args.hub_bind.as_str())
     };
-    let hub = HubSite::here_or_elsewhere(args.hub.as_deref(), &spec, &stop).map_err(|e| match e {
-        StartError::Bind { addr, source } => anyhow::Error::new(source).context(format!(
-            "cannot start the match's hub on `{addr}` (is one running there? choose another port with --hub-bind, or join it with --hub)"
-        )),
-        e => e.into(),
-    })?;
+    let hub = match args.hub.as_deref() {
+        Some(addr) => HubSite::Elsewhere(addr.to_string()),
+        // Started as `colony hub` starts one, so the record is MCAP for a `.mcap` name.
+        None => {
+            let server = super::hub::start(&spec, |addr| {
+                format!("cannot start the match's hub on `{addr}` (is one running there? choose another port with --hub-bind, or join it with --hub)")
+            })?;
+            HubSite::Here(HubThread::spawn(server, &stop)?)
+        }
+    };
     let result = live(&plan, &args, &hub.addr(), &stop);
     hub.stop().context("the match's hub failed")?;
     result
@@ -286,7 +291,7 @@ fn fast(plan: &MatchPlan, args: &MatchArgs) -> anyhow::Result<()> {
     // As the hub writes it: MCAP for a name ending in `.mcap`, a `.clog` otherwise.
     let mut log: Option<Box<dyn LogSink>> = match &args.record {
         Some(path) if super::hub::writes_mcap(path) => Some(Box::new(McapLogWriter::create(path)?)),
-        Some(path) => Some(Box::new(LogWriter::open(path)?.0)),
+        Some(path) => Some(Box::new(LogWriter::open_warning(path)?)),
         None => None,
     };
     let source: std::net::SocketAddr = ([127, 0, 0, 1], 0).into();
