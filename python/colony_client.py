@@ -1117,12 +1117,18 @@ def _hub_address(hub):
     return family, addr
 
 
-_REFUSED = (ConnectionRefusedError, BlockingIOError, InterruptedError)
+# Errors one receive call goes past before it returns as if nothing were waiting.
+_MAX_ERRORS_PER_RECV = 64
 # What a connected UDP socket reports for one datagram (an ICMP error that came
-# back, a full buffer) and not for the socket: the next datagram may well pass.
+# back: refused, unreachable, prohibited, too big; a full buffer) and not for
+# the socket: the next datagram may well pass. The same list as the Rust and C
+# clients' (colony_sys::udp::is_transient, transient() in colony_client.c).
 _TRANSIENT = frozenset(
     getattr(errno, name)
-    for name in ("ECONNREFUSED", "EHOSTUNREACH", "ENETUNREACH", "EHOSTDOWN", "ENETDOWN", "ENOBUFS", "EAGAIN", "EINTR")
+    for name in (
+        "ECONNREFUSED", "EHOSTUNREACH", "ENETUNREACH", "EHOSTDOWN", "ENETDOWN", "ENONET", "EACCES",
+        "EMSGSIZE", "EPROTO", "ENOPROTOOPT", "ENOBUFS", "EAGAIN", "EINTR",
+    )
     if hasattr(errno, name)
 )
 
@@ -1188,6 +1194,9 @@ class Client:
         self._pending = deque()
         #: Datagrams received that did not parse.
         self.malformed = 0
+        #: Send and receive calls that failed for one datagram and were gone
+        #: past (the hub down, its network unreachable, ...): datagrams lost.
+        self.network_errors = 0
 
     # -- plumbing
 
@@ -1218,15 +1227,15 @@ class Client:
             datagram = self._signer.sign(datagram)
         try:
             self._sock.send(datagram)
-        except _REFUSED:
-            # Fire and forget: a hub that is down (refused) or a full buffer
-            # loses this one datagram, and the session recovers.
+        except (BlockingIOError, InterruptedError):
+            # A full buffer loses this one datagram; the session recovers.
             pass
         except OSError as e:
-            # So does a network that is briefly unreachable: a robot's program
-            # must not die of a Wi-Fi gap.
+            # So does a hub that is down (refused) or a network that is briefly
+            # unreachable: a robot's program must not die of a Wi-Fi gap.
             if e.errno not in _TRANSIENT:
                 raise
+            self.network_errors += 1
         return datagram
 
     def _flush(self):
@@ -1320,20 +1329,26 @@ class Client:
 
     def _recv_one(self):
         """The next datagram handled by the session: (kind, value) or None."""
+        # A pending socket error comes out before queued data: a flood of
+        # forged ICMP errors must not hold the caller here.
+        errors = 0
         while True:
             try:
                 data = self._sock.recv(MAX_PACKET + 1)
             except BlockingIOError:
                 return None
-            except (ConnectionRefusedError, InterruptedError):
-                # The hub's port was closed when we last sent: it is down,
-                # and the session will resubscribe once it is back.
+            except InterruptedError:
                 continue
             except OSError as e:
-                # Another ICMP error for a datagram we sent (host or network
-                # unreachable) is reported once, here; the next recv goes on.
+                # An ICMP error for a datagram we sent (the hub's port closed,
+                # its host or network unreachable) is reported once, here; the
+                # session resubscribes once the hub answers again.
                 if e.errno not in _TRANSIENT:
                     raise
+                self.network_errors += 1
+                errors += 1
+                if errors >= _MAX_ERRORS_PER_RECV:
+                    return None
                 continue
             try:
                 got = self.session.handle_datagram(time.monotonic(), data)

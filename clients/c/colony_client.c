@@ -37,13 +37,16 @@ static uint64_t unix_micros(void)
 }
 
 /* Whether a send or receive error concerns one datagram rather than the
- * socket: an ICMP error that came back for an earlier datagram (port refused,
- * host or network unreachable or down), a full buffer, or a signal. The next
- * datagram may well pass, so a robot's program outlives a Wi-Fi gap. */
+ * socket: an ICMP error that came back for an earlier datagram (port or
+ * protocol refused, host or network unreachable, down or isolated,
+ * administratively prohibited, too big for the path, a bad parameter), a full
+ * buffer, or a signal. The next datagram may well pass, so a robot's program
+ * outlives a Wi-Fi gap; the loss is counted. */
 static int transient(int e)
 {
     return e == ECONNREFUSED || e == EHOSTUNREACH || e == ENETUNREACH || e == EHOSTDOWN ||
-           e == ENETDOWN || e == ENOBUFS || e == EAGAIN || e == EWOULDBLOCK || e == EINTR;
+           e == ENETDOWN || e == ENONET || e == EACCES || e == EMSGSIZE || e == EPROTO ||
+           e == ENOPROTOOPT || e == ENOBUFS || e == EAGAIN || e == EWOULDBLOCK || e == EINTR;
 }
 
 static void tick(colony_client *c, int64_t now)
@@ -66,7 +69,10 @@ static colony_status send_datagram(colony_client *c, const char *data, size_t le
         if (st != COLONY_OK) return COLONY_TOO_LARGE;
         data = c->out;
     }
-    if (send(c->fd, data, len, 0) < 0 && !transient(errno)) return COLONY_SYSTEM;
+    if (send(c->fd, data, len, 0) < 0) {
+        if (!transient(errno)) return COLONY_SYSTEM;
+        if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) c->unsent++;
+    }
     return COLONY_OK;
 }
 

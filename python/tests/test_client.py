@@ -1095,6 +1095,18 @@ class FakeHub(unittest.TestCase):
         self.assertEqual(p.line("ok"), {"x": 1})
         self.assertEqual(c.malformed, 1)
 
+    def test_a_hub_that_is_gone_is_counted_as_lost_datagrams_not_raised(self):
+        # Each datagram sent to a port no one holds comes back as ECONNREFUSED
+        # on a later call: counted in network_errors, never raised.
+        c = self.client
+        self.hub.close()
+        deadline = time.monotonic() + 30
+        while c.network_errors == 0:
+            self.assertLess(time.monotonic(), deadline, "no refusal was counted")
+            c.publish_raw(b"@ <pose> 0\nrobot x 1\n")
+            self.assertIsNone(c.recv())
+            time.sleep(0.01)
+
     def test_a_5000_digit_integer_never_kills_a_subscriber(self):
         # Issue 12, finding 9: one such packet made recv() raise ValueError.
         c = self.client

@@ -584,6 +584,29 @@ static void a_flood_cannot_keep_the_loop_from_colony_poll(void)
     close(fd);
 }
 
+/* A hub's port with no one behind it: each datagram sent there comes back as
+ * ECONNREFUSED on a later call, counted, never an error. */
+static void a_hub_that_is_gone_is_counted_not_an_error(void)
+{
+    static colony_client c;
+    struct sockaddr_in to;
+    int fd = fake_hub(&c, &to);
+    CHECK(fd >= 0);
+    if (fd < 0) return;
+    close(fd);
+    const char *pkt = "@ <pose> 0\nrobot x 1\n";
+    colony_packet p;
+    int ok = 1;
+    for (int i = 0; i < 100 && c.refused + c.unsent == 0; i++) {
+        ok = ok && colony_publish(&c, pkt, strlen(pkt), NULL) == COLONY_OK;
+        ok = ok && colony_recv(&c, &p, NULL, 1000) == COLONY_AGAIN;
+        poll(NULL, 0, 10);
+    }
+    CHECK(ok);
+    CHECK(c.refused + c.unsent > 0);
+    colony_close(&c);
+}
+
 static void hub_replies_are_read_as_the_rust_session_reads_them(void)
 {
     static colony_client c;
@@ -636,6 +659,7 @@ int main(int argc, char **argv)
     the_builder_refuses_tokens_that_would_inject();
     numbers_ignore_a_comma_locale(argv[0]);
     a_flood_cannot_keep_the_loop_from_colony_poll();
+    a_hub_that_is_gone_is_counted_not_an_error();
     hub_replies_are_read_as_the_rust_session_reads_them();
     if (failures) {
         fprintf(stderr, "test_unit: %d checks failed\n", failures);

@@ -13,6 +13,9 @@ use colony_sys::udp;
 
 use crate::session::{ClientConfig, HubState, Incoming, Session};
 
+/// Errors one receive call goes past before it returns as if nothing were waiting.
+const MAX_ERRORS_PER_RECV: u32 = 64;
+
 /// Something the client was asked to do that cannot be done.
 #[derive(Debug, thiserror::Error)]
 pub enum ClientError {
@@ -60,6 +63,8 @@ pub struct UdpClient {
     session: Session,
     buf: Box<[u8]>,
     malformed: u64,
+    /// Datagrams lost to errors the network reported (see `udp::is_transient`).
+    network_errors: std::sync::atomic::AtomicU64,
 }
 
 impl UdpClient {
@@ -113,6 +118,7 @@ impl UdpClient {
             session: Session::new(config, Instant::now()),
             buf: vec![0u8; MAX_PACKET + 1].into_boxed_slice(),
             malformed: 0,
+            network_errors: std::sync::atomic::AtomicU64::new(0),
         })
     }
 
@@ -186,8 +192,11 @@ impl UdpClient {
             Ok(_) => Ok(()),
             // Datagrams are fire and forget: a hub that is down (refused), a
             // network briefly unreachable or a full buffer loses this one
-            // packet, and the session recovers.
-            Err(e) if udp::is_transient(&e) => Ok(()),
+            // packet, counted, and the session recovers.
+            Err(e) if udp::is_transient(&e) => {
+                self.count_network_error(&e);
+                Ok(())
+            }
             Err(e) => Err(e),
         }
     }
@@ -220,6 +229,25 @@ impl UdpClient {
     /// the hub's address).
     pub fn malformed_count(&self) -> u64 {
         self.malformed
+    }
+
+    /// Send and receive calls that failed for one datagram and were gone past: the hub
+    /// down (refused), its host or network unreachable, a full buffer, and the like
+    /// ([`colony_sys::udp::is_transient`]). Each is a datagram lost; a count that keeps
+    /// growing says the network, not the program, is at fault.
+    pub fn network_error_count(&self) -> u64 {
+        self.network_errors
+            .load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    fn count_network_error(&self, e: &io::Error) {
+        if !matches!(
+            e.kind(),
+            io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
+        ) {
+            self.network_errors
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
     }
 
     /// The next packet published on a subscribed channel, or `None` when none
@@ -289,6 +317,9 @@ impl UdpClient {
     }
 
     fn recv_one(&mut self) -> io::Result<Option<Received>> {
+        // A pending socket error comes out before queued data: a flood of forged ICMP errors
+        // must not hold the caller here, away from its lease refreshes.
+        let mut errors = 0;
         loop {
             let len = match self.socket.recv(&mut self.buf) {
                 Ok(len) => len,
@@ -296,7 +327,14 @@ impl UdpClient {
                 // An error that came back for an earlier datagram: the hub's
                 // port was closed (it is down) or its network unreachable. The
                 // session resubscribes once the hub answers again.
-                Err(e) if udp::is_transient(&e) => continue,
+                Err(e) if udp::is_transient(&e) => {
+                    self.count_network_error(&e);
+                    errors += 1;
+                    if errors >= MAX_ERRORS_PER_RECV {
+                        return Ok(None);
+                    }
+                    continue;
+                }
                 Err(e) => return Err(e),
             };
             let now = Instant::now();

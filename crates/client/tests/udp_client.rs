@@ -72,3 +72,21 @@ fn a_cookie_from_the_hub_is_sent_back_with_the_subscription_at_once() {
         "{again}"
     );
 }
+
+#[test]
+fn a_hub_that_is_gone_is_counted_as_lost_datagrams_not_an_error() {
+    // A hub's port with no one behind it: each datagram sent there comes back as
+    // ECONNREFUSED on a later call.
+    let gone = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let addr = gone.local_addr().unwrap();
+    drop(gone);
+    let mut client = UdpClient::connect(addr).unwrap();
+    client.subscribe("vision").unwrap();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while client.network_error_count() == 0 {
+        assert!(Instant::now() < deadline, "no refusal was counted");
+        client.publish(b"@ <pose> 0\nrobot x 1\n").unwrap();
+        assert!(client.recv().unwrap().is_none());
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}

@@ -115,9 +115,12 @@ pub fn count_kernel_drops(sock: &UdpSocket) -> io::Result<()> {
 
 /// Whether an error from a connected UDP socket's `send` or `recv` concerns
 /// one datagram rather than the socket: an ICMP error that came back for an
-/// earlier datagram (port refused, host or network unreachable or down), a
-/// full buffer, or a signal. The next datagram may well pass, so a client that
-/// must outlive a hub restart or a Wi-Fi gap goes on past it.
+/// earlier datagram (port or protocol refused, host or network unreachable,
+/// down or isolated, administratively prohibited, too big for the path, a
+/// bad parameter), a full buffer, or a signal. The next datagram may well
+/// pass, so a client that must outlive a hub restart or a Wi-Fi gap goes on
+/// past it (and counts it). What remains is the socket's own fault (a closed
+/// descriptor, a bad argument).
 pub fn is_transient(err: &io::Error) -> bool {
     use io::ErrorKind::*;
     if matches!(
@@ -132,7 +135,18 @@ pub fn is_transient(err: &io::Error) -> bool {
         return true;
     }
     #[cfg(unix)]
-    if matches!(err.raw_os_error(), Some(libc::ENOBUFS | libc::EHOSTDOWN)) {
+    if matches!(
+        err.raw_os_error(),
+        Some(
+            libc::ENOBUFS
+                | libc::EHOSTDOWN
+                | libc::ENONET
+                | libc::EACCES
+                | libc::EMSGSIZE
+                | libc::EPROTO
+                | libc::ENOPROTOOPT
+        )
+    ) {
         return true;
     }
     false
@@ -510,6 +524,11 @@ mod tests {
             libc::ENETUNREACH,
             libc::EHOSTDOWN,
             libc::ENETDOWN,
+            libc::ENONET,
+            libc::EACCES,
+            libc::EMSGSIZE,
+            libc::EPROTO,
+            libc::ENOPROTOOPT,
             libc::ENOBUFS,
             libc::EAGAIN,
             libc::EINTR,
@@ -520,8 +539,8 @@ mod tests {
             libc::EBADF,
             libc::ENOTSOCK,
             libc::EINVAL,
-            libc::EACCES,
-            libc::EMSGSIZE,
+            libc::EFAULT,
+            libc::ENOTCONN,
         ] {
             assert!(!is_transient(&e(n)), "{}", e(n));
         }
