@@ -74,9 +74,9 @@ impl TrafficReader {
                 let mut notes = Vec::new();
                 if let Some(McapEnd::Torn { offset, bytes }) = r.end() {
                     notes.push(format!(
-                        "{} ends before its writer finished it (no summary): recovered {} messages from {} whole chunks; \
-                         the {bytes} bytes from byte {offset} on (a chunk cut short, if any) were lost. \
-                         `colony log recover {} OUT.mcap` rewrites it as a valid MCAP",
+                        "{} ends before its writer finished it (no summary: the writer was stopped, or is still writing): \
+                         read {} messages from {} whole chunks; the {bytes} bytes from byte {offset} on (a chunk cut short, \
+                         if any) were not read. If its writer is gone, `colony log recover {} OUT.mcap` rewrites it as a valid MCAP",
                         path.display(),
                         r.messages(),
                         r.chunks(),

@@ -354,6 +354,9 @@ fn resolve(addr: &str) -> Result<SocketAddr, MonitorError> {
         })
 }
 
+/// How often a monitor page is sent the monitor's own counts, when they changed.
+const COUNTS_EVERY: Duration = Duration::from_secs(1);
+
 /// The gate and its count of refusals, shared by every request.
 struct Guard {
     gate: Gate,
@@ -364,12 +367,17 @@ struct Guard {
 
 impl Guard {
     fn refused(&self) -> u64 {
-        self.log.lock().map_or(0, |log| log.refused())
+        // A count is still a count after a panic elsewhere held the lock.
+        self.log
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .refused()
     }
 }
 
 /// What the monitor itself turned away or dropped, for the page (`{"t":"monitor"}`): losses
-/// are shown, never silent. Sent with each hub report, about once a second.
+/// are shown, never silent. Sent on connecting and then each second it changes, whether or
+/// not the hub is heard from (someone may knock while it is down).
 fn monitor_json(app: &App) -> String {
     let v = &app.viewers;
     serde_json::json!({
@@ -725,6 +733,8 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
     map.mark_changed();
     tasks.mark_changed();
     let mut next_world = Instant::now();
+    let mut counts_tick = tokio::time::interval(COUNTS_EVERY);
+    let mut counts_sent = String::new();
     loop {
         tokio::select! {
             incoming = socket.recv() => {
@@ -761,15 +771,21 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
                 }
                 next_world = Instant::now() + MIN_SEND_INTERVAL;
             }
+            _ = counts_tick.tick(), if monitor => {
+                let counts = monitor_json(&app);
+                if counts != counts_sent {
+                    if socket.send(Message::Text(counts.as_str().into())).await.is_err() {
+                        break;
+                    }
+                    counts_sent = counts;
+                }
+            }
             changed = hub.changed(), if monitor => {
                 if changed.is_err() {
                     break;
                 }
                 let snapshot = hub.borrow_and_update().clone();
                 if socket.send(Message::Text(snapshot.as_ref().into())).await.is_err() {
-                    break;
-                }
-                if socket.send(Message::Text(monitor_json(&app).into())).await.is_err() {
                     break;
                 }
             }

@@ -161,6 +161,11 @@ fn a_page_of_another_site_cannot_open_the_websocket() {
     assert_eq!(counts["refused"], 3, "{counts}");
     assert_eq!(counts["foxglove"]["viewers"], 0, "{counts}");
     assert_eq!(counts["foxglove"]["dropped"], 0, "{counts}");
+    // A refusal while the page is open reaches it too.
+    assert!(Ws::handshake(addr, &path, &host, Some("http://evil.example")).is_err());
+    ws.until(Duration::from_secs(10), "the new refusal", |v| {
+        v["t"] == "monitor" && v["refused"] == 4
+    });
     m.shutdown().unwrap();
 }
 

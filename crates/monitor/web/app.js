@@ -1,8 +1,8 @@
 // colony monitor: the page's script. Plain JavaScript, no library.
 //
 // The server sends {"t":"world"} snapshots (at most 30 a second), {"t":"hub"}
-// about once a second with {"t":"monitor"} (what the monitor itself refused or
-// dropped) after it, and {"t":"reply"} answers; the page sends requests
+// about once a second, {"t":"monitor"} (what the monitor itself refused or
+// dropped) on connecting and each second it changes, and {"t":"reply"} answers; the page sends requests
 // (take, release, drive, goto, publish). window.colony exposes what the page
 // shows, for people at the console and for the browser tests. The socket,
 // the view transform, escaping and the banners are common.js's, shared with
