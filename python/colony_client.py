@@ -1117,8 +1117,11 @@ def _hub_address(hub):
     return family, addr
 
 
-# Errors one receive call goes past before it returns as if nothing were waiting.
-_MAX_ERRORS_PER_RECV = 64
+# Datagrams (and errors) one receive call takes in before it returns as if
+# nothing were waiting: a flood of junk, replies or forged ICMP errors from the
+# hub's address must not hold the application away from its lease refreshes.
+# The socket stays readable. The Rust client's RECV_BUDGET.
+_RECV_BUDGET = 256
 # What a connected UDP socket reports for one datagram (an ICMP error that came
 # back: refused, unreachable, prohibited, too big; a full buffer) and not for
 # the socket: the next datagram may well pass. The same list as the Rust and C
@@ -1227,12 +1230,10 @@ class Client:
             datagram = self._signer.sign(datagram)
         try:
             self._sock.send(datagram)
-        except (BlockingIOError, InterruptedError):
-            # A full buffer loses this one datagram; the session recovers.
-            pass
         except OSError as e:
-            # So does a hub that is down (refused) or a network that is briefly
-            # unreachable: a robot's program must not die of a Wi-Fi gap.
+            # A full buffer, a hub that is down (refused) or a network that is
+            # briefly unreachable loses this one datagram, counted; the session
+            # recovers. A robot's program must not die of a Wi-Fi gap.
             if e.errno not in _TRANSIENT:
                 raise
             self.network_errors += 1
@@ -1327,12 +1328,14 @@ class Client:
         now = time.monotonic() if now is None else now
         return max(0.0, d - now)
 
-    def _recv_one(self):
-        """The next datagram handled by the session: (kind, value) or None."""
-        # A pending socket error comes out before queued data: a flood of
-        # forged ICMP errors must not hold the caller here.
-        errors = 0
+    def _recv_one(self, budget):
+        """The next datagram handled by the session: (kind, value), or None when
+        nothing is waiting or ``budget`` (a one-item list, one spent per
+        datagram or error taken in) is spent."""
         while True:
+            if budget[0] <= 0:
+                return None
+            budget[0] -= 1
             try:
                 data = self._sock.recv(MAX_PACKET + 1)
             except BlockingIOError:
@@ -1341,14 +1344,12 @@ class Client:
                 continue
             except OSError as e:
                 # An ICMP error for a datagram we sent (the hub's port closed,
-                # its host or network unreachable) is reported once, here; the
-                # session resubscribes once the hub answers again.
+                # its host or network unreachable) is reported once, here,
+                # before queued data; the session resubscribes once the hub
+                # answers again.
                 if e.errno not in _TRANSIENT:
                     raise
                 self.network_errors += 1
-                errors += 1
-                if errors >= _MAX_ERRORS_PER_RECV:
-                    return None
                 continue
             try:
                 got = self.session.handle_datagram(time.monotonic(), data)
@@ -1366,8 +1367,9 @@ class Client:
         is waiting. The hub's replies are taken in along the way."""
         if self._pending:
             return self._pending.popleft()
+        budget = [_RECV_BUDGET]
         while True:
-            got = self._recv_one()
+            got = self._recv_one(budget)
             if got is None:
                 return None
             kind, value = got
@@ -1444,8 +1446,9 @@ class Client:
                     self.request("subscribe ch " + subject)
                 next_ask = now + 0.3
             select.select([self._sock], [], [], max(0.0, min(next_ask, deadline) - now))
+            budget = [_RECV_BUDGET]
             while True:
-                got = self._recv_one()
+                got = self._recv_one(budget)
                 if got is None:
                     break
                 kind, value = got

@@ -242,8 +242,8 @@ typedef struct colony_client {
     uint64_t last_n;
     uint64_t malformed;      /* datagrams from the hub's address that did not parse */
     uint64_t leases, cookies;
-    uint64_t refused;        /* receive calls failed for one datagram (ECONNREFUSED, EHOSTUNREACH, ...) */
-    uint64_t unsent;         /* datagrams the network refused on sending (EHOSTUNREACH, ...) */
+    uint64_t refused;        /* errors received for an earlier datagram (ECONNREFUSED, EHOSTUNREACH, ...) */
+    uint64_t unsent;         /* datagrams lost on sending (a full buffer, EHOSTUNREACH, ...) */
     int since_poll;          /* datagrams taken (and receive calls retried) since colony_poll() */
     colony_workspace ws;     /* the parser's table, seeded from /dev/urandom */
     char in[COLONY_MAX_PACKET + 1];

@@ -44,9 +44,12 @@ static uint64_t unix_micros(void)
  * outlives a Wi-Fi gap; the loss is counted. */
 static int transient(int e)
 {
+#ifdef ENONET /* Linux's "host isolated" */
+    if (e == ENONET) return 1;
+#endif
     return e == ECONNREFUSED || e == EHOSTUNREACH || e == ENETUNREACH || e == EHOSTDOWN ||
-           e == ENETDOWN || e == ENONET || e == EACCES || e == EMSGSIZE || e == EPROTO ||
-           e == ENOPROTOOPT || e == ENOBUFS || e == EAGAIN || e == EWOULDBLOCK || e == EINTR;
+           e == ENETDOWN || e == EACCES || e == EMSGSIZE || e == EPROTO || e == ENOPROTOOPT ||
+           e == ENOBUFS || e == EAGAIN || e == EWOULDBLOCK || e == EINTR;
 }
 
 static void tick(colony_client *c, int64_t now)
@@ -71,7 +74,7 @@ static colony_status send_datagram(colony_client *c, const char *data, size_t le
     }
     if (send(c->fd, data, len, 0) < 0) {
         if (!transient(errno)) return COLONY_SYSTEM;
-        if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) c->unsent++;
+        c->unsent++; /* lost, counted; the session recovers */
     }
     return COLONY_OK;
 }
@@ -318,6 +321,7 @@ colony_status colony_recv(colony_client *c, colony_packet *p, colony_error *err,
                 c->since_poll--; /* nothing was taken */
                 return COLONY_AGAIN;
             }
+            if (errno == EINTR) continue;
             /* An error that came back for an earlier datagram: the hub's port
              * was closed (it is down) or its network unreachable. The silent
              * channels will be asked for again once it answers. */

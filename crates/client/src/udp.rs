@@ -13,8 +13,10 @@ use colony_sys::udp;
 
 use crate::session::{ClientConfig, HubState, Incoming, Session};
 
-/// Errors one receive call goes past before it returns as if nothing were waiting.
-const MAX_ERRORS_PER_RECV: u32 = 64;
+/// Datagrams (and errors) one receive call takes in before it returns as if nothing were
+/// waiting: a flood of junk, replies or forged ICMP errors from the hub's address must not
+/// hold the application here, away from its lease refreshes. The socket stays readable.
+const RECV_BUDGET: u32 = 256;
 
 /// Something the client was asked to do that cannot be done.
 #[derive(Debug, thiserror::Error)]
@@ -35,6 +37,14 @@ pub enum ClientError {
         addr: String,
         /// Why it cannot be used.
         source: io::Error,
+    },
+    /// The packet, signed, is longer than one datagram can carry.
+    #[error("the packet signed is {len} bytes, more than a datagram's {max}")]
+    TooLarge {
+        /// Its length with the signature.
+        len: usize,
+        /// The most a datagram carries.
+        max: usize,
     },
     /// The socket failed.
     #[error(transparent)]
@@ -175,6 +185,13 @@ impl UdpClient {
         if self.session.signs() {
             let mut signed = packet.to_vec();
             self.session.sign(&mut signed);
+            // Said here: the kernel's EMSGSIZE would be taken for a datagram the network lost.
+            if signed.len() > MAX_PACKET {
+                return Err(ClientError::TooLarge {
+                    len: signed.len(),
+                    max: MAX_PACKET,
+                });
+            }
             self.send(&signed)?;
         } else {
             self.send(packet)?;
@@ -194,7 +211,7 @@ impl UdpClient {
             // network briefly unreachable or a full buffer loses this one
             // packet, counted, and the session recovers.
             Err(e) if udp::is_transient(&e) => {
-                self.count_network_error(&e);
+                self.count_network_error();
                 Ok(())
             }
             Err(e) => Err(e),
@@ -240,14 +257,9 @@ impl UdpClient {
             .load(std::sync::atomic::Ordering::Relaxed)
     }
 
-    fn count_network_error(&self, e: &io::Error) {
-        if !matches!(
-            e.kind(),
-            io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted
-        ) {
-            self.network_errors
-                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        }
+    fn count_network_error(&self) {
+        self.network_errors
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     }
 
     /// The next packet published on a subscribed channel, or `None` when none
@@ -278,8 +290,9 @@ impl UdpClient {
     /// is checked here and parsed once more by [`packet_at`](Self::packet_at)
     /// (about 0.8 us for a 478-byte vision packet).
     fn next_datagram(&mut self, replies: bool) -> io::Result<Option<Result<usize, Reply>>> {
+        let mut budget = RECV_BUDGET;
         loop {
-            match self.recv_one()? {
+            match self.recv_one(&mut budget)? {
                 None => return Ok(None),
                 Some(Received::Reply(r)) if replies => return Ok(Some(Err(r))),
                 Some(Received::Reply(_)) => continue,
@@ -307,8 +320,9 @@ impl UdpClient {
 
     /// Like [`recv`](Self::recv), but also returns the hub's replies (status reports, leases).
     pub fn recv_reply(&mut self) -> io::Result<Option<Reply>> {
+        let mut budget = RECV_BUDGET;
         loop {
-            match self.recv_one()? {
+            match self.recv_one(&mut budget)? {
                 None => return Ok(None),
                 Some(Received::Reply(r)) => return Ok(Some(r)),
                 Some(Received::Data(_)) => continue,
@@ -316,23 +330,23 @@ impl UdpClient {
         }
     }
 
-    fn recv_one(&mut self) -> io::Result<Option<Received>> {
-        // A pending socket error comes out before queued data: a flood of forged ICMP errors
-        // must not hold the caller here, away from its lease refreshes.
-        let mut errors = 0;
+    /// The next datagram, spending `budget` (one per datagram or error taken in); `None`
+    /// when nothing is waiting or the budget is spent.
+    fn recv_one(&mut self, budget: &mut u32) -> io::Result<Option<Received>> {
         loop {
+            if *budget == 0 {
+                return Ok(None);
+            }
+            *budget -= 1;
             let len = match self.socket.recv(&mut self.buf) {
                 Ok(len) => len,
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => return Ok(None),
-                // An error that came back for an earlier datagram: the hub's
-                // port was closed (it is down) or its network unreachable. The
-                // session resubscribes once the hub answers again.
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                // An error that came back for an earlier datagram (it comes out before
+                // queued data): the hub's port was closed (it is down) or its network
+                // unreachable. The session resubscribes once the hub answers again.
                 Err(e) if udp::is_transient(&e) => {
-                    self.count_network_error(&e);
-                    errors += 1;
-                    if errors >= MAX_ERRORS_PER_RECV {
-                        return Ok(None);
-                    }
+                    self.count_network_error();
                     continue;
                 }
                 Err(e) => return Err(e),

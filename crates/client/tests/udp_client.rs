@@ -90,3 +90,25 @@ fn a_hub_that_is_gone_is_counted_as_lost_datagrams_not_an_error() {
         std::thread::sleep(Duration::from_millis(10));
     }
 }
+
+#[test]
+fn a_flood_of_junk_cannot_hold_a_receive_call() {
+    let (hub, mut client, addr) = fake_hub();
+    // Room for the whole flood (the default buffer holds about 200 small datagrams).
+    use colony_sys::buffers::{self, Buffer};
+    let _ = buffers::set_size(&client, Buffer::Receive, 4 << 20, false);
+    for _ in 0..300 {
+        hub.send_to(b"not a packet", addr).unwrap();
+    }
+    hub.send_to(b"@ <vision> 0\nball x 1\n", addr).unwrap();
+    // Loopback queues a datagram before its send returns; a moment more for good measure.
+    std::thread::sleep(Duration::from_millis(50));
+    assert!(
+        client.recv().unwrap().is_none(),
+        "the call took the whole flood"
+    );
+    assert_eq!(client.malformed_count(), 256);
+    let got = recv_all(&mut client, 1);
+    assert_eq!(got, ["@ <vision> 0\nball x 1\n"]);
+    assert_eq!(client.malformed_count(), 300);
+}

@@ -137,10 +137,16 @@ fn a_live_match_records_mcap_for_a_name_ending_in_mcap() {
     );
     // The match runs to its clock, then waits for Ctrl-C with its hub up.
     let out = BufReader::new(game.0.stdout.take().unwrap());
-    let result = out
-        .lines()
-        .map_while(Result::ok)
-        .find(|l| l.starts_with("result: "));
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let result = out
+            .lines()
+            .map_while(Result::ok)
+            .find(|l| l.starts_with("result: "));
+        let _ = tx.send(result);
+    });
+    // A generous wait for the match's end: 20 s of game time at 50 times real time.
+    let result = rx.recv_timeout(Duration::from_secs(120)).ok().flatten();
     assert!(result.is_some(), "the match printed no result");
     let interrupted = std::process::Command::new("kill")
         .args(["-INT", &game.0.id().to_string()])

@@ -1,6 +1,7 @@
 //! A hub for a program that needs one: the one given, or one started on a
-//! thread of this process. `colony game`, `colony demo` and `colony tasks
-//! demo` all make this choice; [`HubSite`] makes it once.
+//! thread of this process. [`HubSite`] makes that choice once; programs whose
+//! hub may log MCAP (`colony demo`, `colony game`) open the hub as `colony hub`
+//! does and serve it with [`HubThread`].
 //!
 //! ```no_run
 //! use std::sync::{atomic::AtomicBool, Arc};

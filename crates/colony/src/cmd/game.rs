@@ -73,9 +73,9 @@ pub struct MatchArgs {
     /// team is ready.
     #[arg(long, conflicts_with = "fast")]
     pub lobby: bool,
-    /// Write every packet of the match to this traffic log (`colony replay` shows it): MCAP
-    /// for a name ending in `.mcap`, a `.clog` otherwise. The match's own hub writes it, so
-    /// not with --hub (that hub's --log records it).
+    /// Write every packet of the match to this traffic log (`colony replay` shows it): a new
+    /// MCAP for a name ending in `.mcap` (never appended to), a `.clog` otherwise (appended
+    /// to). The match's own hub writes it, so not with --hub (that hub's --log records it).
     #[arg(long, conflicts_with = "hub")]
     pub record: Option<PathBuf>,
     /// How many times faster than real time the world runs (live).
