@@ -177,7 +177,9 @@ fn the_system_monitor_page_gets_no_game_messages() {
     }
     assert!(kinds.contains("world"), "{kinds:?}");
     assert!(
-        kinds.iter().all(|k| k == "world" || k == "hub"),
+        kinds
+            .iter()
+            .all(|k| k == "world" || k == "hub" || k == "monitor"),
         "{kinds:?}"
     );
     m.shutdown().unwrap();
