@@ -22,6 +22,18 @@ use super::model::{Feed, HubLink, LogState, Spy, Tap};
 const PLOT_HEIGHT: u16 = 9;
 
 /// Draws the whole screen.
+/// Lines for an alert of `text` on a screen of `area`: enough for it wrapped at words (a
+/// word-wrapped line loses at most a word's width, so a line's worth of slack per five), at
+/// least 3, and at most half the screen.
+fn alert_height(text: &str, area: Rect) -> u16 {
+    let width = usize::from(area.width.max(1));
+    let lines = text.chars().count().div_ceil(width);
+    let lines = (lines + lines.div_ceil(5)).max(3);
+    u16::try_from(lines)
+        .unwrap_or(u16::MAX)
+        .min((area.height / 2).max(3))
+}
+
 pub fn draw(frame: &mut Frame<'_>, spy: &Spy) {
     // What went wrong is shown whole, wrapped, above the status line.
     let alert = match &spy.feed {
@@ -38,7 +50,11 @@ pub fn draw(frame: &mut Frame<'_>, spy: &Spy) {
     let [title, body, alert_area, status] = Layout::vertical([
         Constraint::Length(1),
         Constraint::Min(3),
-        Constraint::Length(if alert.is_some() { 3 } else { 0 }),
+        Constraint::Length(
+            alert
+                .as_deref()
+                .map_or(0, |why| alert_height(why, frame.area())),
+        ),
         Constraint::Length(1),
     ])
     .areas(frame.area());
@@ -469,7 +485,22 @@ mod tests {
         let lines = screen(&s);
         assert!(lines[0].contains("ended"), "{lines:#?}");
         let text: String = lines[20..23].join(" ");
-        assert!(text.contains("before its writer finished it"), "{lines:#?}");
+        assert!(text.contains("before its writer finished it"), "{lines:#?}"); // A long note is shown whole, to its last word.
+        let note = format!(
+            "/tmp/a/long/path/traffic.mcap ends before its writer finished it (no summary: the \
+             writer was stopped, or is still writing): read 1234 messages from 56 whole chunks; \
+             the 7890 bytes from byte 123456 on (a chunk cut short, if any) were not read. If \
+             its writer is gone, `colony log recover /tmp/a/long/path/traffic.mcap OUT.mcap` \
+             rewrites it as a {}",
+            "valid MCAP"
+        );
+        s.feed = Feed::Log {
+            file: "traffic.mcap".into(),
+            speed: 1.0,
+            state: LogState::Ended(Some(note)),
+        };
+        let text = screen(&s).join(" ");
+        assert!(text.contains("valid MCAP"), "{text}");
     }
 
     #[test]
