@@ -3,6 +3,7 @@
 use std::io;
 use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr, ToSocketAddrs, UdpSocket};
 use std::os::fd::{AsFd, AsRawFd, BorrowedFd, RawFd};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use colony_wire::{
@@ -74,7 +75,7 @@ pub struct UdpClient {
     buf: Box<[u8]>,
     malformed: u64,
     /// Datagrams lost to errors the network reported (see `udp::is_transient`).
-    network_errors: std::sync::atomic::AtomicU64,
+    network_errors: AtomicU64,
 }
 
 impl UdpClient {
@@ -128,7 +129,7 @@ impl UdpClient {
             session: Session::new(config, Instant::now()),
             buf: vec![0u8; MAX_PACKET + 1].into_boxed_slice(),
             malformed: 0,
-            network_errors: std::sync::atomic::AtomicU64::new(0),
+            network_errors: AtomicU64::new(0),
         })
     }
 
@@ -253,13 +254,11 @@ impl UdpClient {
     /// ([`colony_sys::udp::is_transient`]). Each is a datagram lost; a count that keeps
     /// growing says the network, not the program, is at fault.
     pub fn network_error_count(&self) -> u64 {
-        self.network_errors
-            .load(std::sync::atomic::Ordering::Relaxed)
+        self.network_errors.load(Ordering::Relaxed)
     }
 
     fn count_network_error(&self) {
-        self.network_errors
-            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.network_errors.fetch_add(1, Ordering::Relaxed);
     }
 
     /// The next packet published on a subscribed channel, or `None` when none
