@@ -2,11 +2,11 @@
 //
 // The server sends {"t":"world"} snapshots (at most 30 a second), {"t":"hub"}
 // about once a second, {"t":"monitor"} (what the monitor itself refused or
-// dropped) on connecting and each second it changes, and {"t":"reply"} answers; the page sends requests
-// (take, release, drive, goto, publish). window.colony exposes what the page
-// shows, for people at the console and for the browser tests. The socket,
-// the view transform, escaping and the banners are common.js's, shared with
-// the game page.
+// dropped) on connecting and each second it changes, and {"t":"reply"}
+// answers; the page sends requests (take, release, drive, goto, publish).
+// window.colony exposes what the page shows, for people at the console and for
+// the browser tests. The socket, the view transform, escaping and the banners
+// are common.js's, shared with the game page.
 import {
   $, Transform, drawText, esc, fitBacking, pixelRatio, serverLink, showBanners, showChip, showMessage, tenth,
   withToken,

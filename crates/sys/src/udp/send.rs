@@ -408,7 +408,8 @@ mod imp {
     /// length and the last piece may be shorter. In a stream whose lengths
     /// differ from packet to packet (uniform in 60 to 400 bytes) that puts
     /// about three datagrams in four into pairs, and cuts the messages by a
-    /// third. At least 1; 1 for a datagram too long to be a segment.
+    /// third. At least 1 (0 only for no datagrams); 1 for a datagram too long
+    /// to be a segment.
     pub(super) fn gso_run(iovs: &[libc::iovec]) -> usize {
         let Some(len) = iovs.first().map(|v| v.iov_len) else {
             return 0;
@@ -555,7 +556,7 @@ mod tests {
         }
     }
 
-    /// Lengths as the kernel would read them from a run of iovecs.
+    /// The sizes of the GSO messages `gso_run` cuts datagrams of `lengths` into.
     fn runs_of(lengths: &[usize]) -> Vec<usize> {
         let iovs: Vec<libc::iovec> = lengths
             .iter()

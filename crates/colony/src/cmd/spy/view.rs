@@ -485,7 +485,8 @@ mod tests {
         let lines = screen(&s);
         assert!(lines[0].contains("ended"), "{lines:#?}");
         let text: String = lines[20..23].join(" ");
-        assert!(text.contains("before its writer finished it"), "{lines:#?}"); // A long note is shown whole, to its last word.
+        assert!(text.contains("before its writer finished it"), "{lines:#?}");
+        // A long note is shown whole, to its last word.
         let note = format!(
             "/tmp/a/long/path/traffic.mcap ends before its writer finished it (no summary: the \
              writer was stopped, or is still writing): read 1234 messages from 56 whole chunks; \
