@@ -6,11 +6,16 @@
 #   scripts/bench-swarm.sh                       # 4 to 10,000 robots (about ten minutes)
 #   ROBOTS="4 64 256" STEPS=100 scripts/bench-swarm.sh
 #   RAYON_NUM_THREADS=1 scripts/bench-swarm.sh   # the sorting swarm on one thread
+#   PARALLEL_PHYSICS=1 scripts/bench-swarm.sh    # rapier's threads inside each physics step
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 robots="${ROBOTS:-4 64 256 1024 4096 10000}"
-cargo build --release -q -p colony-sort --example swarm_scale -p colony-sim --example field_scale
+features=()
+if [ -n "${PARALLEL_PHYSICS:-}" ]; then
+    features=(--features colony-sim/parallel-physics)
+fi
+cargo build --release -q "${features[@]}" -p colony-sort --example swarm_scale -p colony-sim --example field_scale
 
 # Enough steps for a few seconds at each size, at least 50.
 steps_for() {
@@ -21,6 +26,7 @@ steps_for() {
     echo "${STEPS:-$s}"
 }
 
+echo "Build: ${features[*]:-default features}"
 echo "Machine: $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p'), load $(cut -d' ' -f1-3 /proc/loadavg), $(date -u '+%Y-%m-%d %H:%M UTC')"
 echo
 echo "| robots | pucks | arena | setup | control steps/s | x real time | peak memory | check |"

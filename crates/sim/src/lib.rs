@@ -39,9 +39,13 @@
 //!   covers more than 0.1 ([`CarryingConfig`]).
 //! - **Determinism.** rapier's `enhanced-determinism` feature is on (libm and scalar
 //!   maths in rapier, parry and glam; it cost about 1 % here) and this crate's own
-//!   trigonometry uses `libm`, so a seed fixes a trial bit for bit across machines;
-//!   rapier's `parallel` feature is off, so the thread count cannot matter. All
-//!   randomness comes from `ChaCha8Rng::seed_from_u64(seed)`.
+//!   trigonometry uses `libm`, so a seed fixes a trial bit for bit across machines.
+//!   All randomness comes from `ChaCha8Rng::seed_from_u64(seed)`.
+//! - **Threads.** By default rapier steps on the calling thread. The `parallel-physics`
+//!   feature turns on rapier's `parallel` feature, each physics step running in a pool
+//!   of its own (as many threads as the caller's rayon context). That pays for large
+//!   worlds and costs small ones. Results are the default build's, bit for bit, for any
+//!   thread count.
 //! - **Sensing** is computed from the geometry, not by rendering (see
 //!   [`World::observe`]): a few hundred nanoseconds per robot.
 //!
@@ -76,6 +80,8 @@ pub mod field;
 mod grid;
 mod layout;
 mod physics;
+#[cfg(feature = "parallel-physics")]
+mod pools;
 mod rapier;
 mod sense;
 mod snapshot;

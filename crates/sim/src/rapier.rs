@@ -68,8 +68,34 @@ impl Rapier {
         }
     }
 
-    /// One physics step of `params.dt`.
-    pub fn step(&mut self) {
+    /// `n` physics steps of `params.dt`, `before(self, k)` setting up the `k`-th (a control
+    /// step's substeps: its wheel commands).
+    pub fn steps<F>(&mut self, n: u32, mut before: F)
+    where
+        F: FnMut(&mut Rapier, u32) + Send,
+    {
+        let mut run = move |rapier: &mut Rapier| {
+            for k in 0..n {
+                before(rapier, k);
+                rapier.step();
+            }
+        };
+        #[cfg(feature = "parallel-physics")]
+        {
+            // The control step's physics runs in a pool of its own (see `crate::pools`),
+            // handed over once for all its substeps. Without a pool, which takes the
+            // system refusing threads, it runs in the caller's rayon context.
+            if let Some(pool) = crate::pools::lend() {
+                pool.install(|| run(self));
+                crate::pools::give_back(pool);
+                return;
+            }
+        }
+        run(self)
+    }
+
+    /// One physics step, on the calling thread and, with `parallel-physics`, its rayon pool.
+    fn step(&mut self) {
         self.pipeline.step(
             Vector::ZERO,
             &self.params,

@@ -231,22 +231,25 @@ impl World {
         let dt = self.config.physics.dt;
         let speed = self.config.robots.full_speed;
         let rate = self.config.robots.full_turn_rate;
-        for k in 0..self.config.physics.substeps {
-            // The share of this physics step during which the command acts.
-            let share = match self.config.robots.command_duration {
-                None => 1.0,
-                Some(d) => ((d - k as f64 * dt) / dt).clamp(0.0, 1.0),
-            };
-            for (i, r) in self.robots.iter().enumerate() {
-                let c = commands.get(i).copied().unwrap_or(WheelCommand::STOP);
-                self.physics.rapier.drive(
-                    r.body,
-                    unit(c.forward) * share * speed,
-                    unit(c.turn) * share * rate,
-                );
-            }
-            self.physics.rapier.step();
-        }
+        let command_duration = self.config.robots.command_duration;
+        let robots = &self.robots;
+        self.physics
+            .rapier
+            .steps(self.config.physics.substeps, |rapier, k| {
+                // The share of this physics step during which the command acts.
+                let share = match command_duration {
+                    None => 1.0,
+                    Some(d) => ((d - k as f64 * dt) / dt).clamp(0.0, 1.0),
+                };
+                for (i, r) in robots.iter().enumerate() {
+                    let c = commands.get(i).copied().unwrap_or(WheelCommand::STOP);
+                    rapier.drive(
+                        r.body,
+                        unit(c.forward) * share * speed,
+                        unit(c.turn) * share * rate,
+                    );
+                }
+            });
         self.step += 1;
         self.refresh();
     }

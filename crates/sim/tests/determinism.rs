@@ -1,7 +1,7 @@
 mod common;
 
 use colony_sim::{SceneConfig, World};
-use common::RandomDriver;
+use common::{digest, RandomDriver};
 
 fn run(seed: u64, steps: usize) -> World {
     let cfg = SceneConfig::default();
@@ -22,27 +22,6 @@ fn same_seed_gives_identical_positions_after_2000_steps() {
     assert_eq!(here.step, 2000);
     // Bit-for-bit: the whole snapshot, every pose and puck, compares equal.
     assert_eq!(here, other);
-}
-
-/// A digest of every coordinate's bits, so a change in the last bit shows.
-fn digest(world: &World) -> u64 {
-    let s = world.snapshot();
-    let mut h: u64 = 0xcbf29ce484222325;
-    let mut eat = |x: f64| {
-        for b in x.to_bits().to_le_bytes() {
-            h = (h ^ b as u64).wrapping_mul(0x100000001b3);
-        }
-    };
-    for r in &s.robots {
-        eat(r.pose.x);
-        eat(r.pose.y);
-        eat(r.pose.theta);
-    }
-    for p in &s.pucks {
-        eat(p.pos.x);
-        eat(p.pos.y);
-    }
-    h
 }
 
 /// The same trial gives the same bits on every machine: this digest was recorded on

@@ -286,20 +286,22 @@ impl Field {
     /// as 0; a missing command counts as [`WheelCommand::STOP`], extra commands and
     /// commands for inactive robots are ignored.
     pub fn step(&mut self, commands: &[WheelCommand]) {
-        for _ in 0..self.config.substeps {
-            for (i, r) in self.robots.iter().enumerate() {
-                if !r.active {
-                    continue;
+        let robots = &self.robots;
+        self.physics
+            .rapier
+            .steps(self.config.substeps, |rapier, _| {
+                for (i, r) in robots.iter().enumerate() {
+                    if !r.active {
+                        continue;
+                    }
+                    let c = commands.get(i).copied().unwrap_or(WheelCommand::STOP);
+                    rapier.drive(
+                        r.body,
+                        unit(c.forward) * r.spec.max_speed,
+                        unit(c.turn) * r.spec.max_turn,
+                    );
                 }
-                let c = commands.get(i).copied().unwrap_or(WheelCommand::STOP);
-                self.physics.rapier.drive(
-                    r.body,
-                    unit(c.forward) * r.spec.max_speed,
-                    unit(c.turn) * r.spec.max_turn,
-                );
-            }
-            self.physics.rapier.step();
-        }
+            });
         self.step += 1;
         for r in &mut self.robots {
             if r.active {

@@ -66,3 +66,24 @@ pub fn angle_diff(a: f64, b: f64) -> f64 {
     }
     d
 }
+
+/// A digest of every coordinate's bits, so a change in the last bit shows.
+pub fn digest(world: &World) -> u64 {
+    let s = world.snapshot();
+    let mut h: u64 = 0xcbf29ce484222325;
+    let mut eat = |x: f64| {
+        for b in x.to_bits().to_le_bytes() {
+            h = (h ^ b as u64).wrapping_mul(0x100000001b3);
+        }
+    };
+    for r in &s.robots {
+        eat(r.pose.x);
+        eat(r.pose.y);
+        eat(r.pose.theta);
+    }
+    for p in &s.pucks {
+        eat(p.pos.x);
+        eat(p.pos.y);
+    }
+    h
+}
