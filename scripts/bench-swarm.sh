@@ -12,7 +12,7 @@ cd "$(dirname "$0")/.."
 
 robots="${ROBOTS:-4 64 256 1024 4096 10000}"
 features=()
-if [ -n "${PARALLEL_PHYSICS:-}" ]; then
+if [ "${PARALLEL_PHYSICS:-0}" != 0 ]; then
     features=(--features colony-sim/parallel-physics)
 fi
 cargo build --release -q "${features[@]}" -p colony-sort --example swarm_scale -p colony-sim --example field_scale

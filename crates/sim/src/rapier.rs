@@ -70,28 +70,48 @@ impl Rapier {
 
     /// `n` physics steps of `params.dt`, `before(self, k)` setting up the `k`-th (a control
     /// step's substeps: its wheel commands).
-    pub fn steps<F>(&mut self, n: u32, mut before: F)
+    pub fn steps<F>(&mut self, n: u32, before: F)
     where
         F: FnMut(&mut Rapier, u32) + Send,
     {
-        let mut run = move |rapier: &mut Rapier| {
+        let run = move |rapier: &mut Rapier| {
+            let mut before = before;
             for k in 0..n {
                 before(rapier, k);
                 rapier.step();
             }
         };
         #[cfg(feature = "parallel-physics")]
-        {
-            // The control step's physics runs in a pool of its own (see `crate::pools`),
-            // handed over once for all its substeps. Without a pool, which takes the
-            // system refusing threads, it runs in the caller's rayon context.
-            if let Some(pool) = crate::pools::lend() {
-                pool.install(|| run(self));
-                crate::pools::give_back(pool);
-                return;
-            }
+        self.in_lent_pool(run);
+        #[cfg(not(feature = "parallel-physics"))]
+        run(self);
+    }
+
+    /// Runs `run` in a thread pool lent to this world alone (see `crate::pools`).
+    #[cfg(feature = "parallel-physics")]
+    fn in_lent_pool(&mut self, run: impl FnOnce(&mut Rapier) + Send) {
+        let pools = &crate::pools::SHARED;
+        let pool = pools.lend().unwrap_or_else(|e| {
+            // Stepping in the caller's rayon context instead could hang (see
+            // `crate::pools`): better to stop and say why.
+            panic!("the system refused threads for rapier's parallel physics: {e}")
+        });
+        if rayon::current_thread_index().is_none() {
+            pool.install(|| run(self));
+        } else {
+            // A rayon worker waiting for another pool takes jobs from its own while it
+            // waits: a sibling trial, nested inside this one, and the next inside that,
+            // until every trial of a batch is alive at once, each deeper on the worker's
+            // stack. A thread of our own waits instead, and the worker waits for it,
+            // taking nothing.
+            std::thread::scope(|scope| {
+                let waiter = scope.spawn(|| pool.install(|| run(self)));
+                if let Err(panic) = waiter.join() {
+                    std::panic::resume_unwind(panic);
+                }
+            });
         }
-        run(self)
+        pools.give_back(pool);
     }
 
     /// One physics step, on the calling thread and, with `parallel-physics`, its rayon pool.
