@@ -43,10 +43,11 @@
 //!   All randomness comes from `ChaCha8Rng::seed_from_u64(seed)`.
 //! - **Threads.** By default rapier steps on the calling thread. The `parallel-physics`
 //!   feature turns on rapier's `parallel` feature, each control step's physics running in
-//!   a thread pool lent to that world for the step (as many threads as the caller's rayon
-//!   context). That pays for sorting swarms of a few hundred robots and more, and costs
-//!   small or sparse worlds the hand-over (BENCHMARKS.md, "Swarms of thousands"). Results
-//!   are the default build's, bit for bit, for any thread count.
+//!   a thread pool lent to that world for the step (the caller's rayon context's threads,
+//!   shared among the steps in flight). That pays for one sorting swarm of a few hundred
+//!   robots and more at a time, and costs small or sparse worlds, and trials run side by
+//!   side, the hand-over (BENCHMARKS.md, "Swarms of thousands"). Results are the default
+//!   build's, bit for bit, whatever the thread count.
 //! - **Sensing** is computed from the geometry, not by rendering (see
 //!   [`World::observe`]): a few hundred nanoseconds per robot.
 //!

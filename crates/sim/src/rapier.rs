@@ -90,8 +90,7 @@ impl Rapier {
     /// Runs `run` in a thread pool lent to this world alone (see `crate::pools`).
     #[cfg(feature = "parallel-physics")]
     fn in_lent_pool(&mut self, run: impl FnOnce(&mut Rapier) + Send) {
-        let pools = &crate::pools::SHARED;
-        let pool = pools.lend().unwrap_or_else(|e| {
+        let pool = crate::pools::SHARED.lend().unwrap_or_else(|e| {
             // Stepping in the caller's rayon context instead could hang (see
             // `crate::pools`): better to stop and say why.
             panic!("the system refused threads for rapier's parallel physics: {e}")
@@ -111,7 +110,6 @@ impl Rapier {
                 }
             });
         }
-        pools.give_back(pool);
     }
 
     /// One physics step, on the calling thread and, with `parallel-physics`, its rayon pool.

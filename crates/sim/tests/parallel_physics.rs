@@ -119,6 +119,23 @@ fn field_trace() -> Vec<u64> {
 #[test]
 fn the_thread_count_does_not_change_a_crowded_field() {
     let one = in_pool(1, field_trace);
+    // Rapier splits its solver once there are 32 two-body contacts per worker
+    // (`enhanced-determinism`'s one-lane SIMD): the jam must have many more.
+    let last = &one[one.len() - 300 * 3..];
+    let centres: Vec<(f64, f64)> = last
+        .chunks(3)
+        .map(|p| (f64::from_bits(p[0]), f64::from_bits(p[1])))
+        .collect();
+    let touching = centres
+        .iter()
+        .enumerate()
+        .flat_map(|(i, a)| centres[i + 1..].iter().map(move |b| (a, b)))
+        .filter(|(a, b)| (a.0 - b.0).hypot(a.1 - b.1) < 12.5)
+        .count();
+    assert!(
+        touching >= 200,
+        "only {touching} pairs of robots touch in the jam"
+    );
     assert!(
         in_pool(2, field_trace) == one,
         "two threads differ from one"
