@@ -7,6 +7,9 @@ use colony_sim::{Pose, SimError, WheelCommand};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+mod common;
+use common::{bits, pose};
+
 /// A map from rows of text, top row first: `#` blocked, `~` water, anything else open.
 fn map(rows: &[&str], cell: f64) -> TileMap {
     TileMap::from_fn(rows[0].len(), rows.len(), cell, |x, y| {
@@ -40,10 +43,6 @@ const FORWARD: WheelCommand = WheelCommand {
     forward: 1.0,
     turn: 0.0,
 };
-
-fn pose(x: f64, y: f64, theta: f64) -> Pose {
-    Pose { x, y, theta }
-}
 
 fn field(map: TileMap) -> Field {
     Field::new(map, FieldConfig::default()).unwrap()
@@ -230,22 +229,14 @@ fn trace(seed: u64) -> Vec<u64> {
         }
         f.step(&commands);
         for r in f.robots() {
-            out.extend([
-                r.pose.x.to_bits(),
-                r.pose.y.to_bits(),
-                r.pose.theta.to_bits(),
-            ]);
+            out.extend(bits(r.pose));
             if let Some(s) = f.sense(r.id) {
                 out.push(u64::from(s.bump_front) | u64::from(s.bump_rear) << 1);
                 out.push(s.sonar.map_or(0, |e| e.distance.to_bits()));
             }
         }
         for b in f.boxes() {
-            out.extend([
-                b.pose.x.to_bits(),
-                b.pose.y.to_bits(),
-                b.pose.theta.to_bits(),
-            ]);
+            out.extend(bits(b.pose));
         }
     }
     out

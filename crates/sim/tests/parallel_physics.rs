@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use colony_sim::field::{Field, FieldConfig, RobotSpec, TileMap};
 use colony_sim::{SceneConfig, WheelCommand, World};
-use common::{digest, pose, RandomDriver};
+use common::{bits, digest, pose, RandomDriver};
 use rayon::prelude::*;
 
 /// A sorting world of `robots` robots (ten pucks each) after `steps` control steps of
@@ -106,11 +106,7 @@ fn field_trace() -> Vec<u64> {
     for _ in 0..100 {
         field.step(&commands);
         for r in field.robots() {
-            out.extend([
-                r.pose.x.to_bits(),
-                r.pose.y.to_bits(),
-                r.pose.theta.to_bits(),
-            ]);
+            out.extend(bits(r.pose));
         }
     }
     out

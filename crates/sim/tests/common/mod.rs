@@ -36,6 +36,11 @@ pub fn pose(x: f64, y: f64, theta: f64) -> Pose {
     Pose { x, y, theta }
 }
 
+/// A pose's bits, so runs compare to the last bit.
+pub fn bits(p: Pose) -> [u64; 3] {
+    [p.x.to_bits(), p.y.to_bits(), p.theta.to_bits()]
+}
+
 /// One robot at `robot` and pucks of type 0 at `pucks`, standard configuration otherwise.
 pub fn scene(robot: Pose, pucks: &[Vec2]) -> World {
     let pucks: Vec<(PuckKind, Vec2)> = pucks.iter().map(|&p| (PuckKind(0), p)).collect();
