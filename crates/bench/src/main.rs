@@ -78,6 +78,11 @@ struct Args {
     /// experiment showing what fewer trips through the stack would give.
     #[arg(long)]
     relay_gso: bool,
+    /// Publish to the hub and the relays one datagram per `sendmmsg` entry
+    /// instead of sending runs of equal-length packets with UDP GSO (the
+    /// receiving side sees the same datagrams either way).
+    #[arg(long)]
+    plain_publisher: bool,
     /// Skip the raw UDP relay in the throughput runs.
     #[arg(long)]
     no_relay: bool,
@@ -326,6 +331,7 @@ fn main() -> anyhow::Result<()> {
         recv_threads: args.recv_threads,
         rcvbuf: args.rcvbuf,
         lengths: args.lengths,
+        publisher_gso: !args.plain_publisher,
         placement: match (args.throughput_pin, machine.cores >= 2) {
             (Pin::Split, true) => {
                 "The broker runs on CPU 1 and the publisher and receivers on CPU 0, so each \
@@ -372,7 +378,7 @@ fn hub_fanout(
         subscribe_udp(&sock, payload::CHANNEL)?;
         subs.push(Box::new(UdpSub::new(sock)?));
     }
-    let mut publisher = UdpPub::new(hub.addr, ctx.args.lengths)?;
+    let mut publisher = UdpPub::new(hub.addr, ctx.args.lengths, !ctx.args.plain_publisher)?;
     let run = ctx.run(&mut publisher, subs, &|| hub.cpu(), true)?;
     let drops = hub.stop()?;
     Ok((run, drops))
@@ -411,7 +417,7 @@ fn relay_fanout(ctx: &Ctx<'_>, n: usize, gso: bool) -> anyhow::Result<Fanout> {
         sock.connect(relay.addr)?;
         subs.push(Box::new(UdpSub::new(sock)?));
     }
-    let mut publisher = UdpPub::new(relay.addr, ctx.args.lengths)?;
+    let mut publisher = UdpPub::new(relay.addr, ctx.args.lengths, !ctx.args.plain_publisher)?;
     let run = ctx.run(&mut publisher, subs, &|| relay.cpu(), true)?;
     relay.stop()?;
     Ok(run)

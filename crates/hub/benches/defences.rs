@@ -37,21 +37,29 @@ fn join(hub: &mut Hub, now: Instant, who: SocketAddr, lines: &str) -> Cookie {
     cookie
 }
 
-/// A 100-byte packet, as the throughput benchmark sends.
-fn payload() -> Vec<u8> {
+/// A packet of `len` bytes as the throughput benchmark sends (100 bytes,
+/// or 60 to 400 in its mixed runs).
+fn payload(len: usize) -> Vec<u8> {
     let mut p = b"@ <bench> 0\nping seq 1 pad \"".to_vec();
-    p.resize(98, b'x');
+    p.resize(len - 2, b'x');
     p.extend_from_slice(b"\"\n");
     p
 }
 
 fn publish(c: &mut Criterion) {
     let now = Instant::now();
-    let packet = payload();
+    let packet = payload(100);
     let mut plain = Hub::new(HubConfig::default(), now);
     join(&mut plain, now, addr(1), "subscribe ch bench\n");
     c.bench_function("publish, 1 subscriber", |b| {
         b.iter(|| match plain.handle(now, addr(2), black_box(&packet)) {
+            Outcome::Forward { dests, .. } => black_box(dests.len()),
+            other => panic!("{other:?}"),
+        })
+    });
+    let long = payload(400);
+    c.bench_function("publish a 400-byte packet, 1 subscriber", |b| {
+        b.iter(|| match plain.handle(now, addr(2), black_box(&long)) {
             Outcome::Forward { dests, .. } => black_box(dests.len()),
             other => panic!("{other:?}"),
         })

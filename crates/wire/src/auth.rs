@@ -25,6 +25,8 @@ use sha2::Sha256;
 pub const AUTH_LABEL: &str = "auth";
 /// Hex digits of a MAC.
 const MAC_HEX: usize = 64;
+/// What stands between the counter and the MAC on an `auth` line.
+const MAC_SEP: &str = " mac ";
 /// The shortest key accepted: 128 bits.
 pub const MIN_KEY_LEN: usize = 16;
 
@@ -100,7 +102,7 @@ impl Key {
         if packet.last().is_some_and(|&b| b != b'\n') {
             packet.push(b'\n');
         }
-        packet.extend_from_slice(format!("{AUTH_LABEL} n {n} mac ").as_bytes());
+        packet.extend_from_slice(format!("{AUTH_LABEL} n {n}{MAC_SEP}").as_bytes());
         let mac = self.mac(packet);
         let mut hex = String::with_capacity(MAC_HEX + 1);
         for b in mac {
@@ -160,10 +162,17 @@ fn hex_digit(b: u8) -> Option<u8> {
 /// Finds a well-formed `auth n N mac M` as the packet's last line.
 fn split_auth(data: &[u8]) -> Option<AuthLine> {
     let text = data.strip_suffix(b"\n").unwrap_or(data);
+    // A signed packet ends with ` mac ` and the MAC. Looking there first
+    // tells almost every unsigned packet apart without scanning its last
+    // line back to its start (which a hub with no key did for every packet).
+    let sep = text.len().checked_sub(MAC_HEX + MAC_SEP.len())?;
+    if &text[sep..sep + MAC_SEP.len()] != MAC_SEP.as_bytes() {
+        return None;
+    }
     let start = text.iter().rposition(|&b| b == b'\n')? + 1;
     let line = std::str::from_utf8(&text[start..]).ok()?;
     let rest = line.strip_prefix(AUTH_LABEL)?.strip_prefix(" n ")?;
-    let (n, mac) = rest.split_once(" mac ")?;
+    let (n, mac) = rest.split_once(MAC_SEP)?;
     if mac.len() != MAC_HEX || !mac.bytes().all(|b| hex_digit(b).is_some()) {
         return None;
     }
@@ -310,6 +319,40 @@ mod tests {
             key().verify(b"@ <hub> 0\nstatus\n"),
             Err(AuthError::Missing)
         );
+    }
+
+    /// `strip_auth` as it was before it looked at the packet's end first.
+    fn strip_auth_by_the_last_line(data: &[u8]) -> Option<&[u8]> {
+        let text = data.strip_suffix(b"\n").unwrap_or(data);
+        let start = text.iter().rposition(|&b| b == b'\n')? + 1;
+        let line = std::str::from_utf8(&text[start..]).ok()?;
+        let rest = line.strip_prefix(AUTH_LABEL)?.strip_prefix(" n ")?;
+        let (n, mac) = rest.split_once(" mac ")?;
+        let hex = mac.len() == MAC_HEX && mac.bytes().all(|b| hex_digit(b).is_some());
+        let digits = !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit());
+        (hex && digits && n.parse::<u64>().is_ok()).then(|| &data[..start])
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn looking_at_the_end_first_changes_no_answer(
+            body in "[ -~\n]{0,80}",
+            n in "[0-9x]{0,22}",
+            sep in proptest::sample::select(vec![" mac ", " mac", "mac ", "  mac ", " mac  "]),
+            mac in "[0-9a-f]{62,66}|[0-9a-fG]{64}",
+            newline in proptest::bool::ANY,
+        ) {
+            let end = if newline { "\n" } else { "" };
+            let text = format!("{body}\nauth n {n}{sep}{mac}{end}");
+            proptest::prop_assert_eq!(
+                strip_auth(text.as_bytes()),
+                strip_auth_by_the_last_line(text.as_bytes())
+            );
+            // And a signed packet is still found.
+            let mut signed = format!("@ <a> 0\n{}", body.replace('@', "x")).into_bytes();
+            key().sign(&mut signed, 9);
+            proptest::prop_assert!(strip_auth(&signed).is_some());
+        }
     }
 
     #[test]
