@@ -325,8 +325,8 @@ pub fn render(r: &Report<'_>) -> String {
         w,
         "One publisher, N subscribers (UDP sockets with a {} MiB receive buffer for the hub, \
          TCP connections for Mosquitto) spread over {} receiver threads that wait with epoll \
-         and read in batches (`recvmmsg` / 256 KiB `read`). The publisher sends in batches \
-         ({} / pipelined PUBLISH frames in one `write`) and keeps at most {} packets \
+         and read in batches (`recvmmsg` / 256 KiB `read`). The publisher sends in batches, \
+         {}, to Mosquitto as pipelined PUBLISH frames in one `write`, and keeps at most {} packets \
          in flight beyond the slowest subscriber, so it runs as fast as the subscribers keep \
          up. {}. {:.0} s measured per run after 0.3 s unmeasured; {} rounds, the systems \
          taking turns, and each system's best round is shown (loss: that round's, and the \
@@ -341,11 +341,11 @@ pub fn render(r: &Report<'_>) -> String {
         r.rcvbuf >> 20,
         r.recv_threads,
         if r.publisher_gso {
-            "`sendmmsg`, each run of equal-length packets (and a shorter one after it) as one \
-             UDP GSO send, which the kernel splits before the broker's socket takes it, so the \
-             broker receives one datagram per packet"
+            "to the UDP brokers with `sendmmsg`, each run of equal-length packets and a shorter \
+             one after it as one UDP GSO send that the kernel splits before the broker's socket \
+             takes it (the broker receives one datagram per packet)"
         } else {
-            "`sendmmsg`"
+            "to the UDP brokers with `sendmmsg`"
         },
         r.window,
         r.placement,
