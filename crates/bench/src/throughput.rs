@@ -17,10 +17,10 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread::{self, Thread};
 use std::time::{Duration, Instant};
 
-use crate::mqtt;
-use crate::payload::{self, Lengths, Packet};
 use colony_sys::udp::{SendPlan, Sender};
 
+use crate::mqtt;
+use crate::payload::{self, Lengths, Packet};
 use crate::sys::{self, RecvBatch, BATCH};
 
 /// How long the publisher waits on a full window with no progress before it
@@ -97,7 +97,7 @@ impl Subscriber for UdpSub {
     }
 }
 
-/// Publishes to the hub with `sendmmsg`, up to 64 datagrams a call; with
+/// Publishes to the hub (or a relay) with `sendmmsg`, up to 64 datagrams a call; with
 /// `gso`, each run of equal-length datagrams (and a shorter one after it)
 /// goes as one UDP GSO send, the datagram counterpart of the MQTT publisher's
 /// many frames per `write`. The kernel splits a GSO send before the hub's
@@ -139,6 +139,10 @@ impl Publisher for UdpPub {
         }
         let packets = &self.packets;
         let report = sender.send(&self.sock, plan, |i| packets[i].bytes());
+        if report.sent == 0 && report.failed > 0 {
+            // As the plain publisher's send fails on anything but a full buffer.
+            return Err(io::Error::other("the kernel refused a batch to the broker"));
+        }
         if report.sent == 0 {
             // Nothing went: a full socket buffer waits for the window's next
             // turn, as the plain publisher's would-block does.
