@@ -82,6 +82,45 @@ fn a_fast_forwarded_capture_the_flag_match_ends_and_its_record_replays() {
 }
 
 #[test]
+fn a_fast_forwarded_record_appended_to_a_log_keeps_its_times_in_order() {
+    use std::time::{SystemTime, UNIX_EPOCH};
+    let dir = tempfile::tempdir().unwrap();
+    let record = dir.path().join("two.clog");
+    let micros = |t: SystemTime| t.duration_since(UNIX_EPOCH).unwrap().as_micros() as u64;
+    let before = micros(SystemTime::now());
+    for _ in 0..2 {
+        let path = record.to_str().unwrap();
+        let (ok, out, err) = run(&[
+            "game",
+            "dm",
+            "--fast",
+            "--time-limit",
+            "5",
+            "--record",
+            path,
+        ]);
+        assert!(ok, "{out}\n{err}");
+    }
+    let times: Vec<u64> = colony_hub::log::LogReader::open(&record)
+        .unwrap()
+        .map(|r| r.unwrap().time_us)
+        .collect();
+    assert!(times.len() > 20, "{} records", times.len());
+    // Stamped from when each run started (they were from 1970 before), and in order
+    // across the two runs.
+    assert!(
+        times[0] >= before,
+        "first record at {} us, run at {before} us",
+        times[0]
+    );
+    assert!(
+        times.windows(2).all(|w| w[0] <= w[1]),
+        "times go back: {:?}",
+        times.windows(2).find(|w| w[0] > w[1])
+    );
+}
+
+#[test]
 fn a_fast_forwarded_record_named_mcap_is_a_finished_mcap() {
     let dir = tempfile::tempdir().unwrap();
     let record = dir.path().join("dm.mcap");

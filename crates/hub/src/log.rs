@@ -190,6 +190,8 @@ pub struct LogWriter {
     /// Bytes in the current file, buffered ones included.
     size: u64,
     rotation: Option<Rotation>,
+    /// The latest time of the records the file held when it was opened, µs.
+    latest_us: Option<u64>,
 }
 
 impl LogWriter {
@@ -221,6 +223,7 @@ impl LogWriter {
             .map_err(io_err)?;
         let mut size = file.metadata().map_err(io_err)?.len();
         let mut torn = None;
+        let mut latest_us = None;
         if size == 0 {
             file.write_all(MAGIC).map_err(io_err)?;
             size = MAGIC.len() as u64;
@@ -228,7 +231,7 @@ impl LogWriter {
             let mut reader = LogReader::from_file(file.try_clone().map_err(io_err)?, path)?;
             for record in reader.by_ref() {
                 match record {
-                    Ok(_) => {}
+                    Ok(r) => latest_us = latest_us.max(Some(r.time_us)),
                     Err(LogError::Corrupt {
                         path,
                         offset,
@@ -257,9 +260,18 @@ impl LogWriter {
                 path: path.to_owned(),
                 size,
                 rotation: None,
+                latest_us,
             },
             torn,
         ))
+    }
+
+    /// The latest time among the records the file already held when it was
+    /// opened (`None` for a new or empty log): a program that stamps records
+    /// with a clock of its own starts after it, so the log stays in time order.
+    pub fn latest(&self) -> Option<SystemTime> {
+        self.latest_us
+            .map(|us| UNIX_EPOCH + std::time::Duration::from_micros(us))
     }
 
     /// Rotates the log by size from now on, as `rotation` says.

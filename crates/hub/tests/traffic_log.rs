@@ -134,3 +134,19 @@ fn a_file_that_is_not_a_log_is_refused_clearly() {
         .to_string();
     assert!(missing.contains("missing.clog"), "{missing}");
 }
+
+#[test]
+fn a_reopened_log_knows_its_latest_record() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.clog");
+    let (fresh, _) = LogWriter::open(&path).unwrap();
+    assert_eq!(fresh.latest(), None, "a new log");
+    drop(fresh);
+    let written = write_records(&path, 20);
+    let (reopened, _) = LogWriter::open(&path).unwrap();
+    let last = written.last().unwrap().time_us;
+    assert_eq!(
+        reopened.latest(),
+        Some(UNIX_EPOCH + Duration::from_micros(last))
+    );
+}

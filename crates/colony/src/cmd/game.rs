@@ -4,7 +4,7 @@
 //! own, so the parts can be separate processes that restart independently.
 
 use std::path::PathBuf;
-use std::time::{Duration, Instant, UNIX_EPOCH};
+use std::time::{Duration, Instant, SystemTime};
 
 use anyhow::Context as _;
 use colony_game::live_match::{self, LiveMatch, MatchPlan};
@@ -289,18 +289,30 @@ fn players(arg: &str) -> Vec<&str> {
 
 fn fast(plan: &MatchPlan, args: &MatchArgs) -> anyhow::Result<()> {
     // As the hub writes it: MCAP for a name ending in `.mcap`, a `.clog` otherwise.
+    let mut latest = None;
     let mut log: Option<Box<dyn LogSink>> = match &args.record {
         Some(path) if super::hub::writes_mcap(path) => Some(Box::new(McapLogWriter::create(path)?)),
-        Some(path) => Some(Box::new(LogWriter::open_warning(path)?)),
+        Some(path) => {
+            let writer = LogWriter::open_warning(path)?;
+            latest = writer.latest();
+            Some(Box::new(writer))
+        }
         None => None,
     };
     let source: std::net::SocketAddr = ([127, 0, 0, 1], 0).into();
     let mut log_error = None;
+    // Records are stamped with the game's clock from the moment the run starts, or
+    // just after the latest record of a log it appends to (an earlier fast run's
+    // stamps run ahead of the wall clock), so the log keeps its times in order and a
+    // replay paces the match as it was played. (They were stamped from the epoch, so
+    // an appended match went back to 1970.)
+    let now = SystemTime::now();
+    let started = latest.map_or(now, |l| now.max(l + Duration::from_micros(1)));
     let mut tap = |t: f64, p: &[u8]| {
         if let Some(w) = &mut log {
             // Game time is bounded by --time-limit; a value out of range (it cannot
-            // be) would be logged at the epoch rather than panic.
-            let at = UNIX_EPOCH + Duration::try_from_secs_f64(t).unwrap_or_default();
+            // be) would be logged at the start rather than panic.
+            let at = started + Duration::try_from_secs_f64(t).unwrap_or_default();
             if let Err(e) = w.append(at, source, p) {
                 log_error.get_or_insert(e);
             }
