@@ -287,10 +287,8 @@ impl LogWriter {
         source: SocketAddr,
         payload: &[u8],
     ) -> io::Result<()> {
-        let time_us = time
-            .duration_since(UNIX_EPOCH)
-            .map(|d| d.as_micros() as u64)
-            .unwrap_or(0);
+        // Saturating: a time past u64 microseconds must not wrap to an early one.
+        let time_us = colony_wire::auth::unix_micros(time);
         let addr = source.to_string();
         self.append_raw(time_us, &addr, payload)
     }

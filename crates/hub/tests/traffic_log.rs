@@ -150,3 +150,19 @@ fn a_reopened_log_knows_its_latest_record() {
         Some(UNIX_EPOCH + Duration::from_micros(last))
     );
 }
+
+#[test]
+fn a_time_past_what_the_log_can_hold_is_kept_as_its_latest_not_wrapped() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.clog");
+    let (mut log, _) = LogWriter::open(&path).unwrap();
+    // 2e19 µs is past u64::MAX (1.8e19): it was cut to its low 64 bits, about 1970 + 46,000 years.
+    let far = UNIX_EPOCH
+        .checked_add(Duration::from_secs(20_000_000_000_000))
+        .unwrap();
+    let src: SocketAddr = "127.0.0.1:5000".parse().unwrap();
+    log.append(far, src, b"@ <a> 0\n").unwrap();
+    log.flush().unwrap();
+    let (read, _) = read_all(&path);
+    assert_eq!(read[0].time_us, u64::MAX);
+}

@@ -5,7 +5,7 @@ use std::fs::{File, OpenOptions};
 use std::io::{self, Write};
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant, SystemTime};
 
 use colony_hub::log::{LogSink, Record};
 use colony_wire::Packet;
@@ -287,10 +287,8 @@ fn closed(path: &Path) -> McapLogError {
 
 impl LogSink for McapLogWriter {
     fn append(&mut self, time: SystemTime, source: SocketAddr, payload: &[u8]) -> io::Result<()> {
-        let time_us = time
-            .duration_since(UNIX_EPOCH)
-            .map(|d| d.as_micros() as u64)
-            .unwrap_or(0);
+        // Saturating: a time past u64 microseconds must not wrap to an early one.
+        let time_us = colony_wire::auth::unix_micros(time);
         self.append_raw(time_us, &source.to_string(), payload)
             .map(|_| ())
             .map_err(io::Error::other)
