@@ -23,6 +23,7 @@ const LOOKUP_LINES: usize = 16;
 /// caller can check it was accepted or rejected as expected.
 pub fn walk(data: &[u8]) -> Result<(), ParseError> {
     walk_auth(data);
+    walk_batch(data);
     let packet = match Packet::parse(data) {
         Ok(p) => p,
         Err(e) => {
@@ -45,6 +46,39 @@ fn walk_auth(data: &[u8]) {
     if let Ok(signed) = key.verify(data) {
         assert!(data.starts_with(signed.body));
     }
+}
+
+/// A subscriber cuts every datagram from the hub into its packets before
+/// it parses them (`colony_wire::batch::split`): that must not panic on any
+/// bytes, the pieces must lie back to back inside the datagram up to its
+/// end, and joining them again must give the datagram back.
+pub fn walk_batch(data: &[u8]) {
+    use colony_wire::batch;
+    let Ok(pieces) = batch::split(data) else {
+        assert_eq!(data.first(), Some(&batch::BATCH_MARK));
+        return;
+    };
+    let ranges: Vec<std::ops::Range<usize>> = pieces.collect();
+    assert!(!ranges.is_empty());
+    assert_eq!(ranges.last().unwrap().end, data.len());
+    assert!(ranges.windows(2).all(|w| w[0].end == w[1].start));
+    if data.first() == Some(&batch::BATCH_MARK) {
+        let parts: Vec<&[u8]> = ranges.iter().map(|r| &data[r.clone()]).collect();
+        // The head is written one way only, so the bytes come back the same.
+        assert_eq!(batch::join(&parts), data);
+        for part in parts {
+            let _ = walk_packet_bytes(part);
+        }
+    } else {
+        assert_eq!((ranges.len(), ranges[0].clone()), (1, 0..data.len()));
+    }
+}
+
+/// Parses one packet cut from a batch and walks it.
+fn walk_packet_bytes(data: &[u8]) -> Result<(), ParseError> {
+    let packet = Packet::parse(data)?;
+    walk_packet(&packet);
+    Ok(())
 }
 
 fn check_error(data: &[u8], e: &ParseError) {

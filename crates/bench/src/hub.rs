@@ -22,11 +22,22 @@ pub struct HubThread {
 }
 
 /// What the hub counted, read after it stopped.
+#[derive(Default)]
 pub struct HubDrops {
     pub send_failed: u64,
     pub send_full: u64,
     pub receive_overflow: u64,
     pub total: u64,
+}
+
+impl HubDrops {
+    /// Adds another run's counts.
+    pub fn add(&mut self, other: &HubDrops) {
+        self.send_failed += other.send_failed;
+        self.send_full += other.send_full;
+        self.receive_overflow += other.receive_overflow;
+        self.total += other.total;
+    }
 }
 
 impl HubThread {
@@ -83,6 +94,16 @@ impl HubThread {
 /// cookie round trip, and waits for the lease. Leaves the socket blocking
 /// with no read timeout.
 pub fn subscribe_udp(sock: &UdpSocket, channel: &str) -> anyhow::Result<()> {
+    subscribe_udp_with(sock, channel, &[])
+}
+
+/// Like [`subscribe_udp`], with further requests (`batch bytes N`) in the
+/// subscribing packet.
+pub fn subscribe_udp_with(
+    sock: &UdpSocket,
+    channel: &str,
+    extra: &[Request],
+) -> anyhow::Result<()> {
     let subject = Subject::new(channel)?;
     let mut cookie = Cookie::NONE;
     sock.set_nonblocking(false)?;
@@ -90,8 +111,9 @@ pub fn subscribe_udp(sock: &UdpSocket, channel: &str) -> anyhow::Result<()> {
     let mut buf = [0u8; 2048];
     let deadline = Instant::now() + Duration::from_secs(3);
     'attempt: while Instant::now() < deadline {
-        let request =
-            Request::to_packet(&[Request::Cookie(cookie), Request::Subscribe(subject.clone())]);
+        let mut requests = vec![Request::Cookie(cookie), Request::Subscribe(subject.clone())];
+        requests.extend_from_slice(extra);
+        let request = Request::to_packet(&requests);
         sock.send(&request)?;
         loop {
             match sock.recv(&mut buf) {

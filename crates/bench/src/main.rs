@@ -20,8 +20,9 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::Parser;
 use colony_hub::HubConfig;
+use colony_wire::Request;
 
-use crate::hub::{subscribe_udp, HubThread};
+use crate::hub::{subscribe_udp_with, HubThread};
 use crate::throughput::{CpuProbe, Fanout, MqttPub, MqttSub, Subscriber, UdpPub, UdpSub};
 
 #[derive(Parser, Debug)]
@@ -83,6 +84,14 @@ struct Args {
     /// receiving side sees the same datagrams either way).
     #[arg(long)]
     plain_publisher: bool,
+    /// The most bytes the hub's batching subscribers take in one datagram
+    /// (`batch bytes N`): 1,472 is what fills one 1,500-byte Ethernet frame
+    /// over IPv4, what a robot on a real link would ask for.
+    #[arg(long, default_value_t = 1472, value_parser = clap::value_parser!(u16).range(1..))]
+    batch_bytes: u16,
+    /// Skip the hub with batching subscribers in the throughput runs.
+    #[arg(long)]
+    no_batching: bool,
     /// Skip the raw UDP relay in the throughput runs.
     #[arg(long)]
     no_relay: bool,
@@ -294,8 +303,19 @@ fn main() -> anyhow::Result<()> {
                 ));
             }
             eprintln!("throughput ({tag}): colony hub");
-            let (hub, hub_drops) = hub_fanout(&ctx, &config, n)?;
+            let (hub, mut hub_drops) = hub_fanout(&ctx, &config, n, 0)?;
             runs.push(report::Run::new(report::HUB, report::Kind::Hub, hub));
+            if !args.no_batching {
+                eprintln!("throughput ({tag}): colony hub, batching subscribers");
+                let bytes = usize::from(args.batch_bytes);
+                let (joined, drops) = hub_fanout(&ctx, &config, n, bytes)?;
+                hub_drops.add(&drops);
+                runs.push(report::Run::new(
+                    &report::hub_batching(bytes),
+                    report::Kind::HubBatching,
+                    joined,
+                ));
+            }
             for (name, b) in &brokers {
                 eprintln!("throughput ({tag}): {name}");
                 let f = mqtt_fanout(&ctx, b, n)?;
@@ -364,10 +384,13 @@ fn find_program(program: &std::path::Path) -> Option<PathBuf> {
         .find(|p| p.is_file())
 }
 
+/// The hub at fan-out `n`; its subscribers ask for several packets a
+/// datagram, of up to `batch` bytes, unless it is 0.
 fn hub_fanout(
     ctx: &Ctx<'_>,
     config: &HubConfig,
     n: usize,
+    batch: usize,
 ) -> anyhow::Result<(Fanout, hub::HubDrops)> {
     let hub = HubThread::start(config.clone(), ctx.broker_cpu)?;
     let mut subs: Vec<Box<dyn Subscriber>> = Vec::with_capacity(n);
@@ -375,8 +398,13 @@ fn hub_fanout(
         let sock = UdpSocket::bind("127.0.0.1:0")?;
         sys::set_rcvbuf(&sock, ctx.args.rcvbuf)?;
         sock.connect(hub.addr)?;
-        subscribe_udp(&sock, payload::CHANNEL)?;
-        subs.push(Box::new(UdpSub::new(sock)?));
+        let extra: &[Request] = if batch > 0 {
+            &[Request::Batch(batch)]
+        } else {
+            &[]
+        };
+        subscribe_udp_with(&sock, payload::CHANNEL, extra)?;
+        subs.push(Box::new(UdpSub::new(sock, batch)?));
     }
     let mut publisher = UdpPub::new(hub.addr, ctx.args.lengths, !ctx.args.plain_publisher)?;
     let run = ctx.run(&mut publisher, subs, &|| hub.cpu(), true)?;
@@ -415,7 +443,7 @@ fn relay_fanout(ctx: &Ctx<'_>, n: usize, gso: bool) -> anyhow::Result<Fanout> {
     let mut subs: Vec<Box<dyn Subscriber>> = Vec::with_capacity(n);
     for sock in socks {
         sock.connect(relay.addr)?;
-        subs.push(Box::new(UdpSub::new(sock)?));
+        subs.push(Box::new(UdpSub::new(sock, 0)?));
     }
     let mut publisher = UdpPub::new(relay.addr, ctx.args.lengths, !ctx.args.plain_publisher)?;
     let run = ctx.run(&mut publisher, subs, &|| relay.cpu(), true)?;

@@ -18,6 +18,7 @@ use std::thread::{self, Thread};
 use std::time::{Duration, Instant};
 
 use colony_sys::udp::{SendPlan, Sender};
+use colony_wire::batch;
 
 use crate::mqtt;
 use crate::payload::{self, Lengths, Packet};
@@ -46,7 +47,8 @@ pub trait Publisher {
     fn send(&mut self, first: u64, n: usize) -> io::Result<usize>;
 }
 
-/// A UDP socket subscribed to the hub.
+/// A UDP socket subscribed to the hub. A datagram of several packets (for
+/// a subscriber that asked the hub for them) counts each packet.
 pub struct UdpSub {
     sock: UdpSocket,
     batch: RecvBatch,
@@ -55,11 +57,12 @@ pub struct UdpSub {
 }
 
 impl UdpSub {
-    pub fn new(sock: UdpSocket) -> io::Result<UdpSub> {
+    /// A subscriber taking datagrams of up to `largest` bytes.
+    pub fn new(sock: UdpSocket, largest: usize) -> io::Result<UdpSub> {
         sock.set_nonblocking(true)?;
         Ok(UdpSub {
             sock,
-            batch: RecvBatch::new(sys::SLOT),
+            batch: RecvBatch::new(largest.max(sys::SLOT - 1) + 1),
             count: 0,
             next: 0,
         })
@@ -76,9 +79,15 @@ impl Subscriber for UdpSub {
         for _ in 0..4 {
             let n = self.batch.recv(&self.sock)?;
             for i in 0..n {
-                if let Some(seq) = payload::seq_of(self.batch.get(i)) {
-                    self.count += 1;
-                    self.next = self.next.max(seq + 1);
+                let d = self.batch.get(i);
+                let Ok(pieces) = batch::split(d) else {
+                    continue;
+                };
+                for r in pieces {
+                    if let Some(seq) = payload::seq_of(&d[r]) {
+                        self.count += 1;
+                        self.next = self.next.max(seq + 1);
+                    }
                 }
             }
             if n < BATCH {
@@ -508,7 +517,7 @@ mod tests {
             let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
             sock.connect(hub.addr).unwrap();
             subscribe_udp(&sock, payload::CHANNEL).unwrap();
-            subs.push(Box::new(UdpSub::new(sock).unwrap()));
+            subs.push(Box::new(UdpSub::new(sock, 0).unwrap()));
         }
         let mut publisher = UdpPub::new(hub.addr, Lengths::Fixed, gso).unwrap();
         let none = || None;

@@ -112,3 +112,43 @@ fn a_flood_of_junk_cannot_hold_a_receive_call() {
     assert_eq!(got, ["@ <vision> 0\nball x 1\n"]);
     assert_eq!(client.malformed_count(), 300);
 }
+
+#[test]
+fn a_datagram_of_several_packets_is_handed_out_one_packet_a_call() {
+    let (hub, mut client, addr) = fake_hub();
+    // A body line that looks like a header stays in its packet, and a reply
+    // joined with data is taken in as a reply.
+    let sneaky: &[u8] = b"@ <vision> 0\n@ <hub> 0\nlease ms 1\n";
+    let joined = colony_wire::batch::join(&[
+        b"@ <vision> 0\nball x 1\n",
+        b"@ <hub> 0\nlease ms 4000\n",
+        sneaky,
+        b"@ <vision> 0\nball x 2\n",
+    ]);
+    hub.send_to(&joined, addr).unwrap();
+    hub.send_to(b"@ <vision> 0\nball x 3\n", addr).unwrap();
+    let got = recv_all(&mut client, 4);
+    assert_eq!(
+        got,
+        [
+            "@ <vision> 0\nball x 1\n",
+            "@ <vision> 0\n@ <hub> 0\nlease ms 1\n",
+            "@ <vision> 0\nball x 2\n",
+            "@ <vision> 0\nball x 3\n"
+        ]
+    );
+    assert_eq!(client.session().lease(), Some(Duration::from_secs(4)));
+    assert_eq!(client.malformed_count(), 0);
+}
+
+#[test]
+fn a_damaged_batch_is_counted_and_yields_nothing() {
+    let (hub, mut client, addr) = fake_hub();
+    let mut joined =
+        colony_wire::batch::join(&[b"@ <vision> 0\nball x 1\n", b"@ <vision> 0\nball x 2\n"]);
+    joined.pop();
+    hub.send_to(&joined, addr).unwrap();
+    hub.send_to(b"@ <vision> 0\nball x 3\n", addr).unwrap();
+    assert_eq!(recv_all(&mut client, 1), ["@ <vision> 0\nball x 3\n"]);
+    assert_eq!(client.malformed_count(), 1);
+}

@@ -81,6 +81,9 @@ struct Client {
     tap: bool,
     /// Its tap was asked for with a console's authority (it is never displaced).
     console_tap: bool,
+    /// The most bytes of joined packets it takes in one datagram
+    /// ([`Request::Batch`]; 0: one packet each).
+    batch: usize,
 }
 
 /// How a datagram proved where it came from.
@@ -200,6 +203,12 @@ impl Hub {
     /// How many clients hold at least one lease.
     pub fn client_count(&self) -> usize {
         self.clients.len()
+    }
+
+    /// The most bytes a datagram of joined packets to `addr` may hold, as
+    /// the client asked ([`Request::Batch`]); 0 for one packet a datagram.
+    pub fn batch_bytes(&self, addr: &SocketAddr) -> usize {
+        self.clients.get(addr).map_or(0, |c| c.batch)
     }
 
     /// How many datagrams were dropped for this reason.
@@ -408,6 +417,11 @@ impl Hub {
                     }
                 }
                 Request::Tap => self.tap(src, proof),
+                Request::Batch(bytes) => {
+                    if let Some(c) = self.clients.get_mut(&src) {
+                        c.batch = bytes.min(MAX_PACKET);
+                    }
+                }
             }
         }
         if subscribed {
@@ -562,6 +576,7 @@ impl Hub {
             about: Box::from(""),
             tap: false,
             console_tap: false,
+            batch: 0,
         });
         let expiry = now + self.config.lease;
         if let Some(e) = client.subs.get_mut(&subject) {

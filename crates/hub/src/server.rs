@@ -7,8 +7,9 @@ use std::time::{Duration, Instant, SystemTime};
 
 use crate::log::LogSink;
 use colony_sys::buffers::{self, Buffer};
-use colony_sys::udp::{self, RecvBatch, SendPlan, Sender};
+use colony_sys::udp::{self, Framing, RecvBatch, SendPlan, Sender};
 use colony_sys::wait::wait_readable;
+use colony_wire::batch;
 
 use crate::{is_bad_source, DropReason, Hub, HubConfig, Outcome, Transmit};
 
@@ -48,6 +49,13 @@ const BATCHES_PER_POLL: usize = 4;
 /// Room for the largest UDP payload, plus one byte to notice anything larger.
 const SLOT: usize = colony_wire::MAX_PACKET + 1;
 
+/// Several packets in one datagram, for subscribers that ask.
+const BATCH_FRAMING: Framing = Framing {
+    base: batch::HEAD_BASE,
+    per_part: batch::head_cost,
+    write_head: batch::write_head,
+};
+
 /// Socket buffer the hub asks for: about 4,000 small datagrams of burst.
 const SOCKET_BUFFER: usize = 4 << 20;
 
@@ -80,7 +88,7 @@ impl Server {
             batch: RecvBatch::new(SLOT),
             local,
             plan: SendPlan::new(),
-            sender: Sender::new(true),
+            sender: Sender::new(true).with_framing(BATCH_FRAMING),
             replies: Vec::new(),
             dests: Vec::new(),
             lens: [0; BATCH],
@@ -213,14 +221,20 @@ impl Server {
                         bad += 1;
                     }
                 }
-                self.plan.push(i, &self.dests);
+                let hub = &self.hub;
+                self.plan
+                    .push_joining(i, &self.dests, |d| hub.batch_bytes(d));
             }
             while let Some(t) = self.hub.poll_transmit() {
                 if !is_client_addr(t.dest, self.local) {
                     bad += 1;
                     continue;
                 }
-                self.plan.push(BATCH + self.replies.len(), &[t.dest]);
+                let hub = &self.hub;
+                self.plan
+                    .push_joining(BATCH + self.replies.len(), &[t.dest], |d| {
+                        hub.batch_bytes(d)
+                    });
                 self.replies.push(t);
             }
         }

@@ -9,7 +9,7 @@ use std::io;
 use std::net::{SocketAddr, UdpSocket};
 
 mod send;
-pub use send::{Loss, Repeater, SendPlan, SendReport, Sender};
+pub use send::{Framing, Loss, Repeater, SendPlan, SendReport, Sender};
 
 /// Bytes of control-message room per received datagram: one `SO_RXQ_OVFL`
 /// message (`CMSG_SPACE(4)`, 24 bytes on 64-bit Linux) with room to spare,

@@ -61,6 +61,13 @@ pub enum Request {
     /// Lasts as long as the client holds a lease; a hub lets only a few
     /// clients tap at once, and few from one host, unless a console asks.
     Tap,
+    /// Send this client several packets in one datagram, none larger than
+    /// this many bytes ([`batch`](crate::batch) says how they are framed),
+    /// where the hub has several for it at once; 0 asks for one packet per
+    /// datagram again. A hub never holds a packet back to fill a datagram.
+    /// Lasts as long as the client holds a lease; only a client that splits
+    /// batches should ask.
+    Batch(usize),
 }
 
 /// The longest [`Request::About`] a hub keeps, in bytes.
@@ -131,7 +138,7 @@ impl fmt::Display for ControlError {
             ControlError::NotControl => write!(f, "a control packet must name `<{HUB_SUBJECT}>` alone"),
             ControlError::Unknown { label, line } => write!(
                 f,
-                "line {line}: unknown request `{label}` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority, cookie, no_local, about, tap)"
+                "line {line}: unknown request `{label}` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority, cookie, no_local, about, tap, batch)"
             ),
             ControlError::Field(e) => e.fmt(f),
             ControlError::BadCookie { line } => {
@@ -154,6 +161,24 @@ impl From<FieldError> for ControlError {
 
 fn is_control(p: &Packet<'_>) -> bool {
     p.subject_count() == 1 && p.has_subject(HUB_SUBJECT)
+}
+
+/// The error for an integer field whose value is out of the request's
+/// range, at the value's own column.
+fn out_of_range(line: &crate::Line<'_>, name: &str, v: i64) -> ControlError {
+    ControlError::Field(match line.fields().find(|f| f.name == name) {
+        Some(f) => line.value_error(
+            &f,
+            crate::FieldErrorKind::NotAnInteger(f.value.as_str().unwrap_or_default().into_owned()),
+        ),
+        None => FieldError {
+            label: line.label().into(),
+            field: name.into(),
+            line: line.number(),
+            column: 1,
+            kind: crate::FieldErrorKind::NotAnInteger(v.to_string()),
+        },
+    })
 }
 
 impl Request {
@@ -187,27 +212,16 @@ impl Request {
                     "status" => Request::Status,
                     "no_local" => Request::NoLocal,
                     "tap" => Request::Tap,
+                    // A request past the largest datagram asks for the largest.
+                    "batch" => {
+                        let v = line.i64("bytes")?;
+                        let v = u64::try_from(v).map_err(|_| out_of_range(&line, "bytes", v))?;
+                        Request::Batch(usize::try_from(v).map_or(MAX_PACKET, |b| b.min(MAX_PACKET)))
+                    }
                     "about" => Request::About(clip_about(&line.str("text")?).to_owned()),
                     "min_priority" => {
                         let v = line.i64("value")?;
-                        let v = i32::try_from(v).map_err(|_| {
-                            ControlError::Field(match line.fields().find(|f| f.name == "value") {
-                                // The value as written, at its own column.
-                                Some(f) => line.value_error(
-                                    &f,
-                                    crate::FieldErrorKind::NotAnInteger(
-                                        f.value.as_str().unwrap_or_default().into_owned(),
-                                    ),
-                                ),
-                                None => FieldError {
-                                    label: "min_priority".into(),
-                                    field: "value".into(),
-                                    line: line.number(),
-                                    column: 1,
-                                    kind: crate::FieldErrorKind::NotAnInteger(v.to_string()),
-                                },
-                            })
-                        })?;
+                        let v = i32::try_from(v).map_err(|_| out_of_range(&line, "value", v))?;
                         Request::MinPriority(Priority(v))
                     }
                     "cookie" => Request::Cookie(Cookie::parse(&line.str("v")?).ok_or(
@@ -239,6 +253,7 @@ impl Request {
                 Request::Cookie(c) => writeln!(text, "cookie v {c}"),
                 Request::NoLocal => writeln!(text, "no_local"),
                 Request::Tap => writeln!(text, "tap"),
+                Request::Batch(bytes) => writeln!(text, "batch bytes {bytes}"),
                 Request::About(about) => {
                     text.push_str("about text ");
                     write_quoted(&mut text, clip_about(about));

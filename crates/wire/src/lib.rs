@@ -15,13 +15,15 @@
 //!
 //! This crate parses ([`Packet`], zero-copy), writes ([`PacketBuilder`]) and
 //! reads the hub's control requests ([`Request`], [`StatusReport`]); [`auth`]
-//! signs and checks packets with a shared key. It does no I/O; its one
+//! signs and checks packets with a shared key; [`batch`] joins and splits
+//! several packets in one datagram. It does no I/O; its one
 //! dependency is HMAC-SHA256. It is not a schema layer: what a
 //! label or field means is up to the programs that use it.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod auth;
+pub mod batch;
 mod build;
 mod control;
 mod error;

@@ -68,6 +68,7 @@ fn requests_write_the_documented_text() {
         Request::NoLocal,
         Request::About("bridge \"lab\"".into()),
         Request::Tap,
+        Request::Batch(65_000),
     ];
     let bytes = Request::to_packet(&all);
     assert_eq!(
@@ -80,7 +81,8 @@ fn requests_write_the_documented_text() {
          min_priority value -5\n\
          no_local\n\
          about text \"bridge \\\"lab\\\"\"\n\
-         tap\n"
+         tap\n\
+         batch bytes 65000\n"
     );
     let p = Packet::parse(&bytes).unwrap();
     assert!(Request::is_control(&p));
@@ -102,6 +104,21 @@ fn requests_round_trip_through_a_packet() {
         all
     );
     assert_eq!(Request::to_packet(&[]), b"@ <hub> 0\n");
+}
+
+#[test]
+fn a_batch_size_is_kept_within_one_datagram_and_never_negative() {
+    let req = |text: &str| requests(&format!("@ <hub> 0\n{text}\n"));
+    assert_eq!(req("batch bytes 0").unwrap(), [Request::Batch(0)]);
+    assert_eq!(req("batch bytes 1400").unwrap(), [Request::Batch(1400)]);
+    assert_eq!(
+        req("batch bytes 9223372036854775807").unwrap(),
+        [Request::Batch(colony_wire::MAX_PACKET)]
+    );
+    let e = req("batch bytes -1").unwrap_err().to_string();
+    assert!(e.contains("-1"), "{e}");
+    assert!(req("batch bytes 1e9").is_err());
+    assert!(req("batch").is_err());
 }
 
 #[test]
@@ -153,7 +170,7 @@ fn unknown_request_is_rejected_with_its_label_and_line() {
     );
     assert_eq!(
         e.to_string(),
-        "line 4: unknown request `subscribe_all` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority, cookie, no_local, about, tap)"
+        "line 4: unknown request `subscribe_all` (known: subscribe, unsubscribe, unsubscribe_all, status, min_priority, cookie, no_local, about, tap, batch)"
     );
 }
 

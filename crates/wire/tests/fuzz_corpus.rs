@@ -101,3 +101,36 @@ fn every_error_kind_has_a_seed() {
         );
     }
 }
+
+/// The `split_batch` target's seeds: `ok-*` must split (each piece then
+/// walked as a packet), `bad-*` must be refused, anything else must only
+/// not panic.
+#[test]
+fn every_batch_seed_survives_the_walk_and_meets_its_name() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus/split_batch");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .expect("the batch seed corpus exists")
+        .map(|e| e.expect("a readable directory entry").path())
+        .filter(|p| p.is_file())
+        .collect();
+    files.sort();
+    assert!(
+        files.len() >= 8,
+        "the batch corpus has {} files",
+        files.len()
+    );
+    for path in &files {
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        let bytes = std::fs::read(path).unwrap();
+        walk::walk_batch(&bytes);
+        let split = colony_wire::batch::split(&bytes);
+        if name.starts_with("ok-") {
+            for r in split.unwrap_or_else(|e| panic!("{name} should split: {e}")) {
+                colony_wire::Packet::parse(&bytes[r])
+                    .unwrap_or_else(|e| panic!("{name}: a piece does not parse: {e}"));
+            }
+        } else if name.starts_with("bad-") {
+            assert!(split.is_err(), "{name} should be refused");
+        }
+    }
+}

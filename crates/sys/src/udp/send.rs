@@ -3,7 +3,9 @@
 //! hands the whole plan to the kernel in one `sendmmsg` (per `UIO_MAXIOV`
 //! messages), with each run of equal-length datagrams for one destination
 //! (and a shorter one after it) as one UDP GSO message (`UDP_SEGMENT`)
-//! where the kernel takes it.
+//! where the kernel takes it, and, for a destination that asked for it,
+//! several datagrams joined into one behind a head that says where to cut
+//! them ([`Framing`]).
 
 use std::io;
 use std::net::{SocketAddr, UdpSocket};
@@ -44,6 +46,42 @@ impl Loss {
     }
 }
 
+/// How a [`Sender`] joins several datagrams for one destination into one:
+/// a head from which the receiver learns where to cut, then each datagram
+/// byte for byte. The format is the caller's (colony's is
+/// `colony_wire::batch`); the sender needs only the head's size, to fill a
+/// datagram without passing the destination's limit, and its bytes.
+#[derive(Debug, Clone, Copy)]
+pub struct Framing {
+    /// Bytes of a head that names no datagram.
+    pub base: usize,
+    /// The bytes one datagram of this length adds to the head.
+    pub per_part: fn(usize) -> usize,
+    /// Appends the head for datagrams of these lengths; it must be `base`
+    /// plus each length's `per_part` bytes long.
+    pub write_head: fn(&[usize], &mut Vec<u8>),
+}
+
+/// The most datagrams joined into one: with the head, one `UIO_MAXIOV`
+/// (1,024) of iovecs.
+const MAX_JOINED: usize = 1023;
+
+/// How many of the leading datagrams (of these lengths, all for one
+/// destination) go out joined, in at most `max` bytes with the head: 1 when
+/// fewer than two fit, and the one goes alone, without a head.
+fn join_run(lengths: impl Iterator<Item = usize>, max: usize, framing: &Framing) -> usize {
+    let mut total = framing.base;
+    let mut n = 0;
+    for len in lengths {
+        total += (framing.per_part)(len) + len;
+        if n == MAX_JOINED || total > max {
+            break;
+        }
+        n += 1;
+    }
+    n.max(1)
+}
+
 /// Datagrams that share one list of destinations, in order.
 #[derive(Debug, Clone)]
 struct Group {
@@ -61,6 +99,9 @@ struct Group {
 pub struct SendPlan {
     payloads: Vec<usize>,
     dests: Vec<SocketAddr>,
+    /// Per destination: the most bytes of joined datagrams it takes (0: one
+    /// datagram each).
+    joins: Vec<usize>,
     #[cfg(target_os = "linux")]
     names: Vec<imp::Name>,
     groups: Vec<Group>,
@@ -77,6 +118,7 @@ impl SendPlan {
     pub fn clear(&mut self) {
         self.payloads.clear();
         self.dests.clear();
+        self.joins.clear();
         #[cfg(target_os = "linux")]
         self.names.clear();
         self.groups.clear();
@@ -88,6 +130,20 @@ impl SendPlan {
     /// joins its group, which is what lets a run of them go out as one GSO
     /// message per destination.
     pub fn push(&mut self, payload: usize, dests: &[SocketAddr]) {
+        self.push_joining(payload, dests, |_| 0);
+    }
+
+    /// Like [`push`](Self::push), where some destinations take several
+    /// datagrams joined into one: `join_max(d)` is the most bytes destination
+    /// `d` takes in one (0: one datagram each). It is asked only when a new
+    /// list of destinations starts a group, so it may cost a lookup. A
+    /// [`Sender`] without a [`Framing`] sends one datagram each anyway.
+    pub fn push_joining(
+        &mut self,
+        payload: usize,
+        dests: &[SocketAddr],
+        join_max: impl Fn(&SocketAddr) -> usize,
+    ) {
         if dests.is_empty() {
             return;
         }
@@ -101,6 +157,7 @@ impl SendPlan {
         }
         let first = self.dests.len();
         self.dests.extend_from_slice(dests);
+        self.joins.extend(dests.iter().map(join_max));
         #[cfg(target_os = "linux")]
         self.names.extend(dests.iter().map(imp::Name::new));
         self.groups.push(Group {
@@ -125,6 +182,7 @@ impl SendPlan {
 /// refused GSO, and sends one datagram per message from then on.
 pub struct Sender {
     gso: bool,
+    framing: Option<Framing>,
     #[cfg(target_os = "linux")]
     scratch: imp::Scratch,
 }
@@ -136,9 +194,17 @@ impl Sender {
     pub fn new(gso: bool) -> Sender {
         Sender {
             gso: gso && cfg!(target_os = "linux"),
+            framing: None,
             #[cfg(target_os = "linux")]
             scratch: imp::Scratch::default(),
         }
+    }
+
+    /// Joins datagrams this way for destinations that take them joined
+    /// ([`SendPlan::push_joining`]).
+    pub fn with_framing(mut self, framing: Framing) -> Sender {
+        self.framing = Some(framing);
+        self
     }
 
     /// Whether GSO is in use (it goes off for good when the kernel refuses it).
@@ -160,19 +226,52 @@ impl Sender {
         }
         #[cfg(target_os = "linux")]
         {
-            imp::send(&mut self.scratch, &mut self.gso, sock, plan, payload)
+            let framing = self.framing.as_ref();
+            imp::send(
+                &mut self.scratch,
+                &mut self.gso,
+                framing,
+                sock,
+                plan,
+                payload,
+            )
         }
         #[cfg(not(target_os = "linux"))]
         {
             let mut report = SendReport::default();
+            let mut count = |n: usize, r: io::Result<usize>| match r {
+                Ok(_) => report.sent += n,
+                Err(e) if Loss::of(&e) == Loss::Full => report.full += n,
+                Err(_) => report.failed += n,
+            };
             for g in &plan.groups {
-                for &p in &plan.payloads[g.payloads.clone()] {
-                    for d in &plan.dests[g.dests.clone()] {
-                        match sock.send_to(payload(p), d) {
-                            Ok(_) => report.sent += 1,
-                            Err(e) if Loss::of(&e) == Loss::Full => report.full += 1,
-                            Err(_) => report.failed += 1,
+                let payloads = &plan.payloads[g.payloads.clone()];
+                for d in g.dests.clone() {
+                    let (dest, max) = (&plan.dests[d], plan.joins[d]);
+                    let Some(framing) = self.framing.as_ref().filter(|_| max > 0) else {
+                        for &p in payloads {
+                            count(1, sock.send_to(payload(p), dest));
                         }
+                        continue;
+                    };
+                    let mut i = 0;
+                    while i < payloads.len() {
+                        let rest = &payloads[i..];
+                        let n = join_run(rest.iter().map(|&p| payload(p).len()), max, framing);
+                        let r = if n == 1 {
+                            sock.send_to(payload(rest[0]), dest)
+                        } else {
+                            let lengths: Vec<usize> =
+                                rest[..n].iter().map(|&p| payload(p).len()).collect();
+                            let mut joined = Vec::new();
+                            (framing.write_head)(&lengths, &mut joined);
+                            for &p in &rest[..n] {
+                                joined.extend_from_slice(payload(p));
+                            }
+                            sock.send_to(&joined, dest)
+                        };
+                        count(n, r);
+                        i += n;
                     }
                 }
             }
@@ -277,27 +376,48 @@ mod imp {
         }
     }
 
+    /// One message of a send: a run of the plan's datagrams `first..end`
+    /// (positions in `payloads`), all of one group.
+    #[derive(Clone, Copy)]
+    struct Unit {
+        first: usize,
+        end: usize,
+        group: usize,
+        /// `None`: as GSO segments (or alone), to each destination of the
+        /// group that takes no joined datagrams. `Some(d)`: joined behind a
+        /// head, to destination `d` alone; the head is `heads[head]` and the
+        /// message's iovecs start at `joined[iov]`.
+        joined: Option<usize>,
+        head: (usize, usize),
+        iov: usize,
+    }
+
     /// The C structures one send hands the kernel, kept between sends.
     #[derive(Default)]
     pub(super) struct Scratch {
         iovs: Vec<libc::iovec>,
         hdrs: Vec<libc::mmsghdr>,
-        /// How many datagrams each header carries.
-        segments: Vec<usize>,
+        /// How many datagrams each header carries, and whether as GSO segments.
+        segments: Vec<(usize, bool)>,
         cmsgs: Vec<[u64; 4]>,
-        /// Runs of datagrams sent as one message: `(first, end, group)`.
-        units: Vec<(usize, usize, usize)>,
+        units: Vec<Unit>,
+        /// The heads of joined messages, back to back.
+        heads: Vec<u8>,
+        /// Each joined message's iovecs: its head's, then its datagrams'.
+        joined: Vec<libc::iovec>,
+        lengths: Vec<usize>,
     }
 
-    // SAFETY: the raw pointers inside `iovs` and `hdrs` are written at the
-    // start of each `send` and read only by the kernel during it; between
-    // sends they are stale numbers that nothing dereferences. So moving a
-    // `Scratch` to another thread shares nothing.
+    // SAFETY: the raw pointers inside `iovs`, `joined` and `hdrs` are
+    // written at the start of each `send` and read only by the kernel during
+    // it; between sends they are stale numbers that nothing dereferences. So
+    // moving a `Scratch` to another thread shares nothing.
     unsafe impl Send for Scratch {}
 
     pub(super) fn send<'a>(
         s: &mut Scratch,
         gso: &mut bool,
+        framing: Option<&Framing>,
         sock: &UdpSocket,
         plan: &SendPlan,
         payload: impl Fn(usize) -> &'a [u8],
@@ -310,14 +430,21 @@ mod imp {
                 iov_len: d.len(),
             }
         }));
+        let joins = |d: usize| framing.filter(|_| plan.joins[d] > 0);
         // Units: one datagram each, or with GSO a run of datagrams of one
-        // group (`gso_run`), which the kernel splits at delivery.
+        // group (`gso_run`), which the kernel splits at delivery; then, for
+        // each destination of the group that takes them, runs joined behind
+        // a head (`join_run`).
         s.units.clear();
+        s.heads.clear();
         let mut messages = 0;
         let mut runs = 0;
+        let mut joined_iovs = 0;
         for (g, group) in plan.groups.iter().enumerate() {
+            // How many of its destinations take one datagram each.
+            let plain = group.dests.clone().filter(|&d| joins(d).is_none()).count();
             let mut i = group.payloads.start;
-            while i < group.payloads.end {
+            while plain > 0 && i < group.payloads.end {
                 let end = if *gso {
                     i + gso_run(&s.iovs[i..group.payloads.end])
                 } else {
@@ -326,10 +453,59 @@ mod imp {
                 if end - i > 1 {
                     runs += 1;
                 }
-                messages += group.dests.len();
-                s.units.push((i, end, g));
+                messages += plain;
+                s.units.push(Unit {
+                    first: i,
+                    end,
+                    group: g,
+                    joined: None,
+                    head: (0, 0),
+                    iov: 0,
+                });
                 i = end;
             }
+            for d in group.dests.clone() {
+                let Some(framing) = joins(d) else { continue };
+                let mut i = group.payloads.start;
+                while i < group.payloads.end {
+                    let lengths = s.iovs[i..group.payloads.end].iter().map(|v| v.iov_len);
+                    let end = i + join_run(lengths, plan.joins[d], framing);
+                    let head = if end - i > 1 {
+                        s.lengths.clear();
+                        s.lengths.extend(s.iovs[i..end].iter().map(|v| v.iov_len));
+                        let start = s.heads.len();
+                        (framing.write_head)(&s.lengths, &mut s.heads);
+                        (start, s.heads.len())
+                    } else {
+                        (0, 0)
+                    };
+                    messages += 1;
+                    s.units.push(Unit {
+                        first: i,
+                        end,
+                        group: g,
+                        joined: Some(d),
+                        head,
+                        iov: joined_iovs,
+                    });
+                    joined_iovs += 1 + (end - i);
+                    i = end;
+                }
+            }
+        }
+        // The joined messages' iovecs, now that no head moves any more: a
+        // lone datagram goes without a head.
+        s.joined.clear();
+        let heads = s.heads.as_ptr();
+        for u in &s.units {
+            if u.joined.is_none() {
+                continue;
+            }
+            s.joined.push(libc::iovec {
+                iov_base: heads.wrapping_add(u.head.0) as *mut libc::c_void,
+                iov_len: u.head.1 - u.head.0,
+            });
+            s.joined.extend_from_slice(&s.iovs[u.first..u.end]);
         }
         // Grow the buffers only; entries in use are written in full below.
         if s.hdrs.len() < messages {
@@ -340,28 +516,23 @@ mod imp {
             s.cmsgs.resize(runs, [0; 4]);
         }
         let mut c = 0;
-        for &(first, end, _) in &s.units {
-            if end - first > 1 {
-                set_segment_size(&mut s.cmsgs[c], s.iovs[first].iov_len);
+        for u in &s.units {
+            if u.joined.is_none() && u.end - u.first > 1 {
+                set_segment_size(&mut s.cmsgs[c], s.iovs[u.first].iov_len);
                 c += 1;
             }
         }
         // Pointers are taken once, after every write to these vectors, and
         // offset with wrapping_add inside them.
         let iovs = s.iovs.as_mut_ptr();
+        let joined = s.joined.as_mut_ptr();
         let cmsgs = s.cmsgs.as_mut_ptr();
         let names = plan.names.as_ptr();
         s.segments.clear();
         let (mut h, mut c) = (0, 0);
-        for &(first, end, g) in &s.units {
-            let segments = end - first;
-            let control = if segments > 1 {
-                c += 1;
-                cmsgs.wrapping_add(c - 1).cast::<libc::c_void>()
-            } else {
-                std::ptr::null_mut()
-            };
-            for d in plan.groups[g].dests.clone() {
+        for u in &s.units {
+            let count = u.end - u.first;
+            let mut fill = |d: usize, iov: *mut libc::iovec, iovlen: usize, control, gso: bool| {
                 let m = &mut s.hdrs[h];
                 m.msg_len = 0;
                 let msg = &mut m.msg_hdr;
@@ -369,23 +540,55 @@ mod imp {
                 // with its sockaddr.
                 msg.msg_name = names.wrapping_add(d) as *mut libc::c_void;
                 msg.msg_namelen = plan.names[d].len;
-                // The kernel reads `segments` iovecs from here.
-                msg.msg_iov = iovs.wrapping_add(first);
-                msg.msg_iovlen = segments;
+                // The kernel reads `iovlen` iovecs from here.
+                msg.msg_iov = iov;
+                msg.msg_iovlen = iovlen;
                 msg.msg_control = control;
-                msg.msg_controllen = if segments > 1 { CMSG_BYTES } else { 0 };
+                msg.msg_controllen = if control.is_null() { 0 } else { CMSG_BYTES };
                 msg.msg_flags = 0;
-                s.segments.push(segments);
+                s.segments.push((count, gso));
                 h += 1;
+            };
+            match u.joined {
+                Some(d) if count > 1 => {
+                    fill(
+                        d,
+                        joined.wrapping_add(u.iov),
+                        1 + count,
+                        std::ptr::null_mut(),
+                        false,
+                    );
+                }
+                // Alone: past the empty head.
+                Some(d) => fill(
+                    d,
+                    joined.wrapping_add(u.iov + 1),
+                    1,
+                    std::ptr::null_mut(),
+                    false,
+                ),
+                None => {
+                    let control = if count > 1 {
+                        c += 1;
+                        cmsgs.wrapping_add(c - 1).cast::<libc::c_void>()
+                    } else {
+                        std::ptr::null_mut()
+                    };
+                    for d in plan.groups[u.group].dests.clone() {
+                        if joins(d).is_none() {
+                            fill(d, iovs.wrapping_add(u.first), count, control, count > 1);
+                        }
+                    }
+                }
             }
         }
         let mut report = SendReport::default();
         let segments = &s.segments;
         let fd = sock.as_raw_fd();
         send_all(fd, &mut s.hdrs[..messages], |k, hdr, e| {
-            let n = segments.get(k).copied().unwrap_or(1);
+            let (n, as_gso) = segments.get(k).copied().unwrap_or((1, false));
             let refused_gso = matches!(e.raw_os_error(), Some(libc::EIO | libc::EINVAL));
-            if n > 1 && refused_gso {
+            if as_gso && refused_gso {
                 // This path (its device, or its MTU) takes no GSO: send the
                 // run one datagram at a time, and never try GSO again.
                 *gso = false;
@@ -658,6 +861,108 @@ mod tests {
         assert_eq!(report.failed, 1);
         assert_eq!(report.sent, 1);
         assert_eq!(read(&to, 1), [b"hello".to_vec()]);
+    }
+
+    /// A framing for the tests: a count byte, then each length as two bytes.
+    const TEST_FRAMING: Framing = Framing {
+        base: 1,
+        per_part: |_| 2,
+        write_head: |lengths, out| {
+            out.push(lengths.len() as u8);
+            for &l in lengths {
+                out.extend_from_slice(&(l as u16).to_be_bytes());
+            }
+        },
+    };
+
+    /// Cuts a datagram joined with [`TEST_FRAMING`]; `None` if it is one alone.
+    fn unjoin(d: &[u8]) -> Vec<Vec<u8>> {
+        let n = usize::from(d[0]);
+        let mut at = 1 + 2 * n;
+        (0..n)
+            .map(|i| {
+                let len = usize::from(u16::from_be_bytes([d[1 + 2 * i], d[2 + 2 * i]]));
+                at += len;
+                d[at - len..at].to_vec()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_destination_that_joins_gets_its_datagrams_joined_and_the_rest_one_each() {
+        for gso in [false, true] {
+            let from = socket();
+            let subs: Vec<UdpSocket> = (0..3).map(|_| socket()).collect();
+            let a: Vec<SocketAddr> = subs.iter().map(|s| s.local_addr().unwrap()).collect();
+            // Datagrams that start with 0xff, so none is taken for a head.
+            let data: Vec<Vec<u8>> = (0..150u8)
+                .map(|i| [vec![0xff], vec![i; 20 + usize::from(i % 7)]].concat())
+                .collect();
+            let mut plan = SendPlan::new();
+            for i in 0..data.len() {
+                // A change of destinations splits the joined runs.
+                let dests = if i % 50 < 40 { &a[..] } else { &a[1..] };
+                plan.push_joining(i, dests, |d| if *d == a[2] { 200 } else { 0 });
+            }
+            let mut sender = Sender::new(gso).with_framing(TEST_FRAMING);
+            let report = sender.send(&from, &plan, |i| &data[i]);
+            assert_eq!(report.sent, plan.deliveries(), "gso {gso}");
+            let only_first: Vec<Vec<u8>> = data
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| i % 50 < 40)
+                .map(|(_, d)| d.clone())
+                .collect();
+            assert_eq!(read(&subs[0], only_first.len()), only_first, "gso {gso}");
+            assert_eq!(read(&subs[1], data.len()), data, "gso {gso}");
+            // The third gets every datagram, in order, in fewer datagrams,
+            // none over its 200 bytes.
+            let mut got = Vec::new();
+            let mut datagrams = 0;
+            while got.len() < data.len() {
+                let d = read(&subs[2], 1).remove(0);
+                assert!(d.len() <= 200, "{} bytes", d.len());
+                datagrams += 1;
+                if d[0] == 0xff {
+                    got.push(d);
+                } else {
+                    got.extend(unjoin(&d));
+                }
+            }
+            assert_eq!(got, data, "gso {gso}");
+            assert!(datagrams <= data.len() / 5, "{datagrams} datagrams");
+        }
+    }
+
+    #[test]
+    fn joining_fills_each_datagram_up_to_the_limit_and_no_further() {
+        let lengths = [10, 10, 10, 10];
+        // Head 1 + 2 a datagram: two fit in 1 + 24 bytes, three in 37.
+        assert_eq!(join_run(lengths.iter().copied(), 25, &TEST_FRAMING), 2);
+        assert_eq!(join_run(lengths.iter().copied(), 36, &TEST_FRAMING), 2);
+        assert_eq!(join_run(lengths.iter().copied(), 37, &TEST_FRAMING), 3);
+        assert_eq!(join_run(lengths.iter().copied(), 65_507, &TEST_FRAMING), 4);
+        // Too long to join: alone.
+        assert_eq!(join_run([100, 10].into_iter(), 50, &TEST_FRAMING), 1);
+        assert_eq!(
+            join_run(std::iter::repeat_n(1, 5000), usize::MAX, &TEST_FRAMING),
+            1023
+        );
+    }
+
+    #[test]
+    fn without_a_framing_a_joining_destination_gets_one_datagram_each() {
+        let from = socket();
+        let to = socket();
+        let dest = [to.local_addr().unwrap()];
+        let data: Vec<Vec<u8>> = (0..5u8).map(|i| vec![i; 10]).collect();
+        let mut plan = SendPlan::new();
+        for i in 0..data.len() {
+            plan.push_joining(i, &dest, |_| 1000);
+        }
+        let report = Sender::new(false).send(&from, &plan, |i| &data[i]);
+        assert_eq!(report.sent, 5);
+        assert_eq!(read(&to, 5), data);
     }
 
     #[test]
