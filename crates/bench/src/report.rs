@@ -650,9 +650,9 @@ fn limits(w: &mut String, r: &Report<'_>) {
             w,
             "- Latency: waking a thread on the other core costs this machine about {:.0} µs \
              (the raw relay's p50 is {one:.1} µs with everything on one core, {two:.1} µs with \
-             the relay on the other core), more than any broker adds, so each path is compared \
-             with the raw relay in the same placement. Unpinned, the scheduler picks either \
-             placement from run to run, which is why the benchmark pins.",
+             the relay on the other core), a cost every broker pays in the same placement, so \
+             each path is compared with the raw relay in that placement. Unpinned, the scheduler \
+             picks either placement from run to run, which is why the benchmark pins.",
             two - one
         );
     }

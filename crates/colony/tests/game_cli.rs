@@ -88,6 +88,14 @@ fn a_fast_forwarded_record_appended_to_a_log_keeps_its_times_in_order() {
     let record = dir.path().join("two.clog");
     let micros = |t: SystemTime| t.duration_since(UNIX_EPOCH).unwrap().as_micros() as u64;
     let before = micros(SystemTime::now());
+    // A record an hour ahead, as a fast run leaves: each run must stamp
+    // after it, however fast or slow this build plays 5 s of game.
+    let ahead = SystemTime::now() + std::time::Duration::from_secs(3600);
+    let (mut log, _) = colony_hub::log::LogWriter::open(&record).unwrap();
+    log.append(ahead, "127.0.0.1:5000".parse().unwrap(), b"@ <x> 0\n")
+        .unwrap();
+    log.flush().unwrap();
+    drop(log);
     for _ in 0..2 {
         let path = record.to_str().unwrap();
         let (ok, out, err) = run(&[
@@ -107,12 +115,13 @@ fn a_fast_forwarded_record_appended_to_a_log_keeps_its_times_in_order() {
         .collect();
     assert!(times.len() > 20, "{} records", times.len());
     // Stamped from when each run started (they were from 1970 before), and in order
-    // across the two runs.
+    // after the record ahead and across the two runs.
     assert!(
         times[0] >= before,
         "first record at {} us, run at {before} us",
         times[0]
     );
+    assert_eq!(times[0], micros(ahead));
     assert!(
         times.windows(2).all(|w| w[0] <= w[1]),
         "times go back: {:?}",

@@ -267,11 +267,12 @@ impl LogWriter {
     }
 
     /// The latest time among the records the file already held when it was
-    /// opened (`None` for a new or empty log): a program that stamps records
-    /// with a clock of its own starts after it, so the log stays in time order.
+    /// opened (`None` for a new or empty log, or a time this system's clock
+    /// cannot hold): a program that stamps records with a clock of its own
+    /// starts after it, so the log stays in time order.
     pub fn latest(&self) -> Option<SystemTime> {
         self.latest_us
-            .map(|us| UNIX_EPOCH + std::time::Duration::from_micros(us))
+            .and_then(|us| UNIX_EPOCH.checked_add(std::time::Duration::from_micros(us)))
     }
 
     /// Rotates the log by size from now on, as `rotation` says.

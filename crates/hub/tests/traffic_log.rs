@@ -143,12 +143,23 @@ fn a_reopened_log_knows_its_latest_record() {
     assert_eq!(fresh.latest(), None, "a new log");
     drop(fresh);
     let written = write_records(&path, 20);
-    let (reopened, _) = LogWriter::open(&path).unwrap();
+    // A record from a clock that ran ahead, then one behind it again: the
+    // latest is the greatest time, not the last record's.
+    let src: SocketAddr = "127.0.0.1:5000".parse().unwrap();
     let last = written.last().unwrap().time_us;
-    assert_eq!(
-        reopened.latest(),
-        Some(UNIX_EPOCH + Duration::from_micros(last))
-    );
+    let ahead = UNIX_EPOCH + Duration::from_micros(last + 3_600_000_000);
+    let (mut log, _) = LogWriter::open(&path).unwrap();
+    log.append(ahead, src, b"@ <a> 0\n").unwrap();
+    log.append(
+        UNIX_EPOCH + Duration::from_micros(last + 1),
+        src,
+        b"@ <a> 0\n",
+    )
+    .unwrap();
+    log.flush().unwrap();
+    drop(log);
+    let (reopened, _) = LogWriter::open(&path).unwrap();
+    assert_eq!(reopened.latest(), Some(ahead));
 }
 
 #[test]

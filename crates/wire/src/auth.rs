@@ -337,9 +337,11 @@ mod tests {
         #[test]
         fn looking_at_the_end_first_changes_no_answer(
             body in "[ -~\n]{0,80}",
-            n in "[0-9x]{0,22}",
-            sep in proptest::sample::select(vec![" mac ", " mac", "mac ", "  mac ", " mac  "]),
-            mac in "[0-9a-f]{62,66}|[0-9a-fG]{64}",
+            // Mostly what a signer writes (so the rule accepts about half of
+            // the cases), the rest near misses.
+            n in "[0-9]{1,19}|[0-9x]{0,22}",
+            sep in proptest::sample::select(vec![" mac ", " mac ", " mac ", " mac", "mac ", "  mac ", " mac  "]),
+            mac in "[0-9a-f]{64}|[0-9a-f]{62,66}|[0-9a-fG]{64}",
             newline in proptest::bool::ANY,
         ) {
             let end = if newline { "\n" } else { "" };
@@ -352,6 +354,7 @@ mod tests {
             let mut signed = format!("@ <a> 0\n{}", body.replace('@', "x")).into_bytes();
             key().sign(&mut signed, 9);
             proptest::prop_assert!(strip_auth(&signed).is_some());
+            proptest::prop_assert_eq!(strip_auth(&signed), strip_auth_by_the_last_line(&signed));
         }
     }
 
