@@ -43,8 +43,15 @@ pub trait Subscriber: Send {
 
 /// The sending side.
 pub trait Publisher {
-    /// Publishes packets `first..first + n`; returns how many went out.
+    /// Publishes packets `first..first + n`; returns how many it is done
+    /// with (sent, or refused by its own socket and given up).
     fn send(&mut self, first: u64, n: usize) -> io::Result<usize>;
+    /// Packets so far that [`send`](Self::send) counted as done but its own
+    /// socket refused: they never reached the broker, so they are not the
+    /// broker's loss.
+    fn refused(&self) -> u64 {
+        0
+    }
 }
 
 /// A UDP socket subscribed to the hub. A datagram of several packets (for
@@ -117,6 +124,7 @@ pub struct UdpPub {
     hub: [SocketAddr; 1],
     packets: Vec<Packet>,
     gso: Option<(SendPlan, Sender)>,
+    refused: u64,
 }
 
 impl UdpPub {
@@ -128,6 +136,7 @@ impl UdpPub {
             hub: [hub],
             packets: vec![Packet::with(lengths); BATCH],
             gso: gso.then(|| (SendPlan::new(), Sender::new(true))),
+            refused: 0,
         })
     }
 }
@@ -157,9 +166,14 @@ impl Publisher for UdpPub {
             // turn, as the plain publisher's would-block does.
             return Ok(0);
         }
-        // A datagram refused among others is not sent again: the
-        // subscribers' counts show it as loss.
+        // A run refused among others is not sent again (later ones went,
+        // so sending it now would reorder), and not taken for the broker's loss.
+        self.refused += (report.full + report.failed) as u64;
         Ok(n)
+    }
+
+    fn refused(&self) -> u64 {
+        self.refused
     }
 }
 
@@ -382,7 +396,7 @@ pub fn run(
             })
             .collect::<io::Result<_>>()?;
 
-        let result = publish(publisher, &shared, window, warmup, duration, probe);
+        let result = publish(&mut *publisher, &shared, window, warmup, duration, probe);
         shared.stop.store(true, Ordering::SeqCst);
         for r in receivers {
             r.join()
@@ -394,6 +408,7 @@ pub fn run(
             .zip(rcvbuf_before)
             .map(|(after, before)| after.saturating_sub(before));
         fanout.delivered = shared.received();
+        fanout.sent -= publisher.refused().min(fanout.sent);
         let expected = fanout.sent * n_subs as u64;
         fanout.loss_pct = if expected == 0 {
             0.0
@@ -499,6 +514,7 @@ fn publish(
 mod tests {
     use super::*;
     use crate::hub::{subscribe_udp, HubThread};
+    use colony_hub::HubConfig;
 
     #[test]
     fn hub_fanout_counts_every_delivery() {
@@ -511,7 +527,7 @@ mod tests {
     }
 
     fn fanout_counts_every_delivery(gso: bool) {
-        let hub = HubThread::start(colony_hub::HubConfig::default(), None).unwrap();
+        let hub = HubThread::start(HubConfig::default(), None).unwrap();
         let mut subs: Vec<Box<dyn Subscriber>> = Vec::new();
         for _ in 0..3 {
             let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
@@ -540,5 +556,57 @@ mod tests {
         assert_eq!(run.subscribers, 3);
         assert!(run.sent > 0 && run.rate > 0.0);
         assert_eq!(run.delivered, run.sent * 3, "loss {} %", run.loss_pct);
+    }
+
+    /// Publishes every packet but each fourth, which it reports refused,
+    /// as a GSO publisher does with a run its socket would not take.
+    struct Refusing {
+        inner: UdpPub,
+        refused: u64,
+    }
+
+    impl Publisher for Refusing {
+        fn send(&mut self, first: u64, n: usize) -> io::Result<usize> {
+            let n = n.min(BATCH);
+            for seq in first..first + n as u64 {
+                if seq % 4 == 3 {
+                    self.refused += 1;
+                } else if self.inner.send(seq, 1)? == 0 {
+                    return Ok((seq - first) as usize);
+                }
+            }
+            Ok(n)
+        }
+
+        fn refused(&self) -> u64 {
+            self.refused
+        }
+    }
+
+    #[test]
+    fn packets_the_publisher_could_not_send_are_not_the_brokers_loss() {
+        let hub = HubThread::start(HubConfig::default(), None).unwrap();
+        let sock = UdpSocket::bind("127.0.0.1:0").unwrap();
+        sock.connect(hub.addr).unwrap();
+        subscribe_udp(&sock, payload::CHANNEL).unwrap();
+        let subs: Vec<Box<dyn Subscriber>> = vec![Box::new(UdpSub::new(sock, 0).unwrap())];
+        let mut publisher = Refusing {
+            inner: UdpPub::new(hub.addr, Lengths::Fixed, false).unwrap(),
+            refused: 0,
+        };
+        let none = || None;
+        let probe = CpuProbe {
+            broker: &none,
+            broker_in_process: true,
+            pids: &[],
+        };
+        let window = 16;
+        let (warmup, duration) = (Duration::from_millis(50), Duration::from_millis(200));
+        let run = run(&mut publisher, subs, 1, window, warmup, duration, &probe).unwrap();
+        hub.stop().unwrap();
+        assert!(publisher.refused > 0);
+        assert!(run.sent > 0);
+        assert_eq!(run.delivered, run.sent, "loss {} %", run.loss_pct);
+        assert_eq!(run.loss_pct, 0.0);
     }
 }
