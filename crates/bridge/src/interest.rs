@@ -147,6 +147,7 @@ mod tests {
             subscriptions: subs.iter().map(|s| (s.to_string(), 1000)).collect(),
             about: about.into(),
             tap: false,
+            batch: 0,
         }
     }
 

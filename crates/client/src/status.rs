@@ -100,9 +100,14 @@ pub fn format_report(r: &StatusReport) -> String {
             .iter()
             .map(|(s, left)| format!("{s} ({:.1} s)", *left as f64 / 1000.0))
             .collect();
+        let batch = if c.batch > 0 {
+            format!("[batches of up to {} B] ", c.batch)
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             out,
-            "  {:<22} idle {:>6.1} s  {}{}",
+            "  {:<22} idle {:>6.1} s  {}{batch}{}",
             c.addr,
             c.idle_ms as f64 / 1000.0,
             if c.tap { "[taps every channel] " } else { "" },
@@ -164,10 +169,15 @@ mod tests {
                 subscriptions: vec![("a".into(), 900)],
                 about: "bridge site lab\u{1b}[2J".into(),
                 tap: false,
+                batch: 1472,
             }],
             ..StatusReport::default()
         };
         let text = format_report(&r);
+        assert!(
+            text.contains("[batches of up to 1472 B] a (0.9 s)"),
+            "{text}"
+        );
         assert!(text.contains("bridge site lab?[2J"), "{text}");
         assert!(!text.contains('\u{1b}'));
     }

@@ -702,6 +702,7 @@ impl Hub {
                 subscriptions,
                 about: c.about.to_string(),
                 tap: c.tap,
+                batch: c.batch,
             });
         }
         let min_priority = if self.min_priority_lapsed(now) {

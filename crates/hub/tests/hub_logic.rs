@@ -533,3 +533,37 @@ fn a_clients_about_text_is_kept_with_its_lease_cut_to_length_and_shown_in_status
         .unwrap();
     assert_eq!(plain.about, "");
 }
+
+#[test]
+fn a_batch_size_is_kept_only_with_a_lease_shown_in_status_and_forgotten_with_it() {
+    let start = Instant::now();
+    let config = HubConfig {
+        lease: Duration::from_secs(10),
+        ..HubConfig::default()
+    };
+    let mut hub = Hub::new(config, start);
+    // Asked without a lease: nothing is kept for an unsubscribed address.
+    control(&mut hub, start, addr(1), "batch bytes 1400\n");
+    assert_eq!(hub.batch_bytes(&addr(1)), 0);
+    control(
+        &mut hub,
+        start,
+        addr(1),
+        "subscribe ch a\nbatch bytes 1400\n",
+    );
+    assert_eq!(hub.batch_bytes(&addr(1)), 1400);
+    // Past the largest datagram: the largest.
+    control(&mut hub, start, addr(1), "batch bytes 1000000\n");
+    assert_eq!(hub.batch_bytes(&addr(1)), colony_wire::MAX_PACKET);
+    control(&mut hub, start, addr(1), "status\n");
+    let r = replies(&mut hub);
+    let report = StatusReport::from_packet(&Packet::parse(&r.last().unwrap().1).unwrap()).unwrap();
+    assert_eq!(report.clients[0].batch, colony_wire::MAX_PACKET);
+    // The lease lapses, and the size with it: a new client at the address
+    // gets one packet a datagram until it asks.
+    let later = start + Duration::from_secs(30);
+    hub.handle_timeout(later);
+    assert_eq!(hub.client_count(), 0);
+    subscribe(&mut hub, later, addr(1), &["a"]);
+    assert_eq!(hub.batch_bytes(&addr(1)), 0);
+}

@@ -337,6 +337,9 @@ pub struct ClientInfo {
     pub about: String,
     /// It taps: it gets every forwarded packet ([`Request::Tap`]).
     pub tap: bool,
+    /// The most bytes of joined packets it takes in one datagram
+    /// ([`Request::Batch`]; 0: one packet each).
+    pub batch: usize,
 }
 
 /// Traffic on one channel (or subject set, written `a b`).
@@ -395,6 +398,9 @@ impl StatusReport {
             l.push(')');
             if c.tap {
                 l.push_str(" tap 1");
+            }
+            if c.batch > 0 {
+                let _ = write!(l, " batch {}", c.batch);
             }
             if !c.about.is_empty() {
                 l.push_str(" about ");
@@ -484,6 +490,10 @@ impl StatusReport {
                             None => String::new(),
                         },
                         tap: line.get("tap").is_some(),
+                        batch: match line.get("batch") {
+                            Some(_) => line.i64("batch")?.clamp(0, MAX_PACKET as i64) as usize,
+                            None => 0,
+                        },
                     })
                 }
                 _ => {}

@@ -361,6 +361,7 @@ fn sample_report() -> StatusReport {
                 subscriptions: vec![("vision_out".into(), 4_900), ("radio".into(), 10)],
                 about: "bridge site \"lab\"".into(),
                 tap: false,
+                batch: 0,
             },
             ClientInfo {
                 addr: "[::1]:40002".into(),
@@ -368,6 +369,7 @@ fn sample_report() -> StatusReport {
                 subscriptions: vec![],
                 about: String::new(),
                 tap: true,
+                batch: 1472,
             },
         ],
         channels: vec![
@@ -400,7 +402,7 @@ fn status_report_writes_one_line_per_item() {
          drop reason \"malformed\" count 4\n\
          drop reason \"below \\\"min\\\" priority\\\\\" count 7\n\
          client addr \"127.0.0.1:40001\" idle_ms 12 subs (vision_out 4900 radio 10) about \"bridge site \\\"lab\\\"\"\n\
-         client addr \"[::1]:40002\" idle_ms 0 subs () tap 1\n\
+         client addr \"[::1]:40002\" idle_ms 0 subs () tap 1 batch 1472\n\
          channel ch \"vision_out\" packets 1000 bytes 450000\n\
          channel ch \"task robot:7\" packets 3 bytes 99\n"
     );
@@ -436,6 +438,7 @@ fn huge_report(clients: usize) -> StatusReport {
                 subscriptions: (0..4).map(|s| (format!("channel_{s}"), 5_000)).collect(),
                 about: String::new(),
                 tap: i % 2 == 0,
+                batch: i % 3 * 700,
             })
             .collect(),
         channels: vec![ChannelInfo {

@@ -553,6 +553,7 @@ mod tests {
                 subscriptions: vec![],
                 about: String::new(),
                 tap: me_tapping,
+                batch: 0,
             }],
             ..StatusReport::default()
         }
