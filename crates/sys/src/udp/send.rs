@@ -701,6 +701,27 @@ mod tests {
         s
     }
 
+    /// Whether datagram `i` goes to every destination: all but ten in each
+    /// fifty, which skip the first, so the plan's groups change.
+    fn to_all(i: usize) -> bool {
+        i % 50 < 40
+    }
+
+    /// The datagrams that went to every destination.
+    fn sent_to_all(data: &[Vec<u8>]) -> Vec<Vec<u8>> {
+        (0..data.len())
+            .filter(|&i| to_all(i))
+            .map(|i| data[i].clone())
+            .collect()
+    }
+
+    /// A sending socket, `n` receiving ones and their addresses.
+    fn sockets(n: usize) -> (UdpSocket, Vec<UdpSocket>, Vec<SocketAddr>) {
+        let subs: Vec<UdpSocket> = (0..n).map(|_| socket()).collect();
+        let addrs = subs.iter().map(|s| s.local_addr().unwrap()).collect();
+        (socket(), subs, addrs)
+    }
+
     fn read(s: &UdpSocket, n: usize) -> Vec<Vec<u8>> {
         (0..n)
             .map(|_| {
@@ -725,9 +746,7 @@ mod tests {
     #[test]
     fn each_destination_gets_its_datagrams_in_order_with_and_without_gso() {
         for gso in [false, true] {
-            let from = socket();
-            let subs: Vec<UdpSocket> = (0..3).map(|_| socket()).collect();
-            let a: Vec<SocketAddr> = subs.iter().map(|s| s.local_addr().unwrap()).collect();
+            let (from, subs, a) = sockets(3);
             // Runs of equal lengths, a change of lengths, and a change of
             // destinations between them.
             let data: Vec<Vec<u8>> = (0..200u8)
@@ -735,7 +754,7 @@ mod tests {
                 .collect();
             let mut plan = SendPlan::new();
             for i in 0..data.len() {
-                if i % 50 < 40 {
+                if to_all(i) {
                     plan.push(i, &a);
                 } else {
                     plan.push(i, &a[1..]);
@@ -746,12 +765,7 @@ mod tests {
             assert_eq!(report.sent, plan.deliveries(), "gso {gso}");
             // Loopback takes GSO: it was not turned off on the way.
             assert_eq!(sender.gso(), gso);
-            let only_first: Vec<Vec<u8>> = data
-                .iter()
-                .enumerate()
-                .filter(|(i, _)| i % 50 < 40)
-                .map(|(_, d)| d.clone())
-                .collect();
+            let only_first = sent_to_all(&data);
             assert_eq!(read(&subs[0], only_first.len()), only_first, "gso {gso}");
             for s in &subs[1..] {
                 assert_eq!(read(s, data.len()), data, "gso {gso}");
@@ -801,9 +815,7 @@ mod tests {
     #[test]
     fn datagrams_of_differing_lengths_arrive_whole_and_in_order() {
         for gso in [false, true] {
-            let from = socket();
-            let subs: Vec<UdpSocket> = (0..2).map(|_| socket()).collect();
-            let a: Vec<SocketAddr> = subs.iter().map(|s| s.local_addr().unwrap()).collect();
+            let (from, subs, a) = sockets(2);
             // Lengths from 1 to 400 in a scrambled order, with equal runs
             // and one-byte tails among them.
             let mut lengths: Vec<usize> = (0..150).map(|i| 1 + (i * 97) % 400).collect();
@@ -829,9 +841,7 @@ mod tests {
 
     #[test]
     fn a_plan_larger_than_one_system_call_is_sent_whole() {
-        let from = socket();
-        let subs: Vec<UdpSocket> = (0..11).map(|_| socket()).collect();
-        let dests: Vec<SocketAddr> = subs.iter().map(|s| s.local_addr().unwrap()).collect();
+        let (from, subs, dests) = sockets(11);
         let data: Vec<Vec<u8>> = (0..100u32).map(|i| i.to_be_bytes().to_vec()).collect();
         let mut plan = SendPlan::new();
         for i in 0..data.len() {
@@ -891,9 +901,7 @@ mod tests {
     #[test]
     fn a_destination_that_joins_gets_its_datagrams_joined_and_the_rest_one_each() {
         for gso in [false, true] {
-            let from = socket();
-            let subs: Vec<UdpSocket> = (0..3).map(|_| socket()).collect();
-            let a: Vec<SocketAddr> = subs.iter().map(|s| s.local_addr().unwrap()).collect();
+            let (from, subs, a) = sockets(3);
             // Datagrams that start with 0xff, so none is taken for a head.
             let data: Vec<Vec<u8>> = (0..150u8)
                 .map(|i| [vec![0xff], vec![i; 20 + usize::from(i % 7)]].concat())
@@ -901,18 +909,13 @@ mod tests {
             let mut plan = SendPlan::new();
             for i in 0..data.len() {
                 // A change of destinations splits the joined runs.
-                let dests = if i % 50 < 40 { &a[..] } else { &a[1..] };
+                let dests = if to_all(i) { &a[..] } else { &a[1..] };
                 plan.push_joining(i, dests, |d| if *d == a[2] { 200 } else { 0 });
             }
             let mut sender = Sender::new(gso).with_framing(TEST_FRAMING);
             let report = sender.send(&from, &plan, |i| &data[i]);
             assert_eq!(report.sent, plan.deliveries(), "gso {gso}");
-            let only_first: Vec<Vec<u8>> = data
-                .iter()
-                .enumerate()
-                .filter(|(i, _)| i % 50 < 40)
-                .map(|(_, d)| d.clone())
-                .collect();
+            let only_first = sent_to_all(&data);
             assert_eq!(read(&subs[0], only_first.len()), only_first, "gso {gso}");
             assert_eq!(read(&subs[1], data.len()), data, "gso {gso}");
             // The third gets every datagram, in order, in fewer datagrams,
