@@ -1,6 +1,7 @@
-//! The walk over one datagram, shared by the fuzz target
-//! (`fuzz/fuzz_targets/parse_packet.rs`) and the plain regression tests in
-//! `crates/wire/tests/` (which include this file with `#[path]`).
+//! The walk over one datagram, shared by the fuzz targets
+//! (`fuzz/fuzz_targets/parse_packet.rs`, and `split_batch.rs` for its batch
+//! part) and the plain regression tests in `crates/wire/tests/` (which
+//! include this file with `#[path]`).
 //!
 //! It parses the bytes and then reads everything a program could read: the
 //! header, every line, every field, every nested group, every typed getter,

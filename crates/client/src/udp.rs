@@ -238,8 +238,13 @@ impl UdpClient {
         self.flush()
     }
 
-    /// When [`poll`](Self::poll) next has work to do.
+    /// When [`poll`](Self::poll) or [`recv`](Self::recv) next has work to
+    /// do: now, while packets of a datagram already received wait, since the
+    /// socket will not say so.
     pub fn next_deadline(&self) -> Option<Instant> {
+        if !self.pending.is_empty() {
+            return Some(Instant::now());
+        }
         self.session.poll_timeout()
     }
 
@@ -274,7 +279,10 @@ impl UdpClient {
     /// datagram of several packets (which the hub sends a client that asked
     /// for them with [`Request::Batch`] among its standing requests) is
     /// handed out one packet per call, so call this until it returns `None`
-    /// before waiting on the socket again.
+    /// before waiting on the socket again ([`next_deadline`](Self::next_deadline)
+    /// and [`wait`](Self::wait) say when packets are still in hand). A hub
+    /// older than `batch` refuses the whole request packet that asks for it,
+    /// standing requests and subscriptions with it.
     pub fn recv(&mut self) -> io::Result<Option<Packet<'_>>> {
         match self.next_datagram(false)? {
             Some(Ok(len)) => self.packet_at(len).map(Some),
@@ -403,9 +411,13 @@ impl UdpClient {
     }
 
     /// Blocks until a datagram is waiting or `deadline` passes (`None`: no
-    /// limit). A convenience for programs without a loop of their own; the
+    /// limit); returns at once while packets of a datagram already received
+    /// wait. A convenience for programs without a loop of their own; the
     /// library itself never calls it.
     pub fn wait(&self, deadline: Option<Instant>) -> io::Result<bool> {
+        if !self.pending.is_empty() {
+            return Ok(true);
+        }
         let timeout = deadline.map(|d| d.saturating_duration_since(Instant::now()));
         colony_sys::wait::wait_readable(&self.socket, timeout)
     }

@@ -152,3 +152,31 @@ fn a_damaged_batch_is_counted_and_yields_nothing() {
     assert_eq!(recv_all(&mut client, 1), ["@ <vision> 0\nball x 3\n"]);
     assert_eq!(client.malformed_count(), 1);
 }
+
+#[test]
+fn packets_still_in_hand_make_the_client_due_and_its_wait_return() {
+    let (hub, mut client, addr) = fake_hub();
+    let joined =
+        colony_wire::batch::join(&[b"@ <vision> 0\nball x 1\n", b"@ <vision> 0\nball x 2\n"]);
+    hub.send_to(&joined, addr).unwrap();
+    assert!(client
+        .wait(Some(Instant::now() + Duration::from_secs(30)))
+        .unwrap());
+    assert_eq!(
+        client.recv().unwrap().unwrap().to_string(),
+        "@ <vision> 0\nball x 1\n"
+    );
+    // The socket is empty now, but a packet waits in the client.
+    assert!(client.next_deadline().unwrap() <= Instant::now());
+    assert!(client
+        .wait(Some(Instant::now() + Duration::from_secs(30)))
+        .unwrap());
+    assert_eq!(
+        client.recv().unwrap().unwrap().to_string(),
+        "@ <vision> 0\nball x 2\n"
+    );
+    assert!(client.recv().unwrap().is_none());
+    assert!(!client
+        .wait(Some(Instant::now() + Duration::from_millis(20)))
+        .unwrap());
+}

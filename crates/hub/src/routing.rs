@@ -142,6 +142,9 @@ pub struct Hub {
     /// Operator actions are logged at most once a second; these were not.
     quiet_logs: u64,
     last_log: Option<Instant>,
+    /// At least the number of clients that asked for batches: counted up
+    /// with each request, counted exactly at each sweep.
+    batching: usize,
     /// Reused for every forward, so routing allocates nothing in steady state.
     dests: Vec<SocketAddr>,
     replies: VecDeque<Transmit>,
@@ -177,6 +180,7 @@ impl Hub {
             status_cache: None,
             quiet_logs: 0,
             last_log: None,
+            batching: 0,
             dests: Vec::new(),
             replies: VecDeque::new(),
             next_sweep,
@@ -208,6 +212,11 @@ impl Hub {
     /// The most bytes a datagram of joined packets to `addr` may hold, as
     /// the client asked ([`Request::Batch`]); 0 for one packet a datagram.
     pub fn batch_bytes(&self, addr: &SocketAddr) -> usize {
+        // Asked for every destination of every packet: with no client
+        // batching (the common case), no lookup.
+        if self.batching == 0 {
+            return 0;
+        }
         self.clients.get(addr).map_or(0, |c| c.batch)
     }
 
@@ -419,7 +428,8 @@ impl Hub {
                 Request::Tap => self.tap(src, proof),
                 Request::Batch(bytes) => {
                     if let Some(c) = self.clients.get_mut(&src) {
-                        c.batch = bytes.min(MAX_PACKET);
+                        c.batch = bytes;
+                        self.batching += usize::from(bytes > 0);
                     }
                 }
             }
@@ -755,6 +765,7 @@ impl Hub {
         self.lapse_min_priority(now);
         self.next_sweep = now + sweep_interval(&self.config);
         let subscribers = &mut self.subscribers;
+        let mut batching = 0;
         self.clients.retain(|addr, client| {
             client.subs.retain(|subject, expiry| {
                 let live = *expiry > now;
@@ -763,8 +774,11 @@ impl Hub {
                 }
                 live
             });
-            !client.subs.is_empty()
+            let keep = !client.subs.is_empty();
+            batching += usize::from(keep && client.batch > 0);
+            keep
         });
+        self.batching = batching;
         let clients = &self.clients;
         self.taps.retain(|a| clients.get(a).is_some_and(|c| c.tap));
     }

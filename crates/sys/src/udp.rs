@@ -11,6 +11,12 @@ use std::net::{SocketAddr, UdpSocket};
 mod send;
 pub use send::{Framing, Loss, Repeater, SendPlan, SendReport, Sender};
 
+/// The most messages one `sendmmsg` takes, and the most iovecs one message
+/// may have (`UIO_MAXIOV`); more is `EINVAL`.
+const MAX_VLEN: usize = 1024;
+/// The largest UDP payload: an IPv4 datagram's limit.
+const MAX_DATAGRAM: usize = 65_507;
+
 /// Bytes of control-message room per received datagram: one `SO_RXQ_OVFL`
 /// message (`CMSG_SPACE(4)`, 24 bytes on 64-bit Linux) with room to spare,
 /// as 8-byte words so the buffer is aligned for a `cmsghdr`.
@@ -170,9 +176,6 @@ mod imp {
     use std::mem::{size_of, zeroed};
     use std::net::{Ipv4Addr, Ipv6Addr, SocketAddrV4, SocketAddrV6};
     use std::os::fd::{AsRawFd, RawFd};
-
-    /// The most messages one `sendmmsg` takes (`UIO_MAXIOV`); more is `EINVAL`.
-    const MAX_VLEN: usize = 1024;
 
     pub(super) fn count_kernel_drops(sock: &UdpSocket) -> io::Result<()> {
         let on: libc::c_int = 1;

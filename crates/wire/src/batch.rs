@@ -43,10 +43,16 @@ fn digits(mut n: usize) -> usize {
 }
 
 /// Writes the head for packets of these lengths (`% 22 26\n`), exactly
-/// [`HEAD_BASE`] plus each length's [`head_cost`] bytes long.
+/// [`HEAD_BASE`] plus each length's [`head_cost`] bytes long. Each length is
+/// 1 to [`MAX_PACKET`](crate::MAX_PACKET): no packet is shorter or longer,
+/// and [`split`] refuses any other.
 pub fn write_head(lengths: &[usize], out: &mut Vec<u8>) {
     out.push(BATCH_MARK);
     for &len in lengths {
+        debug_assert!(
+            (1..=crate::MAX_PACKET).contains(&len),
+            "a packet of {len} bytes"
+        );
         out.push(b' ');
         let start = out.len();
         let mut n = len;
@@ -208,7 +214,7 @@ impl Iterator for Pieces<'_> {
             self.single = false;
             return Some(std::mem::replace(&mut self.body, 0..0));
         }
-        // Past the space before the next length.
+        // `split` checked the whole head, so each step reads one length.
         let rest = self.head.get(self.at + 1..)?;
         let token = rest.split(|&b| b == b' ').next()?;
         self.at += 1 + token.len();
@@ -291,10 +297,28 @@ mod tests {
 
         #[test]
         fn any_bytes_split_into_ranges_inside_them_or_are_refused(
-            head in "% [0-9 ]{0,12}\n",
-            body in proptest::collection::vec(any::<u8>(), 0..40)
+            lengths in proptest::collection::vec(1usize..30, 1..6),
+            // Mostly a body of the total the head names, sometimes off by a few.
+            off in proptest::sample::select(vec![0i64, 0, 0, -2, -1, 1, 3]),
+            noise in "[0-9 ]{0,3}",
+            fill in any::<u8>(),
         ) {
+            let mut head = Vec::new();
+            write_head(&lengths, &mut head);
+            // Now and then a damaged head: stray digits or spaces before its end.
+            if noise.len() == 3 {
+                head.pop();
+                head.extend_from_slice(noise.as_bytes());
+                head.push(b'\n');
+            }
+            let head = String::from_utf8(head).unwrap();
+            let total = lengths.iter().sum::<usize>() as i64 + off;
+            let body = vec![fill; total.max(0) as usize];
             let d = [head.as_bytes(), &body].concat();
+            if noise.len() < 3 {
+                // A head as written splits exactly when the body adds up.
+                prop_assert_eq!(split(&d).is_ok(), off == 0);
+            }
             if let Ok(p) = split(&d) {
                 let ranges: Vec<Range<usize>> = p.collect();
                 prop_assert!(!ranges.is_empty());

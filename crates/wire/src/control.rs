@@ -61,12 +61,13 @@ pub enum Request {
     /// Lasts as long as the client holds a lease; a hub lets only a few
     /// clients tap at once, and few from one host, unless a console asks.
     Tap,
-    /// Send this client several packets in one datagram, none larger than
+    /// Send this client several packets joined in one datagram of at most
     /// this many bytes ([`batch`](crate::batch) says how they are framed),
-    /// where the hub has several for it at once; 0 asks for one packet per
-    /// datagram again. A hub never holds a packet back to fill a datagram.
-    /// Lasts as long as the client holds a lease; only a client that splits
-    /// batches should ask.
+    /// where the hub has several for it at once; a packet too long to join
+    /// goes alone, as itself. 0 asks for one packet per datagram again. A hub
+    /// never holds a packet back to fill a datagram. Lasts as long as the
+    /// client holds a lease; only a client that splits batches should ask,
+    /// and a hub older than this request refuses the whole packet with it.
     Batch(usize),
 }
 

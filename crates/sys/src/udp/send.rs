@@ -11,17 +11,19 @@ use std::io;
 use std::net::{SocketAddr, UdpSocket};
 use std::ops::Range;
 
-use super::RecvBatch;
+use super::{RecvBatch, MAX_DATAGRAM, MAX_VLEN};
 
-/// What became of the deliveries of one [`Sender::send`].
+/// What became of the deliveries of one [`Sender::send`]: each of the plan's
+/// datagrams to each of its destinations, whether it went alone, as a GSO
+/// segment or joined with others.
 #[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
 pub struct SendReport {
-    /// Datagrams the kernel took.
+    /// Deliveries the kernel took.
     pub sent: usize,
-    /// Datagrams dropped because the socket's send buffer (or the device
+    /// Deliveries dropped because the socket's send buffer (or the device
     /// queue) was full: [`Loss::Full`].
     pub full: usize,
-    /// Datagrams dropped for any other reason: [`Loss::Failed`].
+    /// Deliveries dropped for any other reason: [`Loss::Failed`].
     pub failed: usize,
 }
 
@@ -57,19 +59,22 @@ pub struct Framing {
     pub base: usize,
     /// The bytes one datagram of this length adds to the head.
     pub per_part: fn(usize) -> usize,
-    /// Appends the head for datagrams of these lengths; it must be `base`
-    /// plus each length's `per_part` bytes long.
+    /// Appends the head for datagrams of these lengths (each at least 1
+    /// byte); it must be `base` plus each length's `per_part` bytes long, or
+    /// a joined datagram may pass its destination's limit.
     pub write_head: fn(&[usize], &mut Vec<u8>),
 }
 
-/// The most datagrams joined into one: with the head, one `UIO_MAXIOV`
-/// (1,024) of iovecs.
-const MAX_JOINED: usize = 1023;
+/// The most datagrams joined into one: with the head, one message's most
+/// iovecs.
+const MAX_JOINED: usize = MAX_VLEN - 1;
 
 /// How many of the leading datagrams (of these lengths, all for one
-/// destination) go out joined, in at most `max` bytes with the head: 1 when
-/// fewer than two fit, and the one goes alone, without a head.
+/// destination) go out joined, in at most `max` bytes with the head (and
+/// never more than one UDP payload): 1 when fewer than two fit, and the one
+/// goes alone, without a head.
 fn join_run(lengths: impl Iterator<Item = usize>, max: usize, framing: &Framing) -> usize {
+    let max = max.min(MAX_DATAGRAM);
     let mut total = framing.base;
     let mut n = 0;
     for len in lengths {
@@ -166,7 +171,8 @@ impl SendPlan {
         });
     }
 
-    /// How many datagrams the plan sends, counting one per destination.
+    /// How many deliveries the plan makes: each datagram once per
+    /// destination, however they are joined on the way.
     pub fn deliveries(&self) -> usize {
         self.deliveries
     }
@@ -179,7 +185,8 @@ impl SendPlan {
 
 /// Sends [`SendPlan`]s. It keeps its buffers from one send to the next and
 /// writes only the entries each send uses; it remembers when the kernel
-/// refused GSO, and sends one datagram per message from then on.
+/// refused GSO, and sends runs that would have been GSO one datagram per
+/// message from then on.
 pub struct Sender {
     gso: bool,
     framing: Option<Framing>,
@@ -327,8 +334,6 @@ mod imp {
     /// The most segments one GSO send may carry (`UDP_MAX_SEGMENTS` is 64
     /// on older kernels).
     const MAX_SEGMENTS: usize = 64;
-    /// The most payload one GSO send may carry: an IPv4 datagram's limit.
-    const MAX_GSO_BYTES: usize = 65_507;
     /// The longest datagram sent with GSO: one that fits a 1,500-byte link
     /// over IPv6. The kernel refuses segments longer than the path's MTU
     /// (`EINVAL`), which would turn GSO off for good; longer datagrams are
@@ -403,6 +408,8 @@ mod imp {
         units: Vec<Unit>,
         /// The heads of joined messages, back to back.
         heads: Vec<u8>,
+        /// One head as it is written.
+        head: Vec<u8>,
         /// Each joined message's iovecs: its head's, then its datagrams'.
         joined: Vec<libc::iovec>,
         lengths: Vec<usize>,
@@ -441,7 +448,7 @@ mod imp {
         let mut runs = 0;
         let mut joined_iovs = 0;
         for (g, group) in plan.groups.iter().enumerate() {
-            // How many of its destinations take one datagram each.
+            // Destinations that take no joined datagrams share the GSO runs.
             let plain = group.dests.clone().filter(|&d| joins(d).is_none()).count();
             let mut i = group.payloads.start;
             while plain > 0 && i < group.payloads.end {
@@ -473,8 +480,22 @@ mod imp {
                     let head = if end - i > 1 {
                         s.lengths.clear();
                         s.lengths.extend(s.iovs[i..end].iter().map(|v| v.iov_len));
+                        // Written apart and then appended: whatever the caller's
+                        // function does to its vector, the heads already
+                        // written keep their bytes and places.
+                        s.head.clear();
+                        (framing.write_head)(&s.lengths, &mut s.head);
+                        debug_assert_eq!(
+                            s.head.len(),
+                            framing.base
+                                + s.lengths
+                                    .iter()
+                                    .map(|&l| (framing.per_part)(l))
+                                    .sum::<usize>(),
+                            "a head's size differs from what its Framing says"
+                        );
                         let start = s.heads.len();
-                        (framing.write_head)(&s.lengths, &mut s.heads);
+                        s.heads.extend_from_slice(&s.head);
                         (start, s.heads.len())
                     } else {
                         (0, 0)
@@ -624,13 +645,13 @@ mod imp {
         while n < iovs.len()
             && iovs[n].iov_len == len
             && n < MAX_SEGMENTS
-            && (n + 1) * len <= MAX_GSO_BYTES
+            && (n + 1) * len <= MAX_DATAGRAM
         {
             n += 1;
         }
         if n < iovs.len() && n < MAX_SEGMENTS {
             let short = iovs[n].iov_len;
-            if (1..len).contains(&short) && n * len + short <= MAX_GSO_BYTES {
+            if (1..len).contains(&short) && n * len + short <= MAX_DATAGRAM {
                 n += 1;
             }
         }
@@ -902,9 +923,17 @@ mod tests {
     fn a_destination_that_joins_gets_its_datagrams_joined_and_the_rest_one_each() {
         for gso in [false, true] {
             let (from, subs, a) = sockets(3);
-            // Datagrams that start with 0xff, so none is taken for a head.
+            // Datagrams that start with 0xff, so none is taken for a head;
+            // one too long to join with any other goes alone.
             let data: Vec<Vec<u8>> = (0..150u8)
-                .map(|i| [vec![0xff], vec![i; 20 + usize::from(i % 7)]].concat())
+                .map(|i| {
+                    let len = if i == 17 {
+                        250
+                    } else {
+                        20 + usize::from(i % 7)
+                    };
+                    [vec![0xff], vec![i; len]].concat()
+                })
                 .collect();
             let mut plan = SendPlan::new();
             for i in 0..data.len() {
@@ -921,18 +950,20 @@ mod tests {
             // The third gets every datagram, in order, in fewer datagrams,
             // none over its 200 bytes.
             let mut got = Vec::new();
-            let mut datagrams = 0;
+            let (mut datagrams, mut alone) = (0, 0);
             while got.len() < data.len() {
                 let d = read(&subs[2], 1).remove(0);
-                assert!(d.len() <= 200, "{} bytes", d.len());
                 datagrams += 1;
                 if d[0] == 0xff {
+                    alone += 1;
                     got.push(d);
                 } else {
+                    assert!(d.len() <= 200, "{} bytes joined", d.len());
                     got.extend(unjoin(&d));
                 }
             }
             assert_eq!(got, data, "gso {gso}");
+            assert!(alone >= 1, "the long datagram was joined");
             assert!(datagrams <= data.len() / 5, "{datagrams} datagrams");
         }
     }
@@ -947,6 +978,11 @@ mod tests {
         assert_eq!(join_run(lengths.iter().copied(), 65_507, &TEST_FRAMING), 4);
         // Too long to join: alone.
         assert_eq!(join_run([100, 10].into_iter(), 50, &TEST_FRAMING), 1);
+        // Never past one UDP payload, whatever the destination asked.
+        assert_eq!(
+            join_run([40_000, 40_000].into_iter(), usize::MAX, &TEST_FRAMING),
+            1
+        );
         assert_eq!(
             join_run(std::iter::repeat_n(1, 5000), usize::MAX, &TEST_FRAMING),
             1023
