@@ -8,7 +8,6 @@ use std::time::{Duration, Instant, SystemTime};
 use crate::log::LogSink;
 use colony_sys::buffers::{self, Buffer};
 use colony_sys::udp::{self, Framing, RecvBatch, SendPlan, Sender};
-use colony_sys::wait::wait_readable;
 use colony_wire::batch;
 
 use crate::{is_bad_source, DropReason, Hub, HubConfig, Outcome, Transmit};
@@ -35,6 +34,11 @@ pub struct Server {
     lens: [usize; BATCH],
     /// The kernel's count of receive-buffer drops at the last reading.
     kernel_drops: u32,
+    /// The last round ended with the socket empty, so the next one waits.
+    drained: bool,
+    /// The socket's read timeout as last set.
+    #[cfg(target_os = "linux")]
+    read_timeout: Duration,
 }
 
 /// Datagrams taken per receive call; also the longest run one GSO send can
@@ -66,7 +70,10 @@ impl Server {
     /// Binds the hub's socket (use `127.0.0.1:7400` for a hub that only this machine reaches).
     pub fn bind(addr: impl ToSocketAddrs, config: HubConfig) -> io::Result<Server> {
         let socket = UdpSocket::bind(addr)?;
-        socket.set_nonblocking(true)?;
+        // On Linux the socket blocks (with a timeout) only where the hub
+        // waits for datagrams; every other receive and every send says
+        // MSG_DONTWAIT itself.
+        socket.set_nonblocking(!cfg!(target_os = "linux"))?;
         let got = enlarge_buffers(&socket, SOCKET_BUFFER);
         if got < SOCKET_BUFFER {
             tracing::warn!(
@@ -93,6 +100,9 @@ impl Server {
             dests: Vec::new(),
             lens: [0; BATCH],
             kernel_drops: 0,
+            drained: true,
+            #[cfg(target_os = "linux")]
+            read_timeout: Duration::ZERO,
         })
     }
 
@@ -137,16 +147,20 @@ impl Server {
     /// how many datagrams it handled.
     pub fn poll(&mut self, max_wait: Duration) -> io::Result<usize> {
         let mut handled = 0;
-        for _ in 0..BATCHES_PER_POLL {
-            let n = self.batch.recv(&self.socket)?;
+        for k in 0..BATCHES_PER_POLL {
+            let n = if k == 0 && self.drained {
+                self.recv_waiting(max_wait)?
+            } else {
+                self.batch.recv(&self.socket)?
+            };
             self.count_kernel_drops();
-            if n == 0 {
-                break;
-            }
             handled += n;
-            self.handle_batch();
-            if n < BATCH {
-                // A short batch emptied the socket.
+            if n > 0 {
+                self.handle_batch();
+            }
+            // A short batch emptied the socket: the next round waits.
+            self.drained = n < BATCH;
+            if self.drained {
                 break;
             }
         }
@@ -158,17 +172,38 @@ impl Server {
                 self.log = None;
             }
         }
-        let now = Instant::now();
-        self.hub.handle_timeout(now);
-        if handled == 0 {
-            let wait = self
-                .hub
-                .poll_timeout()
-                .saturating_duration_since(now)
-                .min(max_wait);
-            wait_readable(&self.socket, Some(wait))?;
-        }
+        self.hub.handle_timeout(Instant::now());
         Ok(handled)
+    }
+
+    /// Waits for datagrams at most `max_wait`, and no longer than the hub's
+    /// next timer, and takes those waiting.
+    fn recv_waiting(&mut self, max_wait: Duration) -> io::Result<usize> {
+        let wait = self
+            .hub
+            .poll_timeout()
+            .saturating_duration_since(Instant::now())
+            .min(max_wait);
+        if wait.is_zero() {
+            return self.batch.recv(&self.socket);
+        }
+        #[cfg(target_os = "linux")]
+        {
+            // One blocking receive, as a plain UDP relay makes, rather than
+            // a readiness wait and then a receive. The socket's timeout is
+            // set only when it must shrink or has grown past twice the
+            // wait: a timeout shorter than needed costs one early return.
+            if wait < self.read_timeout || wait > self.read_timeout * 2 {
+                self.socket.set_read_timeout(Some(wait))?;
+                self.read_timeout = wait;
+            }
+            self.batch.recv_waiting(&self.socket)
+        }
+        #[cfg(not(target_os = "linux"))]
+        {
+            colony_sys::wait::wait_readable(&self.socket, Some(wait))?;
+            self.batch.recv(&self.socket)
+        }
     }
 
     /// Counts the datagrams the kernel dropped at the socket since the last

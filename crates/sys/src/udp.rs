@@ -106,7 +106,22 @@ impl<const N: usize> RecvBatch<N> {
     pub fn recv(&mut self, sock: &UdpSocket) -> io::Result<usize> {
         self.count = 0;
         self.kernel_drops = None;
-        let n = imp::recv(sock, self)?;
+        let n = imp::recv(sock, self, false)?;
+        self.count = n;
+        Ok(n)
+    }
+
+    /// Like [`recv`](Self::recv), but waits for the first datagram as the
+    /// socket says: a blocking socket with a read timeout
+    /// ([`UdpSocket::set_read_timeout`]) waits at most that long, and then
+    /// takes whatever else is waiting without waiting more (Linux's
+    /// `MSG_WAITFORONE`). Returns 0 when the timeout passes or a signal comes.
+    /// One system call where a readiness wait and a receive take two.
+    #[cfg(target_os = "linux")]
+    pub fn recv_waiting(&mut self, sock: &UdpSocket) -> io::Result<usize> {
+        self.count = 0;
+        self.kernel_drops = None;
+        let n = imp::recv(sock, self, true)?;
         self.count = n;
         Ok(n)
     }
@@ -227,6 +242,7 @@ mod imp {
     pub(super) fn recv<const N: usize>(
         sock: &UdpSocket,
         batch: &mut RecvBatch<N>,
+        wait: bool,
     ) -> io::Result<usize> {
         let slot = batch.slot;
         let s = &mut batch.scratch;
@@ -266,7 +282,11 @@ mod imp {
                 sock.as_raw_fd(),
                 s.hdrs.as_mut_ptr(),
                 count as libc::c_uint,
-                libc::MSG_DONTWAIT,
+                if wait {
+                    libc::MSG_WAITFORONE
+                } else {
+                    libc::MSG_DONTWAIT
+                },
                 std::ptr::null_mut(),
             )
         };
@@ -463,6 +483,7 @@ mod imp {
     pub(super) fn recv<const N: usize>(
         sock: &UdpSocket,
         batch: &mut RecvBatch<N>,
+        _wait: bool,
     ) -> io::Result<usize> {
         let mut n = 0;
         while n < N {
@@ -575,6 +596,24 @@ mod tests {
         let mut batch = RecvBatch::<2>::new(16);
         recv_all(&b, &mut batch, 1);
         assert_eq!(batch.get(0), [7; 16]);
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_waiting_receive_ends_at_the_timeout_or_takes_all_that_waits() {
+        let a = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let b = UdpSocket::bind("127.0.0.1:0").unwrap();
+        b.set_read_timeout(Some(Duration::from_millis(20))).unwrap();
+        let mut batch = RecvBatch::<8>::new(16);
+        assert_eq!(batch.recv_waiting(&b).unwrap(), 0);
+        let to = b.local_addr().unwrap();
+        for d in [&b"one"[..], b"two", b"three"] {
+            a.send_to(d, to).unwrap();
+        }
+        // Loopback queues each datagram before send_to returns: the first
+        // is waited for, the rest are taken with it.
+        assert_eq!(batch.recv_waiting(&b).unwrap(), 3);
+        assert_eq!(batch.get(2), b"three");
     }
 
     #[test]
