@@ -16,9 +16,11 @@ use colony_wire::batch;
 
 use crate::session::{ClientConfig, HubState, Incoming, Session};
 
-/// Datagrams (and errors) one receive call takes in before it returns as if nothing were
-/// waiting: a flood of junk, replies or forged ICMP errors from the hub's address must not
-/// hold the application here, away from its lease refreshes. The socket stays readable.
+/// Datagrams and errors (and malformed packets of a batch) one receive call takes in before
+/// it returns as if nothing were waiting: a flood of junk, replies or forged ICMP errors from the hub's
+/// address, or one forged batch of thousands of junk packets, must not hold the application
+/// here, away from its lease refreshes. The socket stays readable, and `wait` returns at once
+/// while packets of a batch are still in hand.
 const RECV_BUDGET: u32 = 256;
 
 /// Something the client was asked to do that cannot be done.
@@ -78,6 +80,8 @@ pub struct UdpClient {
     /// The packets of the datagram in `buf` not yet handed out: more than
     /// one when the hub joined several ([`Request::Batch`]).
     pending: VecDeque<std::ops::Range<usize>>,
+    /// The datagram in `buf` held several packets.
+    in_batch: bool,
     malformed: u64,
     /// Datagrams lost to errors the network reported (see `udp::is_transient`).
     network_errors: AtomicU64,
@@ -134,6 +138,7 @@ impl UdpClient {
             session: Session::new(config, Instant::now()),
             buf: vec![0u8; MAX_PACKET + 1].into_boxed_slice(),
             pending: VecDeque::new(),
+            in_batch: false,
             malformed: 0,
             network_errors: AtomicU64::new(0),
         })
@@ -319,9 +324,25 @@ impl UdpClient {
                 Some(Received::Data(at)) if Packet::parse(&self.buf[at.clone()]).is_ok() => {
                     return Ok(Some(Ok(at)))
                 }
-                Some(Received::Data(_)) => self.malformed += 1,
+                Some(Received::Data(_)) => {
+                    if !self.count_malformed(&mut budget) {
+                        return Ok(None);
+                    }
+                }
             }
         }
+    }
+
+    /// Counts a packet that did not parse; one of a batch is charged to the
+    /// call's budget too (a datagram of one packet was charged as it came
+    /// in). False when the budget is spent.
+    fn count_malformed(&mut self, budget: &mut u32) -> bool {
+        self.malformed += 1;
+        if !self.in_batch {
+            return true;
+        }
+        *budget = budget.saturating_sub(1);
+        *budget > 0
     }
 
     fn packet_at(&mut self, at: std::ops::Range<usize>) -> io::Result<Packet<'_>> {
@@ -374,7 +395,11 @@ impl UdpClient {
                     return Ok(Some(Received::Reply(r)));
                 }
                 Ok(Incoming::Packet(_)) => continue,
-                Err(_) => self.malformed += 1,
+                Err(_) => {
+                    if !self.count_malformed(budget) {
+                        return Ok(None);
+                    }
+                }
             }
         }
     }
@@ -403,8 +428,10 @@ impl UdpClient {
             match batch::split(&self.buf[..len]) {
                 Ok(pieces) => {
                     self.pending.extend(pieces);
+                    self.in_batch = self.pending.len() > 1;
                     return Ok(true);
                 }
+                // The datagram was charged to the budget already.
                 Err(_) => self.malformed += 1,
             }
         }

@@ -180,3 +180,29 @@ fn packets_still_in_hand_make_the_client_due_and_its_wait_return() {
         .wait(Some(Instant::now() + Duration::from_millis(20)))
         .unwrap());
 }
+
+#[test]
+fn a_batch_of_thousands_of_junk_packets_cannot_hold_a_receive_call() {
+    let (hub, mut client, addr) = fake_hub();
+    // 5,000 one-byte packets that do not parse, in one forged datagram.
+    let junk: Vec<&[u8]> = vec![b"x"; 5000];
+    hub.send_to(&colony_wire::batch::join(&junk), addr).unwrap();
+    hub.send_to(b"@ <vision> 0\nball x 1\n", addr).unwrap();
+    assert!(client
+        .wait(Some(Instant::now() + Duration::from_secs(30)))
+        .unwrap());
+    // The call gives up after its budget, junk packets included, and says
+    // there is more in hand.
+    assert!(client.recv().unwrap().is_none());
+    assert!(client.malformed_count() < 5000);
+    assert!(client.wait(Some(Instant::now())).unwrap());
+    let mut got = Vec::new();
+    for _ in 0..100 {
+        if let Some(p) = client.recv().unwrap() {
+            got.push(p.to_string());
+            break;
+        }
+    }
+    assert_eq!(got, ["@ <vision> 0\nball x 1\n"]);
+    assert_eq!(client.malformed_count(), 5000);
+}
