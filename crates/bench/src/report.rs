@@ -534,7 +534,7 @@ pub fn render(r: &Report<'_>) -> String {
             );
         }
         // Work per packet, which outside load disturbs far less than rates.
-        let work = |pick: &dyn Fn(&Row) -> Option<&Run>| -> Option<String> {
+        let work = |pick: Pick<'_>| -> Option<String> {
             let v = r
                 .fanout
                 .iter()
