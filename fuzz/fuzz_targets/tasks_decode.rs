@@ -1,5 +1,5 @@
-//! Reads arbitrary datagrams as MURDOCH messages; whatever reads must write
-//! back and read again to the same message.
+//! Reads arbitrary datagrams as MURDOCH messages, sealed or not; whatever reads
+//! must write back and read again to the same message.
 //!
 //! `cargo +nightly fuzz run tasks_decode` (from the repository root); the seeds
 //! in `fuzz/corpus/tasks_decode/` also run in plain `cargo test -p colony-proto`
@@ -11,6 +11,12 @@ use colony_proto::murdoch::Message;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
+    // A seal that checks out reads as the message without it.
+    if let Ok(packet) = colony_wire::Packet::parse(data) {
+        if let Ok(signed) = Message::open(&packet) {
+            assert_eq!(Message::decode(&packet), Ok(signed.message));
+        }
+    }
     if let Ok(message) = Message::decode_bytes(data) {
         let bytes = message
             .encode()

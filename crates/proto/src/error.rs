@@ -48,6 +48,9 @@ pub enum DecodeError {
     /// A header whose subjects do not fit the message.
     #[error("line 1 (header): {0}")]
     Header(String),
+    /// A message that must be sealed is not, or its seal does not check out.
+    #[error("seal: {0}")]
+    Seal(#[from] colony_wire::seal::SealError),
 }
 
 /// What a viewer's decoder (`skim`) read: the message as far as it could be read, and how many

@@ -17,6 +17,12 @@ fn corpus_dir() -> PathBuf {
 
 /// The fuzz target's body.
 fn walk(bytes: &[u8]) -> Result<Message, DecodeError> {
+    // A seal that checks out reads as the message without it.
+    if let Ok(packet) = colony_wire::Packet::parse(bytes) {
+        if let Ok(signed) = Message::open(&packet) {
+            assert_eq!(Message::decode(&packet).as_ref(), Ok(&signed.message));
+        }
+    }
     let message = Message::decode_bytes(bytes)?;
     let again = message
         .encode()
@@ -34,6 +40,7 @@ fn variant(e: &DecodeError) -> &'static str {
         DecodeError::UnknownMessage { .. } => "unknown-message",
         DecodeError::Bad { .. } | DecodeError::BadField { .. } => "bad",
         DecodeError::Header(_) => "header",
+        DecodeError::Seal(_) => "seal",
     }
 }
 

@@ -61,6 +61,8 @@ pub mod request;
 pub mod robot;
 #[cfg(feature = "field")]
 pub mod room;
+#[cfg(test)]
+mod test_keys;
 mod user;
 
 pub use agent::{Agent, AgentConfig, AgentEvent, AgentMode, AgentStats, StopReason};

@@ -7,7 +7,6 @@ use std::ops::ControlFlow;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
-use colony_client::UdpClient;
 use colony_node::{Link, LiveError};
 
 use crate::announcer::{AnnouncerEvent, AuctionConfig};
@@ -31,11 +30,13 @@ pub enum Outcome {
     Interrupted,
 }
 
-/// Introduces `spec` as `announcer` through the hub at `hub`, retrying an
-/// unachievable task with backoff until `deadline`, and returns how it ended;
-/// each step of its auctions goes to `say`.
+/// Introduces `spec` as `announcer` through the hub at `hub` (signing with
+/// `key` when there is one), retrying an unachievable task with backoff until
+/// `deadline`, and returns how it ended; each step of its auctions goes to `say`.
+#[allow(clippy::too_many_arguments)]
 pub fn introduce(
     hub: SocketAddr,
+    key: Option<&colony_wire::auth::Key>,
     announcer: Token,
     spec: TaskSpec,
     auction: AuctionConfig,
@@ -44,7 +45,7 @@ pub fn introduce(
     mut say: impl FnMut(&str),
 ) -> Result<Outcome, LiveError> {
     let epoch = Instant::now();
-    let mut link = Link::new(UdpClient::connect(hub)?, epoch);
+    let mut link = Link::new(crate::robot::connect(hub, key)?, epoch);
     let backoff = Backoff {
         initial: Duration::from_millis(500),
         max: Duration::from_secs(4),

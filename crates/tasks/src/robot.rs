@@ -18,6 +18,7 @@ use colony_node::{Link, LiveError};
 use colony_proto::radio::{self, RadioCommand};
 use colony_proto::swarm::{vision, VisionAssembler, VISION};
 use colony_proto::{wrap_angle, Pose, Vec2, WheelCommand};
+use colony_wire::auth::Key;
 use colony_wire::{Priority, Request};
 
 use crate::agent::{Agent, AgentConfig, AgentEvent, StopReason};
@@ -54,6 +55,9 @@ pub struct RobotConfig {
     pub body: Option<u32>,
     /// The agent's timings.
     pub agent: AgentConfig,
+    /// The hub's shared key, for a hub that asks every packet to be signed
+    /// (`--auth-all`).
+    pub key: Option<Key>,
 }
 
 impl RobotConfig {
@@ -67,6 +71,7 @@ impl RobotConfig {
             charge_for: Duration::from_secs(3),
             faults: Vec::new(),
             body: None,
+            key: None,
             agent: AgentConfig::default(),
         }
     }
@@ -118,8 +123,8 @@ struct Driver {
 }
 
 impl Driver {
-    fn new(hub: SocketAddr, id: u32) -> Result<Driver, LiveError> {
-        let mut eyes = UdpClient::connect(hub)?;
+    fn new(hub: SocketAddr, id: u32, key: Option<&Key>) -> Result<Driver, LiveError> {
+        let mut eyes = connect(hub, key)?;
         eyes.subscribe(VISION)?;
         Ok(Driver {
             id,
@@ -249,7 +254,7 @@ pub fn run(
     mut say: impl FnMut(&str),
 ) -> Result<RobotSummary, LiveError> {
     let epoch = Instant::now();
-    let mut link = Link::new(UdpClient::connect(hub)?, epoch);
+    let mut link = Link::new(connect(hub, config.key.as_ref())?, epoch);
     let mut agent = Agent::new(
         config.name.clone(),
         config.resources.clone(),
@@ -267,7 +272,10 @@ pub fn run(
     let mut busy_until: Option<Instant> = None;
     let mut charging_until: Option<Instant> = None;
     let mut summary = RobotSummary::default();
-    let mut driver = config.body.map(|id| Driver::new(hub, id)).transpose()?;
+    let mut driver = config
+        .body
+        .map(|id| Driver::new(hub, id, config.key.as_ref()))
+        .transpose()?;
     let stamp = |now: Instant| format!("{:7.2}", now.duration_since(epoch).as_secs_f64());
     say(&format!(
         "{} {} joins with {} (battery {:.2})",
@@ -441,4 +449,16 @@ pub fn run(
         link.flush(&mut agent)?;
     }
     Ok(summary)
+}
+
+/// A client of the hub at `hub`, signing with `key` when there is one.
+pub(crate) fn connect(
+    hub: SocketAddr,
+    key: Option<&Key>,
+) -> Result<UdpClient, colony_client::ClientError> {
+    let mut client = UdpClient::connect(hub)?;
+    if let Some(key) = key {
+        client.set_key(key.clone());
+    }
+    Ok(client)
 }

@@ -351,9 +351,11 @@ mod tests {
     }
 
     fn say(u: &mut UserAgent, now: Time, task: u64, m: Negotiation) {
+        let by = crate::test_keys::speaker(&m, &token("user")).to_owned();
         let bytes = m
             .encode(&negotiation_subject(&token("user"), task, 1))
             .unwrap();
+        let bytes = crate::test_keys::seal_as(&by, bytes);
         u.handle_packet(now, &Packet::parse(&bytes).unwrap());
     }
 

@@ -67,6 +67,28 @@
 //! fault ([`DecodeError`]) and never panics (a property
 //! test and a fuzz target hold it to that); a refused packet changes no
 //! auction.
+//!
+//! # Who may say what
+//!
+//! Every message is sealed ([`colony_wire::seal`]: a last line `seal n N key K
+//! sig S`, an Ed25519 signature under a key each agent and announcer makes for
+//! itself), and agents and announcers act only on sealed messages
+//! ([`Message::open`]). A task's messages are bound to their senders' keys:
+//! - the key that sealed an announcement is the task's announcer: only it may
+//!   award, cancel, renew as the announcer or call the task unachievable;
+//! - the key that sealed a bidder's first bid in an auction is that bidder:
+//!   only it may bid again, decline, acknowledge, renew, finish or abandon
+//!   under that bidder's token in that auction;
+//! - a sealed message is taken once, and only after every earlier one from its
+//!   key ([`colony_wire::seal::Counter`]), so a copy sent again keeps no task
+//!   alive;
+//! - a bid's score lies within what the task's metrics can add up to
+//!   ([`TaskSpec::score_bounds`]).
+//!
+//! Seals say who spoke, not who may take part: on an open hub anyone can
+//! announce tasks or bid for them under a token of their own. A hub run with
+//! `--auth-all` (and every agent and announcer with its `--key`) admits only
+//! holders of its key.
 
 pub mod announce;
 pub mod error;
@@ -85,9 +107,12 @@ pub use resource::{
     negotiation_subject, ResourceError, ResourceSet, IDLE, MAX_TASK_RESOURCES, NEGOTIATION_PREFIX,
 };
 pub use robot::{RobotMode, RobotReport, ROBOTS};
-pub use task::{MetricTerm, Param, ParamValue, SpecError, TaskSpec, MAX_METRICS, MAX_PARAMS};
+pub use task::{
+    MetricTerm, Param, ParamValue, SpecError, TaskSpec, MAX_METRICS, MAX_METRIC_VALUE, MAX_PARAMS,
+};
 pub use token::{Token, TokenError, MAX_TOKEN_LEN};
 
+use colony_wire::seal::{self, Identity, PublicKey};
 use colony_wire::{Packet, Subject};
 
 use crate::DecodeError;
@@ -109,6 +134,17 @@ const NEGOTIATION_LABELS: [&str; 9] = [
     "unachievable",
 ];
 
+/// A message whose seal checked out, with who sealed it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Signed {
+    /// What it says.
+    pub message: Message,
+    /// The key that sealed it: who said it.
+    pub key: PublicKey,
+    /// Its count among the messages that key sealed.
+    pub n: u64,
+}
+
 /// Any MURDOCH message.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Message {
@@ -126,11 +162,35 @@ pub enum Message {
 }
 
 impl Message {
+    /// Reads a sealed message and checks its seal: what an agent or an
+    /// announcer acts on. An unsealed packet is refused.
+    pub fn open(packet: &Packet<'_>) -> Result<Signed, DecodeError> {
+        let sealed = seal::open(packet.as_str().as_bytes())?;
+        let message = Message::decode_unsealed(&Packet::parse(sealed.body)?)?;
+        Ok(Signed {
+            message,
+            key: sealed.key,
+            n: sealed.n,
+        })
+    }
+
+    /// Reads a message, sealed or not, without checking a seal: for watchers
+    /// that only show what was said (the monitor's task board).
+    pub fn decode(packet: &Packet<'_>) -> Result<Message, DecodeError> {
+        let bytes = packet.as_str().as_bytes();
+        let body = seal::strip(bytes);
+        if body.len() == bytes.len() {
+            Message::decode_unsealed(packet)
+        } else {
+            Message::decode_unsealed(&Packet::parse(body)?)
+        }
+    }
+
     /// Reads a message from a packet: an announcement if its first line is
     /// `task`, a robot's report if it is `robot`, otherwise a negotiation message, whose header must be a single
     /// `murdoch.` subject. Lines after a negotiation message's first are ignored,
     /// so later versions can add some.
-    pub fn decode(packet: &Packet<'_>) -> Result<Message, DecodeError> {
+    fn decode_unsealed(packet: &Packet<'_>) -> Result<Message, DecodeError> {
         let first = packet.lines().next().ok_or(DecodeError::Empty)?;
         if first.label() == "task" {
             return Announcement::decode(packet).map(Message::Announce);
@@ -178,8 +238,75 @@ impl Message {
         }
     }
 
-    /// Parses and reads a datagram.
+    /// The packet, sealed by `identity`.
+    pub fn seal(&self, identity: &mut Identity) -> Result<Vec<u8>, EncodeError> {
+        Ok(identity.sealed(self.encode()?))
+    }
+
+    /// Parses and reads a datagram (its seal unchecked, as [`Message::decode`]).
     pub fn decode_bytes(bytes: &[u8]) -> Result<Message, DecodeError> {
         Message::decode(&Packet::parse(bytes)?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn done() -> Message {
+        Message::Negotiation {
+            subject: negotiation_subject(&Token::new("u").unwrap(), 17, 1),
+            message: Negotiation::Done {
+                task: 17,
+                bidder: Token::new("r2").unwrap(),
+            },
+        }
+    }
+
+    #[test]
+    fn a_sealed_message_opens_with_its_key_and_reads_as_before() {
+        let mut id = Identity::from_seed([7; 32]);
+        let bytes = done().seal(&mut id).unwrap();
+        let packet = Packet::parse(&bytes).unwrap();
+        let signed = Message::open(&packet).unwrap();
+        assert_eq!(signed.message, done());
+        assert_eq!((signed.key, signed.n), (id.public(), 1));
+        // Watchers read it as any other message.
+        assert_eq!(Message::decode(&packet).unwrap(), done());
+    }
+
+    #[test]
+    fn an_unsealed_or_altered_message_does_not_open() {
+        let plain = done().encode().unwrap();
+        let packet = Packet::parse(&plain).unwrap();
+        assert!(matches!(Message::open(&packet), Err(DecodeError::Seal(_))));
+        assert_eq!(Message::decode(&packet).unwrap(), done());
+        let mut id = Identity::from_seed([8; 32]);
+        let sealed = String::from_utf8(done().seal(&mut id).unwrap()).unwrap();
+        let forged = sealed.replace("bidder r2", "bidder r3");
+        let packet = Packet::parse(forged.as_bytes()).unwrap();
+        assert!(matches!(Message::open(&packet), Err(DecodeError::Seal(_))));
+    }
+
+    #[test]
+    fn a_sealed_announcement_reads_with_its_params() {
+        let ann = Announcement {
+            spec: TaskSpec::new("goto", "mobile".parse().unwrap())
+                .length(10.0)
+                .param("x", 3.0)
+                .metric("distance", 1.0),
+            id: 4,
+            negotiation: negotiation_subject(&Token::new("u").unwrap(), 4, 1),
+            deadline: std::time::Duration::from_millis(200),
+            announcer: Token::new("u").unwrap(),
+        };
+        let mut id = Identity::from_seed([9; 32]);
+        let bytes = Message::Announce(ann.clone()).seal(&mut id).unwrap();
+        let signed = Message::open(&Packet::parse(&bytes).unwrap()).unwrap();
+        assert_eq!(signed.message, Message::Announce(ann.clone()));
+        assert_eq!(
+            Message::decode_bytes(&bytes).unwrap(),
+            Message::Announce(ann)
+        );
     }
 }

@@ -10,6 +10,10 @@ use super::{ResourceSet, MAX_TASK_RESOURCES};
 pub const MAX_PARAMS: usize = 32;
 /// The most `metric` lines one task may carry.
 pub const MAX_METRICS: usize = 16;
+/// The largest value any metric takes: metrics are costs, from 0 up to this
+/// (a distance across ten kilometres in centimetres, a battery's whole
+/// charge), so a bid's score lies within [`TaskSpec::score_bounds`].
+pub const MAX_METRIC_VALUE: f64 = 1e6;
 
 /// A task parameter's value: a number (a goal's coordinate) or text (a colour).
 #[derive(Debug, Clone, PartialEq)]
@@ -171,6 +175,22 @@ impl TaskSpec {
         })
     }
 
+    /// The lowest and highest score a bid for this task can carry: each
+    /// metric between 0 and [`MAX_METRIC_VALUE`], times its weight. A bid
+    /// outside them comes from no robot scoring this task, and is ignored.
+    pub fn score_bounds(&self) -> (f64, f64) {
+        self.metrics
+            .iter()
+            .map(|m| m.weight * MAX_METRIC_VALUE)
+            .fold((0.0, 0.0), |(lo, hi), w| (lo + w.min(0.0), hi + w.max(0.0)))
+    }
+
+    /// Whether `score` is one a robot can bid for this task.
+    pub fn admits_score(&self, score: f64) -> bool {
+        let (lo, hi) = self.score_bounds();
+        (lo..=hi).contains(&score)
+    }
+
     /// Checks everything a reader would refuse.
     pub fn validate(&self) -> Result<(), SpecError> {
         let name = |what, n: &str| {
@@ -267,6 +287,22 @@ mod tests {
 
     fn look() -> TaskSpec {
         TaskSpec::new("look", "camera".parse().unwrap()).length(3.0)
+    }
+
+    #[test]
+    fn a_score_no_metric_can_add_up_to_is_not_admitted() {
+        let spec = look().metric("distance", 1.0).metric("battery", 200.0);
+        assert_eq!(spec.score_bounds(), (0.0, 201.0 * MAX_METRIC_VALUE));
+        assert!(spec.admits_score(182.5));
+        assert!(!spec.admits_score(-1e12));
+        assert!(!spec.admits_score(-0.5));
+        assert!(!spec.admits_score(f64::NAN));
+        let mixed = look().metric("distance", 1.0).metric("battery", -2.0);
+        assert!(mixed.admits_score(-1.0));
+        assert!(!mixed.admits_score(-2.0 * MAX_METRIC_VALUE - 1.0));
+        // No metrics: every robot scores 0.
+        assert!(look().admits_score(0.0));
+        assert!(!look().admits_score(1.0));
     }
 
     #[test]

@@ -3,9 +3,9 @@
 
 use colony_wire::Subject;
 
-use super::{Agent, AgentEvent, AgentMode, Job, Pending};
+use super::{Agent, AgentEvent, AgentMode, AnnouncerKey, Job, Pending};
 use crate::metric::RobotView;
-use crate::protocol::{Announcement, Bid, Negotiation, MAX_MAGNITUDE};
+use crate::protocol::{Announcement, Bid, Negotiation};
 use colony_node::Time;
 
 impl Agent {
@@ -24,7 +24,7 @@ impl Agent {
 
     /// Hears a task: bids for it if it is free, capable, charged enough and
     /// can score it.
-    pub(super) fn on_announce(&mut self, now: Time, ann: Announcement) {
+    pub(super) fn on_announce(&mut self, now: Time, ann: Announcement, announcer: AnnouncerKey) {
         if self.mode != AgentMode::Idle
             || !ann.spec.resources.is_subset(&self.resources)
             || self.pending.contains_key(&ann.negotiation)
@@ -52,7 +52,16 @@ impl Agent {
             resources: &self.resources,
         };
         let score = match self.metrics.score(&ann.spec, &view) {
-            Ok(s) => s.clamp(-MAX_MAGNITUDE, MAX_MAGNITUDE),
+            // A score outside what the task's metrics can add up to would be
+            // taken for a forgery by every listener.
+            Ok(s) if !ann.spec.admits_score(s) => {
+                let e = skip(format!(
+                    "score {s} is outside what its metrics can add up to"
+                ));
+                self.push_event(e);
+                return;
+            }
+            Ok(s) => s,
             Err(e) => {
                 let e = skip(e.to_string());
                 self.push_event(e);
@@ -72,6 +81,7 @@ impl Agent {
             Pending {
                 close_at: now + ann.deadline + self.config.award_grace,
                 ann,
+                announcer,
                 best: bid,
             },
         );
@@ -103,6 +113,7 @@ impl Agent {
         self.stats.started += 1;
         self.job = Some(Job {
             ann: p.ann.clone(),
+            announcer: p.announcer,
             last_heard: now,
             next_renew: now + self.config.renew_interval,
             progress: 0.0,

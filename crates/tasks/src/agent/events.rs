@@ -63,8 +63,12 @@ pub struct AgentStats {
     pub stopped: u64,
     /// Trips to the charger.
     pub charges: u64,
-    /// Packets refused as malformed.
+    /// Packets refused as malformed or unsealed.
     pub rejected: u64,
+    /// Sealed messages refused as forged: an announcer's message not sealed
+    /// by the task's announcer (or a copy of one taken before), a bid in this
+    /// robot's name from another key, a score no robot can reach.
+    pub forged: u64,
 }
 
 /// The robot's state: idle (listening, perhaps bidding), working, or

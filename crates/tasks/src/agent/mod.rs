@@ -7,20 +7,44 @@ mod events;
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use colony_proto::Vec2;
+use colony_wire::seal::{Counter, Identity, PublicKey};
 use colony_wire::{Packet, Subject};
 
 pub use config::AgentConfig;
 pub use events::{AgentEvent, AgentMode, AgentStats, StopReason};
 
 use crate::metric::Metrics;
-use crate::protocol::{Announcement, Bid, Message, Negotiation, RobotReport};
+use crate::protocol::{Announcement, Bid, Message, Negotiation, RobotReport, Signed};
 use crate::protocol::{ResourceSet, Token, IDLE};
 use colony_node::Node;
 use colony_node::Time;
 
+/// The key that sealed a task's announcement, and the count of its last
+/// message taken: only it speaks for the task's announcer.
+#[derive(Debug, Clone, Copy)]
+struct AnnouncerKey {
+    key: PublicKey,
+    heard: Counter,
+}
+
+impl AnnouncerKey {
+    fn new(key: PublicKey, n: u64) -> AnnouncerKey {
+        let mut heard = Counter::default();
+        heard.accept(n);
+        AnnouncerKey { key, heard }
+    }
+
+    /// Whether a message sealed by `key` with count `n` is the announcer's,
+    /// and newer than any taken before (a copy sent again is not).
+    fn speaks(&mut self, key: PublicKey, n: u64) -> bool {
+        key == self.key && self.heard.accept(n)
+    }
+}
+
 #[derive(Debug)]
 struct Pending {
     ann: Announcement,
+    announcer: AnnouncerKey,
     best: Bid,
     close_at: Time,
 }
@@ -28,6 +52,7 @@ struct Pending {
 #[derive(Debug)]
 struct Job {
     ann: Announcement,
+    announcer: AnnouncerKey,
     last_heard: Time,
     next_renew: Time,
     progress: f64,
@@ -55,6 +80,8 @@ const MAX_EVENTS: usize = 1024;
 #[derive(Debug)]
 pub struct Agent {
     id: Token,
+    /// The key it seals every message with.
+    identity: Identity,
     resources: ResourceSet,
     config: AgentConfig,
     metrics: Metrics,
@@ -64,7 +91,7 @@ pub struct Agent {
     mode: AgentMode,
     pending: BTreeMap<Subject, Pending>,
     job: Option<Job>,
-    lingering: BTreeMap<Subject, (u64, Time)>,
+    lingering: BTreeMap<Subject, (u64, Time, AnnouncerKey)>,
     next_check: Time,
     /// When the next periodic report is due (`None`: the robot never reports).
     next_report: Option<Time>,
@@ -76,10 +103,12 @@ pub struct Agent {
 
 impl Agent {
     /// A robot called `id` (used only to sign its bids) with these resources,
-    /// idle, full, at no known position, with the standard metrics.
+    /// idle, full, at no known position, with the standard metrics, sealing
+    /// its messages with a key of its own.
     pub fn new(id: Token, resources: ResourceSet, config: AgentConfig, now: Time) -> Agent {
         let mut agent = Agent {
             id,
+            identity: Identity::generate(),
             resources,
             next_check: now + config.battery_check,
             next_report: config.report_interval.map(|_| now),
@@ -99,6 +128,17 @@ impl Agent {
         };
         agent.refresh_subs();
         agent
+    }
+
+    /// Seals with this key instead (a run that must repeat byte for byte).
+    pub fn with_identity(mut self, identity: Identity) -> Agent {
+        self.identity = identity;
+        self
+    }
+
+    /// The key that names it on the wire.
+    pub fn key(&self) -> PublicKey {
+        self.identity.public()
     }
 
     /// Replaces the metrics this robot knows.
@@ -191,7 +231,7 @@ impl Agent {
         );
         self.lingering.insert(
             job.ann.negotiation.clone(),
-            (job.ann.id, now + self.config.linger),
+            (job.ann.id, now + self.config.linger, job.announcer),
         );
         self.stats.finished += 1;
         self.become_idle(now);
@@ -282,7 +322,7 @@ impl Agent {
 
     fn send(&mut self, subject: &Subject, message: &Negotiation) {
         match message.encode(subject) {
-            Ok(p) => self.outbox.push_back(p),
+            Ok(p) => self.outbox.push_back(self.identity.sealed(p)),
             Err(e) => tracing::warn!(agent = %self.id, error = %e, "could not write a message"),
         }
     }
@@ -347,18 +387,35 @@ impl Agent {
                 .map(|j| (j.ann.id, j.ann.spec.name.clone())),
         };
         match report.encode() {
-            Ok(p) => self.outbox.push_back(p),
+            Ok(p) => self.outbox.push_back(self.identity.sealed(p)),
             Err(e) => tracing::warn!(agent = %self.id, error = %e, "could not write a report"),
         }
     }
 
-    fn on_negotiation(&mut self, now: Time, subject: Subject, msg: Negotiation) {
+    fn on_negotiation(
+        &mut self,
+        now: Time,
+        subject: Subject,
+        msg: Negotiation,
+        from: (PublicKey, u64),
+    ) {
+        let (key, n) = from;
+        let own = self.identity.public();
+        if key == own {
+            return; // its own, heard back
+        }
         if let Some(p) = self.pending.get_mut(&subject) {
             if msg.task() != p.ann.id {
                 return;
             }
             match msg {
                 Negotiation::Bid(b) => {
+                    // A bid in this robot's name from another key, or with a
+                    // score no robot can reach, is a forgery.
+                    if b.bidder == self.id || !p.ann.spec.admits_score(b.score) {
+                        self.stats.forged += 1;
+                        return;
+                    }
                     if b.beats(&p.best) {
                         p.best = b;
                     }
@@ -367,6 +424,13 @@ impl Agent {
                         self.pending.remove(&subject);
                         self.refresh_subs();
                     }
+                }
+                Negotiation::Award { .. }
+                | Negotiation::Cancel { .. }
+                | Negotiation::Unachievable { .. }
+                    if !p.announcer.speaks(key, n) =>
+                {
+                    self.stats.forged += 1;
                 }
                 Negotiation::Award { winner, .. } if winner == self.id => self.take(now, subject),
                 Negotiation::Award { .. }
@@ -381,6 +445,16 @@ impl Agent {
         }
         if let Some(job) = &mut self.job {
             if job.ann.negotiation == subject && job.ann.id == msg.task() {
+                let announcer = matches!(
+                    &msg,
+                    Negotiation::Renew { .. }
+                        | Negotiation::Award { .. }
+                        | Negotiation::Cancel { .. }
+                );
+                if announcer && !job.announcer.speaks(key, n) {
+                    self.stats.forged += 1;
+                    return;
+                }
                 match msg {
                     Negotiation::Renew { by, .. } if by == job.ann.announcer => {
                         job.last_heard = now;
@@ -411,9 +485,12 @@ impl Agent {
                 return;
             }
         }
-        if let Some(&(task, _)) = self.lingering.get(&subject) {
+        if let Some((task, _, announcer)) = self.lingering.get_mut(&subject) {
+            let task = *task;
             if let Negotiation::Renew { by, .. } = &msg {
-                if *by != self.id && task == msg.task() {
+                // Only the announcer's own renewal is answered: anyone else's
+                // would make this robot speak as often as it is told to.
+                if *by != self.id && task == msg.task() && announcer.speaks(key, n) {
                     let done = Negotiation::Done {
                         task,
                         bidder: self.id.clone(),
@@ -432,12 +509,21 @@ impl Node for Agent {
 
     fn handle_packet(&mut self, now: Time, packet: &Packet<'_>) {
         self.stats.heard += 1;
-        match Message::decode(packet) {
-            Ok(Message::Announce(ann)) => self.on_announce(now, ann),
-            Ok(Message::Robot(_)) => {}
-            Ok(Message::Negotiation { subject, message }) => {
-                self.on_negotiation(now, subject, message)
-            }
+        match Message::open(packet) {
+            Ok(Signed {
+                message: Message::Announce(ann),
+                key,
+                n,
+            }) => self.on_announce(now, ann, AnnouncerKey::new(key, n)),
+            Ok(Signed {
+                message: Message::Robot(_),
+                ..
+            }) => {}
+            Ok(Signed {
+                message: Message::Negotiation { subject, message },
+                key,
+                n,
+            }) => self.on_negotiation(now, subject, message, (key, n)),
             Err(e) => {
                 tracing::debug!(agent = %self.id, error = %e, "ignored a malformed message");
                 self.stats.rejected += 1;
@@ -449,7 +535,7 @@ impl Node for Agent {
     fn handle_timeout(&mut self, now: Time) {
         let before = (self.pending.len(), self.lingering.len());
         self.pending.retain(|_, p| p.close_at > now);
-        self.lingering.retain(|_, (_, until)| *until > now);
+        self.lingering.retain(|_, (_, until, _)| *until > now);
         if let Some(job) = &mut self.job {
             if now.since(job.last_heard) >= self.config.renew_timeout {
                 let reason = format!(
@@ -496,7 +582,7 @@ impl Node for Agent {
 
     fn poll_timeout(&self) -> Option<Time> {
         let pending = self.pending.values().map(|p| p.close_at);
-        let lingering = self.lingering.values().map(|(_, t)| *t);
+        let lingering = self.lingering.values().map(|(_, t, _)| *t);
         let job = self
             .job
             .iter()

@@ -4,7 +4,8 @@ use std::time::Duration;
 
 use super::*;
 use crate::protocol::negotiation_subject;
-use crate::protocol::{TaskSpec, MAX_MAGNITUDE};
+use crate::protocol::TaskSpec;
+use crate::test_keys::{seal_as, speaker};
 
 fn token(s: &str) -> Token {
     Token::new(s).unwrap()
@@ -50,12 +51,27 @@ fn hear(a: &mut Agent, now: Time, bytes: &[u8]) -> bool {
     true
 }
 
-fn announce(a: &mut Agent, now: Time, ann: &Announcement) -> bool {
-    hear(a, now, &ann.encode().unwrap())
+/// The announcement, sealed by its announcer.
+fn sealed_announcement(ann: &Announcement) -> Vec<u8> {
+    seal_as(ann.announcer.as_str(), ann.encode().unwrap())
 }
 
+fn announce(a: &mut Agent, now: Time, ann: &Announcement) -> bool {
+    hear(a, now, &sealed_announcement(ann))
+}
+
+/// Says `m` on the task's subject, sealed by whoever it claims to come from.
 fn say(a: &mut Agent, now: Time, ann: &Announcement, m: Negotiation) -> bool {
-    hear(a, now, &m.encode(&ann.negotiation).unwrap())
+    let bytes = seal_as(
+        speaker(&m, &ann.announcer),
+        m.encode(&ann.negotiation).unwrap(),
+    );
+    hear(a, now, &bytes)
+}
+
+/// Says `m` on the task's subject, sealed by `by`.
+fn say_as(a: &mut Agent, now: Time, ann: &Announcement, by: &str, m: Negotiation) -> bool {
+    hear(a, now, &seal_as(by, m.encode(&ann.negotiation).unwrap()))
 }
 
 fn bid_by(ann: &Announcement, bidder: &str, score: f64) -> Negotiation {
@@ -154,7 +170,7 @@ fn an_announcement_needing_more_than_it_has_is_not_bid_for() {
         "the hub would not deliver it"
     );
     // Even handed over directly, it does not bid.
-    let bytes = ann.encode().unwrap();
+    let bytes = sealed_announcement(&ann);
     a.handle_packet(t(0), &Packet::parse(&bytes).unwrap());
     assert!(sent(&mut a).is_empty());
     assert_eq!(a.open_bids(), 0);
@@ -171,14 +187,16 @@ fn the_same_announcement_heard_twice_gets_one_bid() {
 }
 
 #[test]
-fn a_score_beyond_the_wire_limit_is_bid_at_the_limit() {
+fn a_score_beyond_what_metrics_add_up_to_is_not_bid() {
     let mut a = robot("mobile");
     a.metrics_mut().insert("huge", |_, _| Some(1e300));
     let mut ann = task(7, "mobile");
     ann.spec = ann.spec.metric("huge", 1.0);
     announce(&mut a, t(0), &ann);
-    assert!(matches!(&messages(&mut a)[..],
-        [Negotiation::Bid(b)] if b.score == MAX_MAGNITUDE));
+    assert!(messages(&mut a).is_empty());
+    assert!(
+        matches!(&events(&mut a)[..], [AgentEvent::Skipped { why, .. }] if why.contains("outside"))
+    );
 }
 
 #[test]
@@ -578,7 +596,7 @@ fn a_charging_robot_ignores_even_an_announcement_handed_to_it() {
     a.set_battery(0.0);
     a.handle_timeout(t(1000));
     assert!(!announce(&mut a, t(1100), &task(7, "mobile")));
-    let bytes = task(7, "mobile").encode().unwrap();
+    let bytes = sealed_announcement(&task(7, "mobile"));
     a.handle_packet(t(1100), &Packet::parse(&bytes).unwrap());
     assert!(sent(&mut a).is_empty());
 }
@@ -638,11 +656,8 @@ fn a_malformed_packet_is_reported_and_changes_nothing() {
     let ann = task(7, "mobile");
     announce(&mut a, t(0), &ann);
     sent(&mut a);
-    assert!(hear(
-        &mut a,
-        t(1),
-        b"@ <murdoch.u.7.1> 0\nbid task 7 bidder r0 score lots\n"
-    ));
+    let bad = b"@ <murdoch.u.7.1> 0\nbid task 7 bidder r0 score lots\n";
+    assert!(hear(&mut a, t(1), &seal_as("r0", bad.to_vec())));
     assert_eq!(a.open_bids(), 1);
     assert_eq!(a.stats().rejected, 1);
     assert!(
@@ -781,4 +796,75 @@ fn a_robot_told_not_to_report_never_does() {
     a.handle_timeout(t(5000));
     assert_eq!(reports(&mut a), []);
     assert_ne!(a.poll_timeout(), Some(Time::ZERO));
+}
+
+// Attacks from other processes on the hub: each message below is sealed by
+// a key other than the one the task is bound to, or is a copy of one taken.
+
+#[test]
+fn an_award_from_another_key_is_not_taken() {
+    let mut a = robot("mobile");
+    let ann = task(7, "mobile");
+    assert!(announce(&mut a, t(0), &ann));
+    sent(&mut a);
+    assert!(say_as(&mut a, t(100), &ann, "mallory", award(&ann, "r1")));
+    assert_eq!(a.mode(), AgentMode::Idle);
+    assert_eq!(a.open_bids(), 1, "still waiting for the real award");
+    assert_eq!(a.stats().forged, 1);
+    assert!(say(&mut a, t(200), &ann, award(&ann, "r1")));
+    assert_eq!(a.mode(), AgentMode::Working);
+}
+
+#[test]
+fn a_cancel_from_another_key_does_not_stop_the_task() {
+    let mut a = robot("mobile");
+    let ann = task(7, "mobile");
+    win(&mut a, t(0), &ann);
+    let cancel = Negotiation::Cancel {
+        task: 7,
+        reason: "forged".into(),
+    };
+    say_as(&mut a, t(500), &ann, "mallory", cancel);
+    assert_eq!(a.mode(), AgentMode::Working);
+    assert!(events(&mut a).is_empty());
+    assert_eq!(a.stats().forged, 1);
+}
+
+#[test]
+fn a_copy_of_the_announcers_renewal_keeps_no_task_alive() {
+    let mut a = robot("mobile");
+    let ann = task(7, "mobile");
+    win(&mut a, t(0), &ann);
+    let bytes = seal_as("u", renew_by(&ann, "u").encode(&ann.negotiation).unwrap());
+    for ms in (500..=3500).step_by(500) {
+        hear(&mut a, t(ms), &bytes);
+        a.handle_timeout(t(ms));
+    }
+    // Taken once at 500 ms; silent since, the announcer is presumed gone.
+    assert_eq!(a.mode(), AgentMode::Idle);
+}
+
+#[test]
+fn a_bid_in_its_own_name_or_past_the_metrics_does_not_make_it_withdraw() {
+    let mut a = robot("mobile");
+    let ann = task(7, "mobile");
+    assert!(announce(&mut a, t(0), &ann));
+    sent(&mut a);
+    // Its own name from another key, then a score no robot can reach.
+    say_as(&mut a, t(10), &ann, "mallory", bid_by(&ann, "r1", 0.0));
+    say(&mut a, t(20), &ann, bid_by(&ann, "rogue", -1e12));
+    assert_eq!(a.open_bids(), 1);
+    assert_eq!(a.stats().forged, 2);
+    // A real better bid still beats it.
+    say(&mut a, t(30), &ann, bid_by(&ann, "r0", 1.0));
+    assert_eq!(a.open_bids(), 0);
+}
+
+#[test]
+fn an_unsealed_announcement_gets_no_bid() {
+    let mut a = robot("mobile");
+    let bytes = task(7, "mobile").encode().unwrap();
+    assert!(hear(&mut a, t(0), &bytes));
+    assert!(sent(&mut a).is_empty());
+    assert_eq!(a.stats().rejected, 1);
 }

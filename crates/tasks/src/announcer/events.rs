@@ -105,6 +105,10 @@ pub struct AnnouncerStats {
     pub lost: u64,
     /// Tasks reported unachievable.
     pub unachievable: u64,
-    /// Packets received that were not valid messages.
+    /// Packets received that were not valid messages, or not sealed.
     pub rejected: u64,
+    /// Sealed messages refused as forged: a bidder's message from a key other
+    /// than the one that made its first bid (the winner's, once awarded), a
+    /// copy of one taken before, a score no robot can reach.
+    pub forged: u64,
 }

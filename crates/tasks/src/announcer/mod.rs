@@ -7,28 +7,56 @@ mod events;
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
+use colony_wire::seal::{Counter, Identity, PublicKey};
 use colony_wire::{Packet, Subject};
 
 pub use config::AuctionConfig;
 pub use events::{AnnouncerEvent, AnnouncerStats, TaskPhase};
 
 use crate::protocol::{negotiation_subject, Token};
-use crate::protocol::{Announcement, Bid, Message, Negotiation, SpecError, TaskSpec, MAX_DEADLINE};
+use crate::protocol::{
+    Announcement, Bid, Message, Negotiation, Signed, SpecError, TaskSpec, MAX_DEADLINE,
+};
 use colony_node::Node;
 use colony_node::Time;
+
+/// A bidder as the announcer knows it: the key that sealed its first bid in
+/// the auction, and the count of its last message taken. Only that key
+/// speaks under the bidder's token for the rest of the auction and the task.
+#[derive(Debug, Clone, Copy)]
+struct Bidder {
+    key: PublicKey,
+    heard: Counter,
+}
+
+impl Bidder {
+    fn new(key: PublicKey, n: u64) -> Bidder {
+        let mut heard = Counter::default();
+        heard.accept(n);
+        Bidder { key, heard }
+    }
+
+    /// Whether a message sealed by `key` with count `n` is this bidder's,
+    /// and newer than any taken before (a copy sent again is not).
+    fn speaks(&mut self, key: PublicKey, n: u64) -> bool {
+        key == self.key && self.heard.accept(n)
+    }
+}
 
 #[derive(Debug)]
 enum Phase {
     Bidding {
         close_at: Time,
-        bids: BTreeMap<Token, f64>,
+        bids: BTreeMap<Token, (f64, Bidder)>,
     },
     Awarded {
         winner: Token,
+        bidder: Bidder,
         ack_by: Time,
     },
     Running {
         winner: Token,
+        bidder: Bidder,
         last_heard: Time,
         next_renew: Time,
     },
@@ -56,6 +84,8 @@ const MAX_BIDS: usize = 4096;
 #[derive(Debug)]
 pub struct Announcer {
     token: Token,
+    /// The key it seals every message with.
+    identity: Identity,
     config: AuctionConfig,
     next_id: u64,
     tasks: BTreeMap<u64, Record>,
@@ -66,10 +96,12 @@ pub struct Announcer {
 }
 
 impl Announcer {
-    /// An announcer signing its tasks `token`; tasks are numbered from 1.
+    /// An announcer signing its tasks `token` and sealing its messages with
+    /// a key of its own; tasks are numbered from 1.
     pub fn new(token: Token, config: AuctionConfig) -> Announcer {
         Announcer {
             token,
+            identity: Identity::generate(),
             config,
             next_id: 1,
             tasks: BTreeMap::new(),
@@ -83,6 +115,17 @@ impl Announcer {
     /// Who it is.
     pub fn token(&self) -> &Token {
         &self.token
+    }
+
+    /// Seals with this key instead (a run that must repeat byte for byte).
+    pub fn with_identity(mut self, identity: Identity) -> Announcer {
+        self.identity = identity;
+        self
+    }
+
+    /// The key that names it on the wire.
+    pub fn key(&self) -> PublicKey {
+        self.identity.public()
     }
 
     /// Its timings.
@@ -176,7 +219,7 @@ impl Announcer {
 
     fn send(&mut self, subject: &Subject, message: &Negotiation) {
         match message.encode(subject) {
-            Ok(p) => self.outbox.push_back(p),
+            Ok(p) => self.outbox.push_back(self.identity.sealed(p)),
             Err(e) => {
                 tracing::warn!(announcer = %self.token, error = %e, "could not write a message")
             }
@@ -203,7 +246,7 @@ impl Announcer {
         self.subs.insert(r.negotiation.clone());
         let (name, attempt) = (r.spec.name.clone(), r.attempt);
         match ann.encode() {
-            Ok(p) => self.outbox.push_back(p),
+            Ok(p) => self.outbox.push_back(self.identity.sealed(p)),
             Err(e) => tracing::warn!(announcer = %self.token, error = %e, "could not announce"),
         }
         self.stats.auctions += 1;
@@ -277,10 +320,11 @@ impl Announcer {
         });
     }
 
-    fn start(&mut self, now: Time, id: u64, winner: Token) {
+    fn start(&mut self, now: Time, id: u64, winner: Token, bidder: Bidder) {
         if let Some(r) = self.tasks.get_mut(&id) {
             r.phase = Phase::Running {
                 winner: winner.clone(),
+                bidder,
                 last_heard: now,
                 next_renew: now + self.config.renew_interval,
             };
@@ -289,7 +333,17 @@ impl Announcer {
         }
     }
 
-    fn on_negotiation(&mut self, now: Time, subject: &Subject, msg: Negotiation) {
+    fn on_negotiation(
+        &mut self,
+        now: Time,
+        subject: &Subject,
+        msg: Negotiation,
+        from: (PublicKey, u64),
+    ) {
+        let (key, n) = from;
+        if key == self.identity.public() {
+            return; // its own, heard back
+        }
         let id = msg.task();
         let Some(r) = self.tasks.get_mut(&id) else {
             return;
@@ -297,12 +351,43 @@ impl Announcer {
         if &r.negotiation != subject {
             return; // an earlier auction of the task, closed
         }
+        // Who the message claims to come from, when it names a bidder.
+        let claimed = match &msg {
+            Negotiation::Bid(b) => Some(&b.bidder),
+            Negotiation::Ack { bidder, .. }
+            | Negotiation::Decline { bidder, .. }
+            | Negotiation::Done { bidder, .. }
+            | Negotiation::Abandon { bidder, .. } => Some(bidder),
+            Negotiation::Renew { by, .. } => Some(by),
+            _ => None,
+        };
+        // A bidder's messages count only from the key that made its first
+        // bid (the winner's from the key that won), each once and in order.
+        let genuine = match (&mut r.phase, claimed) {
+            (_, None) => false,
+            (Phase::Bidding { bids, .. }, Some(bidder)) => match bids.get_mut(bidder) {
+                Some((_, known)) => known.speaks(key, n),
+                None => matches!(&msg, Negotiation::Bid(b) if r.spec.admits_score(b.score)),
+            },
+            (
+                Phase::Awarded { winner, bidder, .. } | Phase::Running { winner, bidder, .. },
+                Some(claimed),
+            ) => claimed == winner && bidder.speaks(key, n),
+        };
+        if !genuine {
+            if claimed.is_some() {
+                self.stats.forged += 1;
+            }
+            return;
+        }
         match (&mut r.phase, msg) {
             (Phase::Bidding { bids, .. }, Negotiation::Bid(b))
-                if bids.len() < MAX_BIDS || bids.contains_key(&b.bidder) =>
+                if (bids.len() < MAX_BIDS || bids.contains_key(&b.bidder))
+                    && r.spec.admits_score(b.score) =>
             {
                 self.stats.bids += 1;
-                bids.insert(b.bidder.clone(), b.score);
+                let known = bids.get(&b.bidder).map_or(Bidder::new(key, n), |(_, k)| *k);
+                bids.insert(b.bidder.clone(), (b.score, known));
                 self.events.push_back(AnnouncerEvent::Bid {
                     task: id,
                     bidder: b.bidder,
@@ -312,36 +397,28 @@ impl Announcer {
             (Phase::Bidding { bids, .. }, Negotiation::Decline { bidder, .. }) => {
                 bids.remove(&bidder);
             }
-            (Phase::Awarded { winner, .. }, Negotiation::Ack { bidder, .. })
-                if *winner == bidder =>
-            {
-                self.start(now, id, bidder);
+            (Phase::Awarded { bidder: known, .. }, Negotiation::Ack { bidder, .. }) => {
+                let known = *known;
+                self.start(now, id, bidder, known);
             }
             // The ack was lost but the winner is at work: as good as an ack.
-            (Phase::Awarded { winner, .. }, Negotiation::Renew { by, .. }) if *winner == by => {
-                self.start(now, id, by);
+            (Phase::Awarded { bidder: known, .. }, Negotiation::Renew { by, .. }) => {
+                let known = *known;
+                self.start(now, id, by, known);
             }
-            (
-                Phase::Running {
-                    winner, last_heard, ..
-                },
-                Negotiation::Renew { by, .. },
-            ) if *winner == by => {
+            (Phase::Running { last_heard, .. }, Negotiation::Renew { .. }) => {
                 *last_heard = now;
             }
-            (
-                Phase::Awarded { winner, .. } | Phase::Running { winner, .. },
-                Negotiation::Done { bidder, .. },
-            ) if *winner == bidder => self.complete(id, bidder),
-            (Phase::Awarded { winner, .. }, Negotiation::Decline { bidder, .. })
-                if *winner == bidder =>
-            {
+            (Phase::Awarded { .. } | Phase::Running { .. }, Negotiation::Done { bidder, .. }) => {
+                self.complete(id, bidder)
+            }
+            (Phase::Awarded { .. }, Negotiation::Decline { bidder, .. }) => {
                 self.reauction(now, id, bidder, "the winner declined".into());
             }
             (
-                Phase::Awarded { winner, .. } | Phase::Running { winner, .. },
+                Phase::Awarded { .. } | Phase::Running { .. },
                 Negotiation::Abandon { bidder, reason, .. },
-            ) if *winner == bidder => {
+            ) => {
                 self.reauction(
                     now,
                     id,
@@ -364,19 +441,23 @@ impl Announcer {
         // The same rule every bidder applies: lowest score, then lowest token.
         let best = bids
             .iter()
-            .map(|(t, s)| Bid {
-                task: id,
-                bidder: t.clone(),
-                score: *s,
+            .map(|(t, (s, k))| {
+                let bid = Bid {
+                    task: id,
+                    bidder: t.clone(),
+                    score: *s,
+                };
+                (bid, *k)
             })
-            .reduce(|a, b| if b.beats(&a) { b } else { a });
-        let Some(best) = best else {
+            .reduce(|a, b| if b.0.beats(&a.0) { b } else { a });
+        let Some((best, bidder)) = best else {
             let reason = format!("no robot with {} is available", r.spec.resources);
             self.unachievable(id, reason);
             return;
         };
         r.phase = Phase::Awarded {
             winner: best.bidder.clone(),
+            bidder,
             ack_by: now + self.config.ack_timeout,
         };
         let (subject, name) = (r.negotiation.clone(), r.spec.name.clone());
@@ -404,11 +485,13 @@ impl Node for Announcer {
     }
 
     fn handle_packet(&mut self, now: Time, packet: &Packet<'_>) {
-        match Message::decode(packet) {
-            Ok(Message::Negotiation { subject, message }) => {
-                self.on_negotiation(now, &subject, message)
-            }
-            Ok(Message::Announce(_) | Message::Robot(_)) => {}
+        match Message::open(packet) {
+            Ok(Signed {
+                message: Message::Negotiation { subject, message },
+                key,
+                n,
+            }) => self.on_negotiation(now, &subject, message, (key, n)),
+            Ok(_) => {}
             Err(e) => {
                 tracing::debug!(announcer = %self.token, error = %e, "ignored a malformed message");
                 self.stats.rejected += 1;
@@ -424,7 +507,7 @@ impl Node for Announcer {
             };
             match &mut r.phase {
                 Phase::Bidding { close_at, .. } if *close_at <= now => self.close(now, id),
-                Phase::Awarded { winner, ack_by } if *ack_by <= now => {
+                Phase::Awarded { winner, ack_by, .. } if *ack_by <= now => {
                     let (winner, wait) = (winner.clone(), self.config.ack_timeout);
                     let reason = format!("no acknowledgement within {:.1} s", wait.as_secs_f64());
                     self.reauction(now, id, winner, reason);
@@ -433,6 +516,7 @@ impl Node for Announcer {
                     winner,
                     last_heard,
                     next_renew,
+                    ..
                 } => {
                     if now.since(*last_heard) >= self.config.renew_timeout {
                         let reason = format!(

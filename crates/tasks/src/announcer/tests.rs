@@ -4,6 +4,7 @@ use std::time::Duration;
 
 use super::*;
 use crate::protocol::ResourceSet;
+use crate::test_keys::{seal_as, speaker};
 
 fn token(s: &str) -> Token {
     Token::new(s).unwrap()
@@ -18,16 +19,25 @@ fn user() -> Announcer {
 }
 
 fn look() -> TaskSpec {
-    TaskSpec::new("look", "camera mobile".parse().unwrap()).length(5.0)
+    TaskSpec::new("look", "camera mobile".parse().unwrap())
+        .length(5.0)
+        .metric("distance", 1.0)
 }
 
 fn subject(id: u64, attempt: u32) -> Subject {
     negotiation_subject(&token("user"), id, attempt)
 }
 
-/// Hands the message over if the hub would: true if it did.
+/// Hands the message over if the hub would, sealed by whoever it claims to
+/// come from: true if it did.
 fn say(a: &mut Announcer, now: Time, on: &Subject, m: Negotiation) -> bool {
-    let bytes = m.encode(on).unwrap();
+    let by = speaker(&m, a.token()).to_owned();
+    say_as(a, now, on, &by, m)
+}
+
+/// Hands the message over if the hub would, sealed by `by`.
+fn say_as(a: &mut Announcer, now: Time, on: &Subject, by: &str, m: Negotiation) -> bool {
+    let bytes = seal_as(by, m.encode(on).unwrap());
     let packet = Packet::parse(&bytes).unwrap();
     if !packet.subjects().all(|s| a.subscriptions().contains(s)) {
         return false;
@@ -189,7 +199,7 @@ fn a_lower_score_beats_a_lower_token() {
     let mut a = user();
     let id = a.announce(t(0), look()).unwrap();
     bid(&mut a, t(10), id, "alpha", 2.0);
-    bid(&mut a, t(10), id, "zulu", -2.0);
+    bid(&mut a, t(10), id, "zulu", 1.0);
     a.handle_timeout(t(200));
     assert_eq!(a.winner(id), Some(&token("zulu")));
 }
@@ -422,7 +432,7 @@ fn messages_from_an_earlier_auction_of_the_task_are_ignored() {
     };
     // Unsubscribed from the old subject, and deaf to it even if handed a packet.
     assert!(!say(&mut a, t(3400), &subject(id, 1), done.clone()));
-    let bytes = done.encode(&subject(id, 1)).unwrap();
+    let bytes = seal_as("r1", done.encode(&subject(id, 1)).unwrap());
     a.handle_packet(t(3400), &Packet::parse(&bytes).unwrap());
     assert_eq!(a.phase(id), Some(TaskPhase::Bidding));
     assert_eq!(a.stats().completed, 0);
@@ -578,8 +588,11 @@ fn cancel_tells_the_winner_and_forgets_the_task() {
 fn a_malformed_packet_is_counted_and_ignored() {
     let mut a = user();
     let id = a.announce(t(0), look()).unwrap();
-    let bytes = b"@ <murdoch.user.1.1> 0\nbid task 1 bidder r1 score lots\n";
-    a.handle_packet(t(10), &Packet::parse(bytes).unwrap());
+    let bytes = seal_as(
+        "r1",
+        b"@ <murdoch.user.1.1> 0\nbid task 1 bidder r1 score lots\n".to_vec(),
+    );
+    a.handle_packet(t(10), &Packet::parse(&bytes).unwrap());
     assert_eq!(a.stats().rejected, 1);
     assert_eq!(a.stats().bids, 0);
     assert_eq!(a.phase(id), Some(TaskPhase::Bidding));
@@ -598,4 +611,122 @@ fn a_flood_of_bidders_is_capped_but_known_bidders_may_still_improve() {
     assert!(matches!(&said(&mut a)[..],
         [(_, Negotiation::Award { winner, bids, .. })]
             if winner.as_str() == "b77" && *bids as usize == MAX_BIDS));
+}
+
+// Attacks from other processes on the hub: each message below is sealed by
+// a key other than the one the task is bound to, or is a copy of one taken.
+
+#[test]
+fn a_done_from_another_key_does_not_end_the_task() {
+    let mut a = user();
+    let id = running(&mut a, t(300));
+    let done = Negotiation::Done {
+        task: id,
+        bidder: token("r1"),
+    };
+    assert!(say_as(
+        &mut a,
+        t(400),
+        &subject(id, 1),
+        "mallory",
+        done.clone()
+    ));
+    assert_eq!(a.phase(id), Some(TaskPhase::Running(token("r1"))));
+    assert_eq!((a.stats().completed, a.stats().forged), (0, 1));
+    // The winner's own still does.
+    assert!(say(&mut a, t(500), &subject(id, 1), done));
+    assert_eq!(a.stats().completed, 1);
+}
+
+#[test]
+fn another_key_cannot_renew_the_winners_task_or_abandon_it() {
+    let mut a = user();
+    let id = running(&mut a, t(300));
+    let renew = Negotiation::Renew {
+        task: id,
+        by: token("r1"),
+        progress: Some(0.5),
+    };
+    let abandon = Negotiation::Abandon {
+        task: id,
+        bidder: token("r1"),
+        reason: "forged".into(),
+    };
+    assert!(say_as(&mut a, t(400), &subject(id, 1), "mallory", abandon));
+    assert_eq!(a.phase(id), Some(TaskPhase::Running(token("r1"))));
+    // Renewals from a forger every half second do not keep a silent winner.
+    for ms in (1000..=3500).step_by(500) {
+        say_as(&mut a, t(ms), &subject(id, 1), "mallory", renew.clone());
+        a.handle_timeout(t(ms));
+    }
+    assert_eq!(a.phase(id), Some(TaskPhase::Bidding), "re-auctioned");
+    assert!(a.stats().forged >= 5);
+}
+
+#[test]
+fn a_copy_of_the_winners_renewal_keeps_nothing_alive() {
+    let mut a = user();
+    let id = running(&mut a, t(300));
+    let renew = Negotiation::Renew {
+        task: id,
+        by: token("r1"),
+        progress: Some(0.5),
+    };
+    let bytes = seal_as("r1", renew.encode(&subject(id, 1)).unwrap());
+    for ms in (400..=3400).step_by(500) {
+        a.handle_packet(t(ms), &Packet::parse(&bytes).unwrap());
+        a.handle_timeout(t(ms));
+    }
+    // Taken once at 400 ms; the copies are refused, so the winner's silence
+    // since then loses it the task.
+    assert_eq!(a.phase(id), Some(TaskPhase::Bidding));
+}
+
+#[test]
+fn a_bid_in_another_bidders_name_from_another_key_is_refused() {
+    let mut a = user();
+    let id = a.announce(t(0), look()).unwrap();
+    bid(&mut a, t(10), id, "r1", 100.0);
+    let forged = Negotiation::Bid(Bid {
+        task: id,
+        bidder: token("r1"),
+        score: 1.0,
+    });
+    assert!(say_as(&mut a, t(20), &subject(id, 1), "mallory", forged));
+    let decline = Negotiation::Decline {
+        task: id,
+        bidder: token("r1"),
+    };
+    assert!(say_as(&mut a, t(30), &subject(id, 1), "mallory", decline));
+    a.handle_timeout(t(200));
+    assert!(matches!(&said(&mut a)[..],
+        [(_, Negotiation::Award { winner, score, .. })] if winner.as_str() == "r1" && *score == 100.0));
+    assert_eq!(a.stats().forged, 2);
+}
+
+#[test]
+fn a_bid_no_robot_can_score_is_ignored() {
+    let mut a = user();
+    let id = a.announce(t(0), look()).unwrap();
+    // `look` is scored by distance alone, a cost: never below 0.
+    bid(&mut a, t(10), id, "rogue", -1e12);
+    bid(&mut a, t(20), id, "r1", 100.0);
+    a.handle_timeout(t(200));
+    assert!(matches!(&said(&mut a)[..],
+        [(_, Negotiation::Award { winner, .. })] if winner.as_str() == "r1"));
+    assert_eq!(a.stats().bids, 1);
+}
+
+#[test]
+fn an_unsealed_message_is_refused() {
+    let mut a = user();
+    let id = a.announce(t(0), look()).unwrap();
+    let m = Negotiation::Bid(Bid {
+        task: id,
+        bidder: token("r1"),
+        score: 1.0,
+    });
+    let bytes = m.encode(&subject(id, 1)).unwrap();
+    a.handle_packet(t(10), &Packet::parse(&bytes).unwrap());
+    assert_eq!((a.stats().bids, a.stats().rejected), (0, 1));
 }
