@@ -41,11 +41,15 @@ pub enum DropReason {
     RateLimited,
     /// A tap asked for while the hub already has its most taps.
     TooManyTaps,
+    /// A request from a source not yet proven (with no cookie, or a wrong
+    /// one) too short to be answered with a cookie: the answer would be more
+    /// bytes than the request, which a forger could aim at anyone.
+    Unproven,
 }
 
 impl DropReason {
     /// Every reason, in the order status reports list them.
-    pub const ALL: [DropReason; 15] = [
+    pub const ALL: [DropReason; 16] = [
         DropReason::Malformed,
         DropReason::BelowMinPriority,
         DropReason::BadControl,
@@ -61,6 +65,7 @@ impl DropReason {
         DropReason::BadCookie,
         DropReason::RateLimited,
         DropReason::TooManyTaps,
+        DropReason::Unproven,
     ];
 
     /// The reason's name in status reports.
@@ -81,6 +86,7 @@ impl DropReason {
             DropReason::BadCookie => "bad_cookie",
             DropReason::RateLimited => "rate_limited",
             DropReason::TooManyTaps => "too_many_taps",
+            DropReason::Unproven => "unproven",
         }
     }
 }

@@ -503,6 +503,8 @@ impl Hub {
         let reply = Reply::cookie_packet(self.cookies.issue(&src, now));
         if reply.len() <= len {
             self.reply(src, reply);
+        } else {
+            self.counters.drop(DropReason::Unproven, 1);
         }
     }
 

@@ -260,6 +260,18 @@ fn status_is_answered_only_to_a_source_that_returned_its_cookie() {
     // request is shorter than a cookie.
     hub.handle(now, addr(5), b"@ <hub> 0\nstatus\n");
     assert!(replies(&mut hub).is_empty());
+    // It is counted, so a person who typed it can see why nothing came back.
+    assert_eq!(hub.drops(DropReason::Unproven), 1);
+    // A longer hand-typed request, with no cookie line at all, gets one.
+    hub.handle(
+        now,
+        addr(7),
+        b"@ <hub> 0\nsubscribe ch a_channel_with_a_long_name\n",
+    );
+    let r = replies(&mut hub);
+    assert_eq!(r.len(), 1);
+    assert!(std::str::from_utf8(&r[0].1).unwrap().contains("cookie v "));
+    assert_eq!(hub.drops(DropReason::Unproven), 1);
     // With room for one, it gets a cookie and nothing more.
     let c = cookie(&mut hub, now, addr(5));
     assert!(replies(&mut hub).is_empty());
