@@ -394,3 +394,22 @@ fn game_time(state: &str) -> f64 {
         .and_then(|p| p.line("game").and_then(|l| l.f64("time").ok()))
         .unwrap_or(f64::NAN)
 }
+
+#[test]
+fn a_match_plays_from_an_empty_directory_on_the_built_in_map() {
+    // An installed binary has no source tree beside it: the maps are in it.
+    let dir = tempfile::tempdir().unwrap();
+    let out = common::colony()
+        .args(["game", "dm", "--fast", "--time-limit", "5"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("on maps/dm.map (built in)"), "{text}");
+    assert!(text.lines().any(|l| l.starts_with("result: ")), "{text}");
+}

@@ -16,6 +16,7 @@ use colony_sim::field::FieldConfig;
 use colony_sim::SimError;
 
 use crate::bot::Bot;
+use crate::env::shipped_map;
 use crate::live::{self, LiveError};
 use crate::lobby::Lobby;
 use crate::logic::{roster, RobotEntry, SetupError};
@@ -73,8 +74,8 @@ pub enum LiveMatchError {
 /// Everything the parts of a match must agree on, checked.
 #[derive(Debug, Clone)]
 pub struct MatchPlan {
-    /// The map file.
-    pub map: PathBuf,
+    /// Where the map came from: its file, or the one built in, for people to read.
+    pub map: String,
     /// The battlefield read from it.
     pub field: Arc<Battlefield>,
     /// The rules.
@@ -92,9 +93,30 @@ impl MatchPlan {
             path: map.to_path_buf(),
             source,
         })?;
+        MatchPlan::on(map.display().to_string(), field, rules, teams)
+    }
+
+    /// A match on the map built in for its mode ([`shipped_map`]), so an
+    /// installed binary plays from any directory.
+    pub fn shipped(rules: Rules, teams: &[TeamSetup]) -> Result<MatchPlan, LiveMatchError> {
+        let name = shipped_map_name(rules.mode);
+        let field =
+            Battlefield::parse(shipped_map(rules.mode)).map_err(|source| LiveMatchError::Map {
+                path: PathBuf::from(name),
+                source,
+            })?;
+        MatchPlan::on(format!("{name} (built in)"), field, rules, teams)
+    }
+
+    fn on(
+        map: String,
+        field: Battlefield,
+        rules: Rules,
+        teams: &[TeamSetup],
+    ) -> Result<MatchPlan, LiveMatchError> {
         let roster = roster(&field, &rules, teams)?;
         Ok(MatchPlan {
-            map: map.to_path_buf(),
+            map,
             field: Arc::new(field),
             rules,
             roster,
@@ -103,19 +125,12 @@ impl MatchPlan {
     }
 }
 
-/// The map a mode plays on by default: the repository's, from wherever we run.
-pub fn default_map(mode: Mode) -> PathBuf {
-    let name = match mode {
-        Mode::CaptureTheFlag => "ctf.map",
-        Mode::DeathMatch => "dm.map",
-    };
-    let here = Path::new("maps").join(name);
-    if here.exists() {
-        return here;
+/// The name of the map a mode plays on unless told otherwise.
+pub fn shipped_map_name(mode: Mode) -> &'static str {
+    match mode {
+        Mode::CaptureTheFlag => "maps/ctf.map",
+        Mode::DeathMatch => "maps/dm.map",
     }
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../maps")
-        .join(name)
 }
 
 /// Whether an event is worth a line on a terminal: not every hit, and not

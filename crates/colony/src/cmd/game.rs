@@ -148,14 +148,13 @@ fn teams(setup: &Setup) -> anyhow::Result<Vec<TeamSetup>> {
 }
 
 fn load(mode: Mode, setup: &Setup) -> anyhow::Result<MatchPlan> {
-    let path = setup
-        .map
-        .clone()
-        .unwrap_or_else(|| live_match::default_map(mode));
     let mut rules = Rules::new(mode);
     rules.budget = setup.budget;
     rules.time_limit_s = setup.time_limit;
-    Ok(MatchPlan::new(&path, rules, &teams(setup)?)?)
+    Ok(match &setup.map {
+        Some(path) => MatchPlan::new(path, rules, &teams(setup)?)?,
+        None => MatchPlan::shipped(rules, &teams(setup)?)?,
+    })
 }
 
 fn play(mode: Mode, args: MatchArgs) -> anyhow::Result<()> {
@@ -250,7 +249,7 @@ fn live(
         Some(m) => println!(
             "colony game: {} on {} ({} x {} cells); open {} (hub {hub}); Ctrl-C stops",
             plan.rules.mode,
-            plan.map.display(),
+            plan.map,
             plan.field.grid.width(),
             plan.field.grid.height(),
             m.page_url(
@@ -318,6 +317,10 @@ fn fast(plan: &MatchPlan, args: &MatchArgs) -> anyhow::Result<()> {
             }
         }
     };
+    println!(
+        "colony game: {} on {}, fast-forwarded",
+        plan.rules.mode, plan.map
+    );
     let t0 = Instant::now();
     let outcome = live_match::fast_forward(plan, &teams(&args.setup)?, &mut tap, &mut |l| {
         println!("{l}")

@@ -5,7 +5,7 @@
 use std::time::Duration;
 
 use anyhow::Context as _;
-use colony_game::live_match::{self, MatchPlan};
+use colony_game::live_match::MatchPlan;
 use colony_game::measure::{
     run_series, Series, SeriesSpec, Stats, OUR_THINK_EVERY, PAPER_THINK_EVERY,
 };
@@ -58,13 +58,11 @@ fn intervals(text: &str) -> anyhow::Result<Vec<u64>> {
 }
 
 fn plan(red: &str) -> anyhow::Result<MatchPlan> {
-    let map = live_match::default_map(Mode::CaptureTheFlag);
     let teams = [
         TeamSetup::parse("red", red)?,
         TeamSetup::parse("blue", "alpha:scout")?,
     ];
-    Ok(MatchPlan::new(
-        &map,
+    Ok(MatchPlan::shipped(
         Rules::new(Mode::CaptureTheFlag),
         &teams,
     )?)
