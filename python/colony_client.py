@@ -16,6 +16,10 @@ The packet format (the same text every colony process speaks)::
   :meth:`Client.recv`. It follows the hub's lease and cookie by itself, signs
   every packet when given the hub's key, and skips (and counts) datagrams that
   do not parse.
+* :class:`Identity` seals packets (an Ed25519 signature as their last line,
+  as ``colony_wire::seal`` writes it) and :func:`open_seal` checks them: what
+  MURDOCH (:func:`announce_task`) and request and reply (:class:`Caller`,
+  :class:`Provider`) use to know which process said what.
 
 Values become plain Python: ``int`` for a bare token Rust reads as an ``i64``,
 ``float`` for any other bare token Rust reads as an ``f64`` (``1e5``, ``.5``,
@@ -56,10 +60,20 @@ __all__ = [
     "Session",
     "Signer",
     "read_key",
+    "Identity",
+    "Sealed",
+    "SealError",
+    "open_seal",
+    "strip_seal",
+    "fingerprint",
+    "ed25519_public_key",
+    "ed25519_sign",
+    "ed25519_verify",
     "Client",
     "SERVICE_PREFIX",
     "REPLY_PREFIX",
     "MAX_SERVICE_LEN",
+    "ACK_WAIT",
     "CallError",
     "Answer",
     "Caller",
@@ -1094,6 +1108,299 @@ class Signer:
         return out
 
 
+# --------------------------------------------------------------------------- seals
+
+# Ed25519 (RFC 8032) from its math, so the client stays standard library only:
+# the curve -x^2 + y^2 = 1 + d x^2 y^2 over GF(p), points in extended
+# coordinates (X, Y, Z, T) with x = X/Z, y = Y/Z, x y = T/Z. CPython's
+# integers are not constant time, so neither is this: fit for keys that name a
+# process on a robot network, not for secrets an attacker can time closely.
+_P = 2 ** 255 - 19
+_L = 2 ** 252 + 27742317777372353535851937790883648493
+_D = -121665 * pow(121666, _P - 2, _P) % _P
+_SQRT_M1 = pow(2, (_P - 1) // 4, _P)
+_IDENTITY = (0, 1, 1, 0)
+_BASE_Y = 4 * pow(5, _P - 2, _P) % _P
+
+
+def _pt_add(p, q):
+    # The unified formula (RFC 8032 5.1.4): correct for doubling and the identity too.
+    x1, y1, z1, t1 = p
+    x2, y2, z2, t2 = q
+    a = (y1 - x1) * (y2 - x2) % _P
+    b = (y1 + x1) * (y2 + x2) % _P
+    c = 2 * t1 * t2 * _D % _P
+    d = 2 * z1 * z2 % _P
+    e, f, g, h = b - a, d - c, d + c, b + a
+    return (e * f % _P, g * h % _P, f * g % _P, e * h % _P)
+
+
+def _pt_double(p):
+    x1, y1, z1, _ = p
+    a = x1 * x1 % _P
+    b = y1 * y1 % _P
+    c = 2 * z1 * z1 % _P
+    h = a + b
+    e = h - (x1 + y1) * (x1 + y1)
+    g = a - b
+    f = c + g
+    return (e * f % _P, g * h % _P, f * g % _P, e * h % _P)
+
+
+def _pt_mul(s, p):
+    q = _IDENTITY
+    while s:
+        if s & 1:
+            q = _pt_add(q, p)
+        p = _pt_double(p)
+        s >>= 1
+    return q
+
+
+def _pt_decode(b):
+    """The point 32 bytes encode, or None. Strict: y must be below p (one
+    encoding per point), and x = 0 must come with a clear sign bit."""
+    y = int.from_bytes(b, "little")
+    sign = y >> 255
+    y &= (1 << 255) - 1
+    if y >= _P:
+        return None
+    x2 = (y * y - 1) * pow(_D * y * y + 1, _P - 2, _P) % _P
+    x = pow(x2, (_P + 3) // 8, _P)
+    if (x * x - x2) % _P:
+        x = x * _SQRT_M1 % _P
+        if (x * x - x2) % _P:
+            return None
+    if x == 0 and sign:
+        return None
+    if x & 1 != sign:
+        x = _P - x
+    return (x, y, 1, x * y % _P)
+
+
+def _pt_encode(p):
+    x, y, z, _ = p
+    zi = pow(z, _P - 2, _P)
+    x, y = x * zi % _P, y * zi % _P
+    return (y | (x & 1) << 255).to_bytes(32, "little")
+
+
+def _pt_small_order(p):
+    # The torsion subgroup has order 8: such a point times 8 is the identity.
+    for _ in range(3):
+        p = _pt_double(p)
+    return p[0] % _P == 0 and (p[1] - p[2]) % _P == 0
+
+
+_BASE = _pt_decode(_BASE_Y.to_bytes(32, "little"))
+# 2^i B, filled on first use: a fixed-base product then costs additions only.
+_BASE_POWERS = []
+
+
+def _base_mul(s):
+    if not _BASE_POWERS:
+        p = _BASE
+        for _ in range(256):
+            _BASE_POWERS.append(p)
+            p = _pt_double(p)
+    q = _IDENTITY
+    i = 0
+    while s:
+        if s & 1:
+            q = _pt_add(q, _BASE_POWERS[i])
+        s >>= 1
+        i += 1
+    return q
+
+
+def _h_int(*parts):
+    return int.from_bytes(hashlib.sha512(b"".join(parts)).digest(), "little")
+
+
+def _expand_seed(seed):
+    if not isinstance(seed, (bytes, bytearray)) or len(seed) != 32:
+        raise ValueError("an Ed25519 seed is 32 bytes")
+    h = hashlib.sha512(bytes(seed)).digest()
+    a = int.from_bytes(h[:32], "little") & ((1 << 254) - 8) | (1 << 254)
+    return a, h[32:]
+
+
+def ed25519_public_key(seed):
+    """The 32-byte public key of a 32-byte secret seed (RFC 8032 5.1.5)."""
+    return _pt_encode(_base_mul(_expand_seed(seed)[0]))
+
+
+def _sign(a, prefix, public, message):
+    r = _h_int(prefix, message) % _L
+    big_r = _pt_encode(_base_mul(r))
+    s = (r + _h_int(big_r, public, message) % _L * a) % _L
+    return big_r + s.to_bytes(32, "little")
+
+
+def ed25519_sign(seed, message):
+    """The 64-byte signature of ``message`` under a 32-byte seed (RFC 8032 5.1.6)."""
+    a, prefix = _expand_seed(seed)
+    return _sign(a, prefix, _pt_encode(_base_mul(a)), bytes(message))
+
+
+def ed25519_verify(public, message, signature):
+    """Whether ``signature`` is the signature of ``message`` under ``public``,
+    checked as strictly as ed25519-dalek's ``verify_strict``: S below the
+    group order (no malleable second signature), the key and R canonical
+    encodings of points of more than small order (no key that verifies
+    everything). Never raises on bad bytes."""
+    try:
+        public, message, signature = bytes(public), bytes(message), bytes(signature)
+    except TypeError:
+        return False
+    if len(public) != 32 or len(signature) != 64:
+        return False
+    a = _pt_decode(public)
+    r = _pt_decode(signature[:32])
+    s = int.from_bytes(signature[32:], "little")
+    if a is None or r is None or s >= _L or _pt_small_order(a) or _pt_small_order(r):
+        return False
+    k = _h_int(signature[:32], public, message) % _L
+    minus_a = (-a[0] % _P, a[1], a[2], -a[3] % _P)
+    # [S]B - [k]A must be R itself, encoded exactly as sent.
+    return _pt_encode(_pt_add(_base_mul(s), _pt_mul(k, minus_a))) == signature[:32]
+
+
+def fingerprint(key):
+    """A public key's short name, as the Rust ``PublicKey::fingerprint``: the
+    first 8 bytes of its SHA-256, big-endian (a provider's id, in 16 hex digits)."""
+    return int.from_bytes(hashlib.sha256(bytes(key)).digest()[:8], "big")
+
+
+class SealError(ValueError):
+    """Why a seal was refused. ``kind`` is ``missing`` (the last line is no
+    seal line), ``malformed`` (not ``seal n N key <64 hex> sig <128 hex>``),
+    ``bad_key`` (no Ed25519 public key) or ``bad_signature``."""
+
+    def __init__(self, kind, message):
+        super().__init__(message)
+        self.kind = kind
+
+
+_SEAL_HEAD = b"seal n "
+_SEAL_KEY = b" key "
+_SEAL_SIG = b" sig "
+_LOWER_HEX = re.compile(rb"[0-9a-f]*")
+_U64_MAX = 2 ** 64 - 1
+
+
+class Sealed(tuple):
+    """What :func:`open_seal` returns: ``(body, key, n)``, also by name."""
+
+    __slots__ = ()
+
+    def __new__(cls, body, key, n):
+        return tuple.__new__(cls, (body, key, n))
+
+    body = property(lambda self: self[0], doc="the packet as it was before it was sealed")
+    key = property(lambda self: self[1], doc="the 32-byte public key that sealed it")
+    n = property(lambda self: self[2], doc="its count among the packets that key sealed")
+
+
+def _split_seal(data):
+    """``(start, n, key, sig, sig_at)`` of a well-formed seal line at the end
+    of ``data``, read exactly as the Rust ``seal::split_seal`` reads it."""
+    missing = SealError("missing", "the packet is not sealed")
+    malformed = SealError("malformed", "the `seal` line is not `seal n N key <64 hex digits> sig <128 hex digits>`")
+    text = data[:-1] if data.endswith(b"\n") else data
+    sig_at = len(text) - 128
+    key_at = sig_at - len(_SEAL_SIG) - 64
+    n_end = key_at - len(_SEAL_KEY)
+    if n_end < 0 or text[sig_at - len(_SEAL_SIG):sig_at] != _SEAL_SIG or text[n_end:key_at] != _SEAL_KEY:
+        raise missing
+    before = text[:n_end]
+    digits = len(before) - len(before.rstrip(b"0123456789"))
+    n_at = n_end - digits
+    start = n_at - len(_SEAL_HEAD)
+    if start < 0 or text[start:n_at] != _SEAL_HEAD or (start > 0 and text[start - 1] != 0x0A):
+        raise missing
+    if digits == 0 or digits > 20 or (digits > 1 and text[n_at] == 0x30):
+        raise malformed
+    n = int(text[n_at:n_end])
+    key_hex, sig_hex = text[key_at:sig_at - len(_SEAL_SIG)], text[sig_at:]
+    if n > _U64_MAX or not _LOWER_HEX.fullmatch(key_hex) or not _LOWER_HEX.fullmatch(sig_hex):
+        raise malformed
+    return start, n, bytes.fromhex(key_hex.decode("ascii")), bytes.fromhex(sig_hex.decode("ascii")), sig_at
+
+
+def _as_bytes(data):
+    if isinstance(data, str):
+        return data.encode("utf-8")
+    return bytes(memoryview(data))
+
+
+def open_seal(data):
+    """Checks a packet's seal; returns :class:`Sealed` ``(body, key, n)``: the
+    packet without its seal line, the 32 bytes of the key that sealed it, and
+    its count. Raises :class:`SealError` (never anything else) for any bytes
+    that are no packet sealed as ``colony_wire::seal`` seals them."""
+    data = _as_bytes(data)
+    start, n, key, sig, sig_at = _split_seal(data)
+    point = _pt_decode(key)
+    if point is None:
+        raise SealError("bad_key", "the seal's key is not an Ed25519 public key")
+    if not ed25519_verify(key, data[:sig_at], sig):
+        raise SealError("bad_signature", "the seal's signature does not match the packet")
+    return Sealed(data[:start], key, n)
+
+
+def strip_seal(data):
+    """The packet without a trailing seal line, unchecked (for showing what a packet says)."""
+    data = _as_bytes(data)
+    try:
+        return data[:_split_seal(data)[0]]
+    except SealError:
+        return data
+
+
+class Identity:
+    """A process's Ed25519 key and the count of packets it sealed, as the Rust
+    ``seal::Identity``. A new one draws its seed from the operating system;
+    give ``seed`` (32 bytes) only for runs that must repeat exactly.
+
+    :meth:`seal` appends ``seal n N key K sig S``: N counts the packets this
+    key sealed (1, 2, ...), K is :attr:`key` in 64 lowercase hex digits, S the
+    signature of every byte before it, so a receiver knows which process
+    wrote a packet and can refuse a copy sent again."""
+
+    def __init__(self, seed=None):
+        seed = os.urandom(32) if seed is None else bytes(seed)
+        self._a, self._prefix = _expand_seed(seed)
+        #: The 32-byte public key that names this process.
+        self.key = _pt_encode(_base_mul(self._a))
+        #: The count of packets sealed so far.
+        self.n = 0
+
+    @property
+    def key_hex(self):
+        return self.key.hex()
+
+    @property
+    def fingerprint(self):
+        return fingerprint(self.key)
+
+    def __repr__(self):
+        # The secret never reaches a log.
+        return "Identity({})".format(self.key_hex)
+
+    def seal(self, packet):
+        """``packet`` (a whole packet) with its seal line. Raises ParseError
+        (``too_large``) when the seal does not fit in a datagram."""
+        data = _as_bytes(packet)
+        if data and not data.endswith(b"\n"):
+            data += b"\n"
+        if len(data) + 210 + len(str(self.n + 1)) > MAX_PACKET:
+            raise ParseError("too_large", 1, 1, len=len(data) + 210 + len(str(self.n + 1)))
+        self.n += 1
+        head = data + b"seal n %d key %s sig " % (self.n, self.key_hex.encode("ascii"))
+        return head + _sign(self._a, self._prefix, self.key, head).hex().encode("ascii") + b"\n"
+
+
 # --------------------------------------------------------------------------- client
 
 
@@ -1473,11 +1780,17 @@ class Client:
 # Request and reply over publish/subscribe, as the Rust client's ``rpc``
 # module writes it (crates/client/src/rpc/message.rs holds the one definition):
 # a provider announces ``provider id P lease_ms L`` on ``svc.NAME`` every third
-# of its lease and at once when a caller asks ``who``; a call goes to one
-# provider's inbox ``svc.NAME.P`` with ``call id N reply_to reply.C`` first;
-# the answer comes to the caller's inbox ``reply.C`` with ``reply id N from P``
-# (or ``refused id N from P text "why"``); a provider that stops says
-# ``leaving id P``.
+# of its lease, and at once (with ``nonce X``) when a caller asks ``who nonce
+# X``; a call goes to one provider's inbox ``svc.NAME.P`` with ``call id N
+# reply_to reply.C`` first; the provider says ``accepted id N from P`` to the
+# caller's inbox ``reply.C`` as it takes the call, then answers there with
+# ``reply id N from P`` (or ``refused id N from P text "why"``); a provider
+# that stops says ``leaving id P``.
+#
+# Everything a provider says is sealed (:class:`Identity`), and its id P is
+# the fingerprint of its key, so a caller believes a notice or an answer only
+# from the key P names: nobody else can answer for a provider, end its calls
+# or cut its lease. Calls and ``who`` stay unsealed: callers are anonymous.
 
 #: What a service's channel name starts with.
 SERVICE_PREFIX = "svc."
@@ -1486,10 +1799,13 @@ REPLY_PREFIX = "reply."
 _ID = re.compile(r"[0-9a-f]{16}")
 #: The longest service name: room for the prefix, a dot and a provider id.
 MAX_SERVICE_LEN = MAX_SUBJECT_LEN - len(SERVICE_PREFIX) - 1 - 16
-#: A caller with calls but no provider asks who provides this often (seconds).
+#: A caller with calls but no provider proven live asks who provides this often (seconds).
 _ASK_EVERY = 0.25
-#: A provider answers ``who`` at most once per third of its lease, and at least this often (seconds).
-_ANSWER_WHO_AT_LEAST_EVERY = 1.0
+#: How long a caller waits for a provider to accept a call, or for echoes of its `who`, by default (seconds).
+ACK_WAIT = 0.25
+#: A provider answers `who` from a bucket of this many, refilled at this many a second.
+_WHO_BURST = 10
+_WHO_RATE = 10.0
 #: The longest provider lease believed (seconds): a forged announcement holds a place this long at most.
 _LONGEST_LEASE = 60.0
 #: The longest a call may wait (seconds).
@@ -1530,6 +1846,26 @@ def _rpc_packet(subject, priority, first, lines):
     return data
 
 
+def _open_from(packet, name):
+    """``(what it sealed, parsed; the id it names in ``name``)`` when the
+    packet is sealed by the key whose fingerprint is that id, else None. The
+    key is matched to the id before the (costlier) signature is checked."""
+    try:
+        data = packet.text.encode("utf-8")
+        key = _split_seal(data)[2]
+        pid = _first_line_raw(packet)[1].get(name)
+        if pid is None or not _ID.fullmatch(pid) or int(pid, 16) != fingerprint(key):
+            return None
+        body, _, _ = open_seal(data)
+        inner = parse(body)
+        # What was sealed must name the same id (not merely what follows it).
+        if _first_line_raw(inner)[1].get(name) != pid or inner.subjects != packet.subjects:
+            return None
+        return inner, pid
+    except (SealError, ParseError, ValueError):
+        return None
+
+
 class CallError(Exception):
     """Why a call ended without an answer. ``kind`` is one of ``no_provider``,
     ``timeout``, ``provider_left``, ``provider_lapsed`` (silent past its lease),
@@ -1562,32 +1898,48 @@ class Caller:
     Subscribe a client to :meth:`subjects`, hand every packet from them to
     :meth:`handle_packet`, call :meth:`handle_timeout` at :meth:`poll_timeout`,
     publish what :meth:`poll_transmit` gives, and read :meth:`poll_outcome`.
-    Calls go to the live providers in turn; each ends exactly once: with the
-    answer of the provider it went to, or a :class:`CallError`. A call is
-    never sent to a second provider (the first may have acted on it).
+
+    Calls go to providers proven live first (they echoed this caller's latest
+    ``who nonce``, or accepted one of its calls); with none, the caller asks
+    ``who`` and waits up to ``ack_wait`` for an echo before trying providers
+    only announced. A provider that neither accepts a call nor answers it
+    within ``ack_wait`` (at most a quarter of the time left to the call) is
+    marked unresponsive, tried last from then on, and the call goes to the
+    next provider. Once accepted, a call is never sent elsewhere (the
+    provider may have acted on it): it ends exactly once, with that provider's
+    answer or a :class:`CallError`. Only what a provider sealed with the key
+    its id names is believed; the rest is counted in :attr:`forged`.
     """
 
-    def __init__(self, service, caller_id=None):
+    def __init__(self, service, caller_id=None, ack_wait=ACK_WAIT):
         self.channel = _service_channel(service)
         self.service = service
         self.id = caller_id or _fresh_id()
         if not _ID.fullmatch(self.id):
             raise ValueError("an id is 16 lowercase hex digits")
+        if not (isinstance(ack_wait, (int, float)) and 0 < ack_wait <= _LONGEST_LEASE):
+            raise ValueError("an ack wait is a number of seconds, above 0 and at most 60")
+        self.ack_wait = float(ack_wait)
         self.inbox = REPLY_PREFIX + self.id
-        # id -> {"lease", "seen", "expires", "left"}; expires is never brought
-        # forward (a forged short lease must not end another's calls), and a
-        # provider that says it is leaving gets no new calls but keeps its own
-        # until its lease lapses (a forged `leaving` must not end them sooner).
+        # id -> {"lease", "seen", "expires", "left", "proven", "unresponsive"};
+        # expires is never brought forward, so no stale or copied
+        # announcement can cut a lease short.
         self._providers = {}
         self._order = []
         self._turn = 0
-        self._calls = {}  # id -> dict(lines, priority, started, deadline, sent_to)
+        # id -> {lines, priority, started, deadline, sent_to, ack_by, accepted, late, tried, who_until}
+        self._calls = {}
         self._next = random.SystemRandom().getrandbits(48)
         self._outbox = deque()
         self._outcomes = deque()
         self._last_asked = None
-        #: Answers that matched no call in flight (late, repeated or forged).
+        self._nonce = None
+        # Whether a call waits with no provider to try: then `who` is asked again and again.
+        self._asking = False
+        #: Answers that matched no call in flight (late or repeated) or came from a provider the call is not with.
         self.strays = 0
+        #: Notices and answers not sealed by the provider they name.
+        self.forged = 0
 
     def subjects(self):
         """The caller's inbox, then the service's channel: the inbox is asked
@@ -1595,8 +1947,10 @@ class Caller:
         return [self.inbox, self.channel]
 
     def providers(self):
-        """The providers new calls may go to, in the order they go to them."""
-        return [p for p in self._order if not self._providers[p]["left"]]
+        """The providers new calls may go to, in the order they are tried
+        (proven live first, unresponsive last)."""
+        live = [p for p in self._order if not self._providers[p]["left"]]
+        return sorted(live, key=self._rank)
 
     @property
     def in_flight(self):
@@ -1614,48 +1968,77 @@ class Caller:
         _rpc_packet(self.channel + "." + "0" * 16, priority,
                     "call id {} reply_to {}".format(call_id, self.inbox), lines)
         self._calls[call_id] = {"lines": lines, "priority": priority, "started": now,
-                                "deadline": now + timeout, "sent_to": None}
+                                "deadline": now + timeout, "sent_to": None, "ack_by": None,
+                                "accepted": False, "late": False, "tried": set(), "who_until": None}
         self._dispatch(now)
         return call_id
 
     def handle_packet(self, now, packet):
-        if len(packet.subjects) != 1 or not packet.lines:
+        if len(packet.subjects) != 1 or not packet.lines or packet.text is None:
             return
         label, raw = _first_line_raw(packet)
         if packet.subjects[0] == self.channel:
-            pid = raw.get("id")
-            if label == "provider" and pid and _ID.fullmatch(pid):
-                ms = packet.lines[0][1].get("lease_ms")
-                if isinstance(ms, bool) or not isinstance(ms, int) or ms < 0:
-                    return
-                self._note_provider(now, pid, min(max(ms, MIN_LEASE_MS) / 1000.0, _LONGEST_LEASE))
-            elif label == "leaving" and pid in self._providers:
-                self._providers[pid]["left"] = True
+            if label in ("provider", "leaving"):
+                self._on_notice(now, packet, label)
         elif packet.subjects[0] == self.inbox:
-            call_id, frm = raw.get("id"), raw.get("from")
-            call = self._calls.get(call_id)
-            # Only the provider the call went to may end it.
-            if label not in ("reply", "refused") or call is None or frm is None or call["sent_to"] != frm:
+            if label not in ("reply", "refused", "accepted"):
                 self.strays += 1
                 return
-            if label == "refused":
-                # A bare reason as written, a quoted one unescaped; a group is no reason.
-                why = raw.get("text")
-                if why is None:
-                    why = packet.lines[0][1].get("text")
-                    if not isinstance(why, str):
-                        self.strays += 1
-                        return
-                result = CallError("refused", "provider {} refused the call: {}".format(frm, why), frm)
-            else:
-                result = Answer(call_id, frm, _body_lines(packet))
-            del self._calls[call_id]
-            # An answer is as good a sign of life as an announcement.
-            known = self._providers.get(frm)
-            if known is not None:
-                known["seen"] = now
-                known["expires"] = max(known["expires"], now + known["lease"])
-            self._outcomes.append((call_id, result))
+            call = self._calls.get(raw.get("id"))
+            # Only the provider the call is with may speak for it; the rest
+            # is not worth checking a signature for.
+            if call is None or call["sent_to"] is None or raw.get("from") != call["sent_to"]:
+                self.strays += 1
+                return
+            opened = _open_from(packet, "from")
+            if opened is None:
+                self.forged += 1
+                return
+            self._on_answer(now, opened[0], label, raw["id"], opened[1])
+
+    def _on_notice(self, now, packet, label):
+        opened = _open_from(packet, "id")
+        if opened is None:
+            self.forged += 1
+            return
+        inner, pid = opened
+        if label == "leaving":
+            if pid in self._providers:
+                self._leaving(now, pid)
+            return
+        fields = inner.lines[0][1]
+        ms = fields.get("lease_ms")
+        if isinstance(ms, bool) or not isinstance(ms, int) or ms < 0:
+            self.forged += 1
+            return
+        nonce = _first_line_raw(inner)[1].get("nonce")
+        echoed = nonce is not None and nonce == self._nonce
+        self._note_provider(now, pid, min(max(ms, MIN_LEASE_MS) / 1000.0, _LONGEST_LEASE), echoed)
+
+    def _on_answer(self, now, inner, label, call_id, frm):
+        call = self._calls[call_id]
+        known = self._providers.get(frm)
+        if known is not None:
+            # Taking or answering a call is as good a sign of life as an announcement.
+            known.update(seen=now, expires=max(known["expires"], now + known["lease"]),
+                         proven=True, unresponsive=False)
+        if label == "accepted":
+            call["accepted"] = True
+            call["ack_by"] = None
+            return
+        if label == "refused":
+            # A bare reason as written, a quoted one unescaped; a group is no reason.
+            why = _first_line_raw(inner)[1].get("text")
+            if why is None:
+                why = inner.lines[0][1].get("text")
+                if not isinstance(why, str):
+                    self.strays += 1
+                    return
+            result = CallError("refused", "provider {} refused the call: {}".format(frm, why), frm)
+        else:
+            result = Answer(call_id, frm, _body_lines(inner))
+        del self._calls[call_id]
+        self._outcomes.append((call_id, result))
 
     def handle_timeout(self, now):
         for pid in [p for p, k in self._providers.items() if k["expires"] <= now]:
@@ -1670,12 +2053,15 @@ class Caller:
                 err = CallError("timeout", "provider {} did not answer within {:.1f} s".format(
                     call["sent_to"], waited), call["sent_to"])
             self._outcomes.append((call_id, err))
-        self._ask_if_waiting(now)
+        self._dispatch(now)
 
     def poll_timeout(self):
         times = [c["deadline"] for c in self._calls.values()]
+        times += [c["ack_by"] for c in self._calls.values() if c["ack_by"] is not None]
+        times += [c["who_until"] for c in self._calls.values()
+                  if c["who_until"] is not None and not c["accepted"]]
         times += [k["expires"] for k in self._providers.values()]
-        if self._waiting() and self._last_asked is not None:
+        if self._asking and self._last_asked is not None:
             times.append(self._last_asked + _ASK_EVERY)
         return min(times) if times else None
 
@@ -1686,15 +2072,17 @@ class Caller:
         """``(call_id, Answer or CallError)`` for the next call that ended, or None."""
         return self._outcomes.popleft() if self._outcomes else None
 
-    def _waiting(self):
-        return any(c["sent_to"] is None for c in self._calls.values())
+    def _rank(self, pid):
+        k = self._providers[pid]
+        return 2 if k["unresponsive"] else 0 if k["proven"] else 1
 
-    def _ask_if_waiting(self, now):
-        if self._waiting() and (self._last_asked is None or now >= self._last_asked + _ASK_EVERY):
+    def _ask(self, now):
+        if self._last_asked is None or now >= self._last_asked + _ASK_EVERY:
             self._last_asked = now
-            self._outbox.append(_rpc_packet(self.channel, 0, "who", ()))
+            self._nonce = _fresh_id()
+            self._outbox.append(_rpc_packet(self.channel, 0, "who nonce " + self._nonce, ()))
 
-    def _note_provider(self, now, pid, lease):
+    def _note_provider(self, now, pid, lease, echoed):
         known = self._providers.get(pid)
         if known is not None:
             known.update(lease=lease, seen=now, expires=max(known["expires"], now + lease), left=False)
@@ -1706,23 +2094,68 @@ class Caller:
                     return
                 self._drop(soonest, now)
             self._order.append(pid)
-            self._providers[pid] = {"lease": lease, "seen": now, "expires": now + lease, "left": False}
-        if self._waiting():
-            self._dispatch(now)
+            known = self._providers[pid] = {"lease": lease, "seen": now, "expires": now + lease,
+                                             "left": False, "proven": False, "unresponsive": False}
+        # An echo proves the process lives, not that it takes calls: one that
+        # let a call go unaccepted stays last until it accepts one.
+        if echoed and not known["unresponsive"]:
+            known["proven"] = True
+        self._dispatch(now)
 
     def _dispatch(self, now):
+        self._asking = False
         live = [p for p in self._order
                 if self._providers[p]["expires"] > now and not self._providers[p]["left"]]
-        if live:
-            for call_id, call in self._calls.items():
-                if call["sent_to"] is not None:
+        for call_id, call in self._calls.items():
+            if call["accepted"]:
+                continue
+            if call["sent_to"] is not None and not call["late"]:
+                if now < call["ack_by"]:
                     continue
-                to = live[self._turn % len(live)]
-                self._turn += 1
-                first = "call id {} reply_to {}".format(call_id, self.inbox)
-                self._outbox.append(_rpc_packet(self.channel + "." + to, call["priority"], first, call["lines"]))
-                call["sent_to"] = to
-        self._ask_if_waiting(now)
+                # Neither accepted nor answered in time: tried last from now on,
+                # and the call looks for another provider until one takes it.
+                silent = self._providers.get(call["sent_to"])
+                if silent is not None:
+                    silent.update(unresponsive=True, proven=False)
+                call.update(ack_by=None, late=True)
+            untried = sorted((p for p in live if p not in call["tried"]), key=self._rank)
+            if not untried:
+                # Nobody new to try: a call already sent stays where it is.
+                call["who_until"] = None
+                if call["sent_to"] is None:
+                    self._asking = True
+                    self._ask(now)
+                continue
+            if self._rank(untried[0]) != 0:
+                # No provider proven live: ask, and give the echoes time to come.
+                if call["who_until"] is None:
+                    self._ask(now)
+                    left = call["deadline"] - now
+                    call["who_until"] = self._last_asked + min(self.ack_wait, left / 4.0)
+                if now < call["who_until"]:
+                    continue
+            best = [p for p in untried if self._rank(p) == self._rank(untried[0])]
+            to = best[self._turn % len(best)]
+            self._turn += 1
+            first = "call id {} reply_to {}".format(call_id, self.inbox)
+            self._outbox.append(_rpc_packet(self.channel + "." + to, call["priority"], first, call["lines"]))
+            call.update(sent_to=to, ack_by=now + min(self.ack_wait, (call["deadline"] - now) / 4.0),
+                        who_until=None, late=False)
+            call["tried"].add(to)
+
+    def _leaving(self, now, pid):
+        # Sealed, so it is the provider's own word: it takes no new calls,
+        # the ones it accepted end now, and the ones it never took go elsewhere.
+        self._providers[pid]["left"] = True
+        for call_id in [c for c, call in self._calls.items() if call["sent_to"] == pid]:
+            call = self._calls[call_id]
+            if call["accepted"]:
+                del self._calls[call_id]
+                self._outcomes.append((call_id, CallError(
+                    "provider_left", "provider {} stopped before answering".format(pid), pid)))
+            else:
+                call.update(ack_by=now, late=False)
+        self._dispatch(now)
 
     def _drop(self, pid, now):
         gone = self._providers.pop(pid, None)
@@ -1754,24 +2187,34 @@ class Call:
 
 
 class Provider:
-    """One provider of one service, sans I/O, like the Rust ``rpc::Provider``:
-    announces itself when made, every third of its ``lease`` (seconds) and when
-    asked ``who`` (at most every 0.1 s); :meth:`handle_packet` returns each
-    call, to :meth:`answer` or :meth:`refuse`."""
+    """One provider of one service, sans I/O, like the Rust ``rpc::Provider``.
 
-    def __init__(self, service, now, lease=3.0, provider_id=None):
+    Its id is the fingerprint of its key (``identity``, a new
+    :class:`Identity` unless given), and it seals everything it says. It
+    announces itself when made and every third of its ``lease`` (seconds),
+    and answers each ``who`` at once (``who nonce X`` with ``nonce X``), up to
+    10 a second (a burst of 10). :meth:`handle_packet` returns each call,
+    having queued ``accepted`` for it: publish what :meth:`poll_transmit`
+    gives before running the call, then :meth:`answer` or :meth:`refuse` it."""
+
+    def __init__(self, service, now, lease=3.0, identity=None):
         self.channel = _service_channel(service)
-        self.id = provider_id or _fresh_id()
-        if not _ID.fullmatch(self.id):
-            raise ValueError("an id is 16 lowercase hex digits")
+        if identity is None:
+            identity = Identity()
+        if not isinstance(identity, Identity):
+            raise TypeError("a provider's identity is an Identity")
+        self.identity = identity
+        self.id = "{:016x}".format(identity.fingerprint)
         if not (isinstance(lease, (int, float)) and lease == lease):
             raise ValueError("a lease is a number of seconds")
         self.lease = min(max(float(lease), MIN_LEASE_MS / 1000.0), _LONGEST_LEASE)
         self.inbox = self.channel + "." + self.id
+        # Packets are sealed as they leave, so their counts rise in the order sent.
         self._outbox = deque()
         # The announcement (or farewell) not yet sent: one at most.
         self._notice = None
-        self._last_who = None
+        self._bucket = float(_WHO_BURST)
+        self._bucket_at = now
         #: Calls answered or refused.
         self.served = 0
         self._announce(now)
@@ -1779,10 +2222,15 @@ class Provider:
     def subjects(self):
         return [self.channel, self.inbox]
 
+    def _announcement(self, nonce=None):
+        first = "provider id {} lease_ms {}".format(self.id, int(self.lease * 1000))
+        if nonce is not None:
+            first += " nonce " + nonce
+        return _rpc_packet(self.channel, 0, first, ())
+
     def _announce(self, now):
         self._last_announced = now
-        first = "provider id {} lease_ms {}".format(self.id, int(self.lease * 1000))
-        self._notice = _rpc_packet(self.channel, 0, first, ())
+        self._notice = self._announcement()
 
     def handle_packet(self, now, packet):
         """A :class:`Call` for this provider, or None."""
@@ -1790,10 +2238,12 @@ class Provider:
             return None
         label, raw = _first_line_raw(packet)
         if packet.subjects[0] == self.channel:
-            every = min(self.lease / 3.0, _ANSWER_WHO_AT_LEAST_EVERY)
-            if label == "who" and (self._last_who is None or now - self._last_who >= every):
-                self._last_who = now
-                self._announce(now)
+            nonce = raw.get("nonce")
+            # A nonce is 16 bare hex digits; a `who` with any other is answered by no echo.
+            given = "nonce" in packet.lines[0][1]
+            if label == "who" and (not given or (nonce and _ID.fullmatch(nonce))) and self._take_token(now):
+                self._outbox.append(self._announcement(nonce))
+                self._last_announced = now
             return None
         if packet.subjects[0] != self.inbox or label != "call":
             return None
@@ -1801,12 +2251,25 @@ class Provider:
         if not (call_id and _ID.fullmatch(call_id) and reply_to and reply_to.startswith(REPLY_PREFIX)
                 and is_subject(reply_to)):
             return None
+        first = "accepted id {} from {}".format(call_id, self.id)
+        self._outbox.append(_rpc_packet(reply_to, packet.priority, first, ()))
         return Call(call_id, reply_to, packet.priority, _body_lines(packet), packet)
+
+    def _take_token(self, now):
+        self._bucket = min(float(_WHO_BURST), self._bucket + max(0.0, now - self._bucket_at) * _WHO_RATE)
+        self._bucket_at = now
+        if self._bucket < 1.0:
+            return False
+        self._bucket -= 1.0
+        return True
 
     def answer(self, call, lines):
         """Answers with these lines; raises ParseError if they do not make a packet."""
         first = "reply id {} from {}".format(call.id, self.id)
-        self._outbox.append(_rpc_packet(call.reply_to, call.priority, first, [str(l) for l in lines]))
+        packet = _rpc_packet(call.reply_to, call.priority, first, [str(l) for l in lines])
+        if len(packet) + 230 > MAX_PACKET:
+            raise ParseError("too_large", 1, 1, len=len(packet) + 230)
+        self._outbox.append(packet)
         self.served += 1
 
     def refuse(self, call, why):
@@ -1829,9 +2292,12 @@ class Provider:
 
     def poll_transmit(self):
         if self._notice is not None:
-            notice, self._notice = self._notice, None
-            return notice
-        return self._outbox.popleft() if self._outbox else None
+            packet, self._notice = self._notice, None
+        elif self._outbox:
+            packet = self._outbox.popleft()
+        else:
+            return None
+        return self.identity.seal(packet)
 
 
 def _earliest(*times):
@@ -1871,8 +2337,8 @@ class CallClient(_OnClient):
     your own loop with :meth:`start`, :meth:`poll` and :meth:`poll_outcome`.
     Extra keyword arguments go to :class:`Client` (``key=...``)."""
 
-    def __init__(self, hub, service, **client_args):
-        self.caller = Caller(service)
+    def __init__(self, hub, service, ack_wait=ACK_WAIT, **client_args):
+        self.caller = Caller(service, ack_wait=ack_wait)
         self._parked = deque()
         self._open(hub, self.caller.subjects(), client_args)
 
@@ -1930,10 +2396,12 @@ class ServeClient(_OnClient):
     """A :class:`Provider` on its own :class:`Client`. ``handler(call)``
     returns the answer's lines, or raises to refuse the call (its message is
     the reason). It announces itself only once the hub has leased its
-    subscriptions, so no caller hears of it before its calls can arrive."""
+    subscriptions, so no caller hears of it before its calls can arrive.
+    ``identity`` (an :class:`Identity`) is the key it seals with and its id;
+    a new one by default."""
 
-    def __init__(self, hub, service, lease=3.0, **client_args):
-        self.provider = Provider(service, time.monotonic(), lease)
+    def __init__(self, hub, service, lease=3.0, identity=None, **client_args):
+        self.provider = Provider(service, time.monotonic(), lease, identity)
         self._open(hub, self.provider.subjects(), client_args)
 
     def _flush(self):
@@ -1959,6 +2427,8 @@ class ServeClient(_OnClient):
             if packet is None:
                 break
             call = self.provider.handle_packet(now, packet)
+            # `accepted` (and any `who` answer) leaves before the handler runs.
+            self._flush()
             if call is None:
                 continue
             try:
@@ -2017,7 +2487,7 @@ def _pump(client, until):
 
 def announce_task(client, name, needs, length_s=5.0, deadline_s=60.0, announcer=None,
                   bid_window=0.2, ack_timeout=1.0, renew_interval=1.0, renew_timeout=3.0,
-                  say=None, at=None):
+                  say=None, at=None, stats=None):
     """Introduces a task into a running MURDOCH system and follows it to its
     end, as ``colony tasks announce`` does: announces it to the idle robots
     that have ``needs``, awards it to the lowest bid, renews the award while
@@ -2025,30 +2495,53 @@ def announce_task(client, name, needs, length_s=5.0, deadline_s=60.0, announcer=
     abandon, a decline, or silence for ``renew_timeout``). A task nobody can
     take is announced again, with backoff, until ``deadline_s``.
 
+    Every message it sends is sealed (:class:`Identity`, one key per call),
+    and it acts only on sealed messages: the key that sealed a bidder token's
+    first bid in an auction is that bidder, whose later bids, declines, acks,
+    renewals, ``done`` and ``abandon`` count only from that key and each once,
+    in order (a copy sent again is refused). A bid's score must lie within what
+    the task's metrics can add up to (only 0 for a task with none).
+
     ``at``, an ``(x, y)`` in cm, says where the task is: robots bid by their
     distance to it (``--at`` of ``colony tasks announce``), and one driving a
     body goes there first; a robot with no position does not bid.
 
     Returns ``("done", winner)`` or ``("gave_up", reason)``. ``say``, if
-    given, is called with a line for each step."""
+    given, is called with a line for each step. ``stats``, if given a dict,
+    counts what was heard: ``bids`` taken, ``forged`` (sealed, but not by the
+    key that speaks for the bidder it names, a copy, or a score out of
+    bounds) and ``rejected`` (unsealed, badly sealed or malformed)."""
     say = say or (lambda line: None)
+    stats = {} if stats is None else stats
+    for k in ("bids", "forged", "rejected"):
+        stats.setdefault(k, 0)
     needs = sorted(set(needs.split(",") if isinstance(needs, str) else needs))
     for n in needs:
         if not is_subject(n):
             raise ValueError("{!r} is not a resource name".format(n))
     extra = []
+    weights = []
     if at is not None:
         x, y = (float(v) for v in at)
         if not (math.isfinite(x) and math.isfinite(y)):
             raise ValueError("at {!r} is not a place".format(at))
         extra = [("param", [("name", "x"), ("value", x)]), ("param", [("name", "y"), ("value", y)]),
                  ("metric", [("name", "distance"), ("weight", 1.0)])]
+        weights = [1.0]
+    # Each metric is worth 0 to 1e6 (Rust's MAX_METRIC_VALUE) times its weight.
+    bounds = (sum(min(w, 0.0) for w in weights) * _MAX_METRIC_VALUE,
+              sum(max(w, 0.0) for w in weights) * _MAX_METRIC_VALUE)
     announcer = announcer or "py-{:04x}".format(random.getrandbits(16))
+    identity = Identity()
     task = random.randint(1, 2**40)
     give_up_at = time.monotonic() + deadline_s
     backoff = 0.5
     reason = "not announced"
     attempt = 0
+
+    def send(subjects, lines):
+        client.publish_raw(identity.seal(build(subjects, 0, lines)))
+
     while True:
         attempt += 1
         neg = "{}{}.{}.{}".format(NEGOTIATION_PREFIX, announcer, task, attempt)
@@ -2058,28 +2551,46 @@ def announce_task(client, name, needs, length_s=5.0, deadline_s=60.0, announcer=
         task_line = ("task", [("name", name), ("id", task), ("negotiation", neg),
                               ("deadline_ms", int(bid_window * 1000)), ("length_s", float(length_s)),
                               ("announcer", announcer)])
-        client.publish(needs + ["idle"], 0, [task_line] + extra)
+        send(needs + ["idle"], [task_line] + extra)
         say("auction {} of {} open".format(attempt, name))
-        bids = []
+        bids = {}  # token -> [score, key, last n taken]
         for p in _pump(client, time.monotonic() + bid_window):
-            f = p.line("bid") if p.has_subject(neg) else None
-            if f is not None and f.get("task") == task:
-                bids.append((float(f.get("score")), str(f.get("bidder"))))
+            m = _heard(p, neg, task, identity, stats)
+            if m is None:
+                continue
+            label, who, score, key, n = m
+            known = bids.get(who)
+            if known is not None:
+                if key != known[1] or n <= known[2]:
+                    stats["forged"] += 1
+                    continue
+                known[2] = n
+                if label == "bid" and bounds[0] <= score <= bounds[1]:
+                    known[0] = score
+                    stats["bids"] += 1
+                elif label == "decline":
+                    del bids[who]
+            elif label == "bid" and bounds[0] <= score <= bounds[1] and len(bids) < _MOST_BIDS:
+                bids[who] = [score, key, n]
+                stats["bids"] += 1
+            else:
+                # A first word under a token that is no admissible bid binds no key.
+                stats["forged"] += 1
         winner = None
         if bids:
-            score, winner = min(bids)
-            client.publish(neg, 0, [("award", [("task", task), ("winner", winner), ("score", score),
-                                               ("bids", len(bids))])])
+            score, winner = min((v[0], t) for t, v in bids.items())
+            send([neg], [("award", [("task", task), ("winner", winner), ("score", score),
+                                    ("bids", len(bids))])])
             say("awarded to {} (score {:.2f}, {} bids)".format(winner, score, len(bids)))
-            outcome = _follow(client, neg, task, announcer, winner, ack_timeout, renew_interval,
-                              renew_timeout, say)
+            outcome = _follow(client, send, neg, task, announcer, identity, winner, bids[winner],
+                              ack_timeout, renew_interval, renew_timeout, say, stats)
             if outcome == "done":
                 client.unsubscribe(neg)
                 return ("done", winner)
             reason = outcome
         else:
             reason = "no robot with {{{}}} is available".format(" ".join(needs))
-            client.publish(neg, 0, [("unachievable", [("task", task), ("name", name), ("reason", reason)])])
+            send([neg], [("unachievable", [("task", task), ("name", name), ("reason", reason)])])
             say("unachievable: " + reason)
         client.unsubscribe(neg)
         if time.monotonic() >= give_up_at:
@@ -2090,44 +2601,96 @@ def announce_task(client, name, needs, length_s=5.0, deadline_s=60.0, announcer=
             backoff = min(backoff * 2, 4.0)
 
 
-def _follow(client, neg, task, announcer, winner, ack_timeout, renew_interval, renew_timeout, say):
-    """The award's life: ``"done"``, or why the winner was lost."""
+#: What one metric can add to a score, per unit of weight (Rust's ``MAX_METRIC_VALUE``).
+_MAX_METRIC_VALUE = 1e6
+#: The largest number a MURDOCH message may carry (Rust's ``MAX_MAGNITUDE``).
+_MAX_MAGNITUDE = 1e12
+#: Bids one auction keeps: a flood of tokens cannot fill memory.
+_MOST_BIDS = 4096
+_TOKEN = re.compile(r"[A-Za-z0-9_-]{1,24}")
+# Who each negotiation message names: the bidder it speaks for (None: no bidder's word).
+_NAMES_BIDDER = {"bid": "bidder", "ack": "bidder", "decline": "bidder", "done": "bidder",
+                 "abandon": "bidder", "renew": "by", "award": None, "cancel": None, "unachievable": None}
+
+
+def _heard(packet, neg, task, identity, stats):
+    """``(label, bidder, score, key, n)`` of a sealed message on ``neg`` about
+    ``task`` that speaks for a bidder, or None; counts the unsealed and the
+    malformed in ``stats["rejected"]``. Reads as the Rust ``Message::open``
+    does: the seal first, then the first line of what it sealed."""
+    if packet.subjects != [neg]:
+        return None
+    try:
+        body, key, n = open_seal(packet.text.encode("utf-8"))
+        inner = parse(body)
+    except (SealError, ParseError):
+        stats["rejected"] += 1
+        return None
+    if key == identity.key:
+        return None  # its own, heard back
+    label, fields = inner.lines[0] if inner.lines else (None, {})
+    raw = _first_line_raw(inner)[1]
+    t = fields.get("task")
+    # A token is bare text; `12` parses as a number but is still a token.
+    who = raw.get(_NAMES_BIDDER.get(label) or "")
+    score = fields.get("score")
+    if label == "bid":
+        ok_score = (isinstance(score, (int, float)) and not isinstance(score, bool)
+                    and math.isfinite(score) and abs(score) <= _MAX_MAGNITUDE)
+    else:
+        ok_score, score = True, None
+    if (inner.subjects != [neg] or label not in _NAMES_BIDDER or isinstance(t, bool)
+            or not isinstance(t, int) or t < 0 or not ok_score
+            or (_NAMES_BIDDER[label] is not None and (who is None or not _TOKEN.fullmatch(who)))):
+        stats["rejected"] += 1
+        return None
+    if t != task or who is None:
+        return None
+    return label, who, (float(score) if score is not None else None), key, n
+
+
+def _follow(client, send, neg, task, announcer, identity, winner, bidder, ack_timeout,
+            renew_interval, renew_timeout, say, stats):
+    """The award's life: ``"done"``, or why the winner was lost. ``bidder`` is
+    the winner's ``[score, key, last n]``: only that key speaks for it."""
     heard = None
     started = time.monotonic()
     next_renew = started
     while True:
         now = time.monotonic()
         if heard is None and now - started > ack_timeout:
-            return "{} never acknowledged".format(winner)
+            why = "{} never acknowledged".format(winner)
+            send([neg], [("cancel", [("task", task), ("reason", why)])])
+            return why
         if heard is not None and now - heard > renew_timeout:
             why = "presumed failed: no renewal for {:.1f} s".format(renew_timeout)
-            client.publish(neg, 0, [("cancel", [("task", task), ("reason", why)])])
+            send([neg], [("cancel", [("task", task), ("reason", why)])])
             say("{} lost ({}): auctioned again".format(winner, why))
             return why
         if now >= next_renew and heard is not None:
-            client.publish(neg, 0, [("renew", [("task", task), ("by", announcer)])])
+            send([neg], [("renew", [("task", task), ("by", announcer)])])
             next_renew = now + renew_interval
         for p in _pump(client, min(now + 0.05, next_renew if heard is not None else now + 0.05)):
-            if not p.has_subject(neg):
+            m = _heard(p, neg, task, identity, stats)
+            if m is None:
                 continue
-            for label in ("ack", "renew", "done", "abandon", "decline"):
-                f = p.line(label)
-                if f is None or f.get("task") != task:
-                    continue
-                who = str(f.get("bidder") if label != "renew" else f.get("by"))
-                if who != winner:
-                    continue
-                if label in ("ack", "renew"):
-                    if heard is None:
-                        say("{} started".format(winner))
-                    heard = time.monotonic()
-                elif label == "done":
-                    say("done by {}".format(winner))
-                    return "done"
-                else:
-                    why = "{} by {}".format(label, winner)
-                    say(why + ": auctioned again")
-                    return why
+            label, who, _, key, n = m
+            if who != winner or key != bidder[1] or n <= bidder[2]:
+                stats["forged"] += 1
+                continue
+            bidder[2] = n
+            if label in ("ack", "renew"):
+                if heard is None:
+                    say("{} started".format(winner))
+                heard = time.monotonic()
+            elif label == "done":
+                say("done by {}".format(winner))
+                return "done"
+            elif label == "abandon" or (label == "decline" and heard is None):
+                why = "{} by {}".format(label, winner)
+                say(why + ": auctioned again")
+                send([neg], [("cancel", [("task", task), ("reason", why)])])
+                return why
 
 
 def _main(argv=None):

@@ -18,6 +18,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import unittest
 
@@ -1998,3 +1999,173 @@ class Murdoch(_HubCase):
         outcome = cc.announce_task(c, "grab", "gripper", deadline_s=1.0, say=lines.append)
         self.assertEqual(outcome[0], "gave_up", "\n".join(lines))
         self.assertIn("gripper", outcome[1])
+
+
+class Speaker:
+    """A MURDOCH party played by a test: its own client and key, saying lines
+    on a negotiation subject sealed (or not), and keeping what it hears."""
+
+    def __init__(self, case, *subjects):
+        self.client = case.client()
+        for s in subjects:
+            self.client.subscribe(s)
+        self.identity = cc.Identity()
+        self.sent = {}
+
+    def say(self, neg, line, sealed=True):
+        packet = ("@ <%s> 0\n%s\n" % (neg, line)).encode()
+        if sealed:
+            packet = self.identity.seal(packet)
+        self.client.publish_raw(packet)
+        self.sent[line] = packet
+        return packet
+
+
+class SealedMurdoch(_HubCase):
+    """announce_task against bidders and forgers played here: it acts only on
+    what the bidder's own key sealed, once, with a score the task admits."""
+
+    def announce(self, stats, **kw):
+        c = self.client()
+        result = {}
+        kw["stats"] = stats
+
+        def run():
+            try:
+                result["outcome"] = cc.announce_task(c, **kw)
+            except BaseException as e:  # the test fails on it, in its own thread
+                result["outcome"] = e
+            result["at"] = time.monotonic()
+
+        t = threading.Thread(target=run, daemon=True)
+        t.start()
+        self.addCleanup(t.join, 30.0)
+        return result
+
+    def task_heard(self, pump, robot):
+        """The announcement: (its key, its negotiation subject, the task's number)."""
+        ok = pump.until(lambda: any(p.labels()[0] == "task" for p in pump.received(robot.client)), 10.0)
+        self.assertTrue(ok, "no task announced")
+        packet = next(p for p in pump.received(robot.client) if p.labels()[0] == "task")
+        body, key, _ = cc.open_seal(packet.text.encode())
+        task = cc.parse(body).line("task")
+        robot.client.subscribe(task["negotiation"])
+        return key, task["negotiation"], task["id"]
+
+    def said(self, pump, speaker, neg, label):
+        return [p for p in pump.received(speaker.client) if p.subjects == [neg] and p.labels()[0] == label]
+
+    def test_forged_bids_awards_cancels_and_done_do_not_move_the_task(self):
+        stats = {}
+        robot = Speaker(self, "camera", "idle")
+        forger = Speaker(self, "camera", "idle")
+        pump = Pump(robot.client, forger.client)
+        self.assertTrue(leased(pump, robot.client, forger.client))
+        result = self.announce(stats, name="look", needs="camera", length_s=1.0, deadline_s=6.0,
+                               announcer="user", bid_window=0.4, ack_timeout=2.0, renew_interval=0.2,
+                               renew_timeout=2.0)
+        key, neg, task = self.task_heard(pump, robot)
+        forger.client.subscribe(neg)
+        pump.until(lambda: False, 0.1)
+        robot.say(neg, "bid task %d bidder r2 score 0" % task)
+        # r2 is bound to the robot's key by its first bid: another key bids for it in vain.
+        forger.say(neg, "bid task %d bidder r2 score 0" % task)
+        forger.say(neg, "bid task %d bidder evil score -1" % task)  # below what a task without metrics admits
+        forger.say(neg, "bid task %d bidder a0 score 0" % task, sealed=False)  # would win the tie
+        self.assertTrue(pump.until(lambda: self.said(pump, robot, neg, "award"), 5.0), "no award")
+        award = self.said(pump, robot, neg, "award")[0]
+        self.assertEqual(award.line("award")["winner"], "r2")
+        self.assertEqual(cc.open_seal(award.text.encode()).key, key)
+        # The forger ends the task in the winner's name, sealed and not, and
+        # speaks as the announcer to the robots.
+        forger.say(neg, "done task %d bidder r2" % task)
+        forger.say(neg, "done task %d bidder r2" % task, sealed=False)
+        forger.say(neg, 'cancel task %d reason "forged"' % task)
+        forger.say(neg, "award task %d winner evil score 0 bids 1" % task)
+        robot.say(neg, "ack task %d bidder r2" % task)
+        started = time.monotonic()
+        pump.until(lambda: False, 0.3)
+        # A copy of the robot's own ack, sent again.
+        forger.client.publish_raw(robot.sent["ack task %d bidder r2" % task])
+        n = 0
+        while time.monotonic() < started + 1.0:
+            n += 1
+            robot.say(neg, "renew task %d by r2 progress 0.%d" % (task, n))
+            pump.until(lambda: False, 0.15)
+        self.assertNotIn("outcome", result, "the task ended before its winner said so")
+        done_at = time.monotonic()
+        robot.say(neg, "done task %d bidder r2" % task)
+        self.assertTrue(pump.until(lambda: "outcome" in result, 5.0), "announce_task never ended")
+        self.assertEqual(result["outcome"], ("done", "r2"))
+        self.assertGreater(result["at"], done_at)
+        self.assertGreaterEqual(stats["forged"], 4)
+        self.assertGreaterEqual(stats["rejected"], 2)
+        # Everything the announcer said is sealed by its one key, counting up.
+        counts = []
+        for p in pump.received(robot.client):
+            if p.labels()[0] in ("task", "award", "renew", "cancel") and (p.labels()[0] == "task" or p.subjects == [neg]):
+                try:
+                    opened = cc.open_seal(p.text.encode())
+                except cc.SealError:
+                    continue  # the forger's unsealed lines
+                if opened.key == key:
+                    counts.append(opened.n)
+        self.assertGreaterEqual(len(counts), 4)
+        self.assertEqual(counts, sorted(set(counts)))
+
+    def test_copies_of_the_winners_renewals_keep_no_task_alive(self):
+        stats = {}
+        robot = Speaker(self, "camera", "idle")
+        replayer = Speaker(self)
+        pump = Pump(robot.client, replayer.client)
+        self.assertTrue(leased(pump, robot.client))
+        result = self.announce(stats, name="look", needs="camera", length_s=5.0, deadline_s=0.5,
+                               announcer="user", bid_window=0.3, ack_timeout=1.0, renew_interval=0.2,
+                               renew_timeout=0.8)
+        key, neg, task = self.task_heard(pump, robot)
+        pump.until(lambda: False, 0.05)
+        robot.say(neg, "bid task %d bidder r2 score 0" % task)
+        self.assertTrue(pump.until(lambda: self.said(pump, robot, neg, "award"), 5.0), "no award")
+        copies = [robot.say(neg, "ack task %d bidder r2" % task), robot.say(neg, "renew task %d by r2" % task)]
+        # The robot falls silent; the replayer sends its sealed words again and again.
+        deadline = time.monotonic() + 6.0
+        while "outcome" not in result and time.monotonic() < deadline:
+            for c in copies:
+                replayer.client.publish_raw(c)
+            pump.until(lambda: False, 0.1)
+        self.assertIn("outcome", result, "copies kept the task alive")
+        outcome = result["outcome"]
+        self.assertEqual(outcome[0], "gave_up")
+        self.assertIn("presumed failed", outcome[1])
+        cancels = self.said(pump, robot, neg, "cancel")
+        self.assertTrue(cancels)
+        self.assertEqual(cc.open_seal(cancels[0].text.encode()).key, key)
+        self.assertGreaterEqual(stats["forged"], 5)
+
+    def test_a_bid_counts_only_sealed_and_within_the_tasks_bounds(self):
+        for at, bids, winner in [
+            (None, [("a", "-5", True), ("a0", "0", False), ("a1", "0.001", True), ("b", "0", True)], "b"),
+            ((100, 0), [("a", "-1", True), ("a0", "0", False), ("a1", "2000000", True), ("c", "999999", True),
+                        ("d", "1000000", True)], "c"),
+        ]:
+            stats = {}
+            robot = Speaker(self, "camera", "idle")
+            pump = Pump(robot.client)
+            self.assertTrue(leased(pump, robot.client))
+            result = self.announce(stats, name="look", needs="camera", length_s=0.1, deadline_s=3.0,
+                                   announcer="user", bid_window=0.4, at=at)
+            key, neg, task = self.task_heard(pump, robot)
+            pump.until(lambda: False, 0.05)
+            keys = {}
+            for token, score, sealed in bids:
+                robot.identity = keys[token] = cc.Identity()  # a robot of its own for each token
+                robot.say(neg, "bid task %d bidder %s score %s" % (task, token, score), sealed=sealed)
+            robot.identity = keys[winner]
+            self.assertTrue(pump.until(lambda: self.said(pump, robot, neg, "award"), 5.0), "no award")
+            award = self.said(pump, robot, neg, "award")[0].line("award")
+            self.assertEqual((award["winner"], award["bids"]), (winner, 1 if at is None else 2))
+            robot.say(neg, "ack task %d bidder %s" % (task, winner))
+            robot.say(neg, "done task %d bidder %s" % (task, winner))
+            self.assertTrue(pump.until(lambda: "outcome" in result, 5.0))
+            self.assertEqual(result["outcome"], ("done", winner))
+            self.assertEqual((stats["bids"], stats["rejected"]), (1 if at is None else 2, 1))
