@@ -413,3 +413,18 @@ fn a_match_plays_from_an_empty_directory_on_the_built_in_map() {
     assert!(text.contains("on maps/dm.map (built in)"), "{text}");
     assert!(text.lines().any(|l| l.starts_with("result: ")), "{text}");
 }
+
+#[test]
+fn a_part_says_what_it_is_and_where_it_plays() {
+    let hub = HubProcess::start(&[]);
+    let addr = hub.addr.to_string();
+    let server = common::Proc::start(&["game", "part", "server", "--hub", &addr]);
+    assert!(
+        server
+            .when("the game server of a", Duration::from_secs(20))
+            .is_some(),
+        "{}",
+        server.text()
+    );
+    assert!(server.text().contains(&addr), "{}", server.text());
+}

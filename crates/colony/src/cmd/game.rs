@@ -110,6 +110,18 @@ pub enum PartKind {
     Bot,
 }
 
+impl PartKind {
+    /// What a person calls it.
+    fn name(self) -> &'static str {
+        match self {
+            PartKind::World => "world",
+            PartKind::Server => "game server",
+            PartKind::Robots => "robots",
+            PartKind::Bot => "scripted player",
+        }
+    }
+}
+
 #[derive(clap::Args, Debug)]
 pub struct PartArgs {
     /// Which part.
@@ -363,6 +375,16 @@ fn part(args: PartArgs) -> anyhow::Result<()> {
         }
     };
     let stop = super::stop_flag()?;
+    // A part runs for as long as the match: say what it is, so a terminal
+    // of several parts tells which is which.
+    println!(
+        "colony game: the {} of a {} match on {}, through the hub at {}; Ctrl-C stops",
+        args.part.name(),
+        plan.rules.mode,
+        plan.map,
+        args.hub.addr
+    );
     live_match::run_part(&plan, &part, &args.hub.addr, args.speed, &stop)?;
+    println!("colony game: the {} stopped", args.part.name());
     Ok(())
 }
