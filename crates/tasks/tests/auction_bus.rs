@@ -441,6 +441,7 @@ fn malformed_tasks_and_bids_are_rejected_and_do_not_disturb_an_auction() {
         .unwrap();
     bus.run_until(&mut nodes(&mut robots, &mut user), t(0.05));
     let subject = format!("murdoch.user.{id}.1");
+    let mut mallory = colony_wire::seal::Identity::from_seed([13; 32]);
     for bad in [
         format!("@ <{subject}> 0\nbid task {id} bidder r9 score lots\n"),
         format!("@ <{subject}> 0\nbid task {id} bidder \"r 9\" score -100\n"),
@@ -450,11 +451,14 @@ fn malformed_tasks_and_bids_are_rejected_and_do_not_disturb_an_auction() {
         "@ <mobile> <idle> 0\ntask name x id 1\n".to_string(),
         "@ <mobile> <idle> 0\nnot a packet ((\n".to_string(),
     ] {
-        bus.publish(bad.into_bytes());
+        // Sealed, so that what is refused is what they say.
+        bus.publish(mallory.sealed(bad.into_bytes()));
     }
+    // And one well-formed bid that no seal vouches for.
+    bus.publish(format!("@ <{subject}> 0\nbid task {id} bidder r9 score 0\n").into_bytes());
     bus.run_until(&mut nodes(&mut robots, &mut user), t(1.0));
     assert_eq!(user.winner(id).unwrap().as_str(), "r1");
-    assert!(user.stats().rejected >= 4, "{:?}", user.stats());
+    assert!(user.stats().rejected >= 5, "{:?}", user.stats());
     assert!(robots[1].stats().rejected >= 2);
     assert!(agent_events(&mut robots[1])
         .iter()
