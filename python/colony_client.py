@@ -1814,6 +1814,9 @@ _LONGEST_TIMEOUT = 86400.0
 _MOST_PROVIDERS = 64
 #: The most datagrams one poll takes in, so a flood leaves time for the timers.
 _MOST_PER_POLL = 256
+# Room an answer leaves for the longest seal line and the `auth` line a hub
+# key adds, so a sealed answer still fits one datagram (as the Rust provider).
+_SEALED_ROOM = (7 + 20 + 5 + 64 + 5 + 128 + 1) + (7 + 20 + 5 + 64 + 1)
 
 
 def _fresh_id():
@@ -1847,21 +1850,22 @@ def _rpc_packet(subject, priority, first, lines):
 
 
 def _open_from(packet, name):
-    """``(what it sealed, parsed; the id it names in ``name``)`` when the
-    packet is sealed by the key whose fingerprint is that id, else None. The
-    key is matched to the id before the (costlier) signature is checked."""
+    """``(what it sealed, parsed; the id it names in ``name``; the seal's
+    count)`` when the packet is sealed by the key whose fingerprint is that
+    id, else None. The key is matched to the id before the (costlier)
+    signature is checked."""
     try:
         data = packet.text.encode("utf-8")
         key = _split_seal(data)[2]
         pid = _first_line_raw(packet)[1].get(name)
         if pid is None or not _ID.fullmatch(pid) or int(pid, 16) != fingerprint(key):
             return None
-        body, _, _ = open_seal(data)
+        body, _, n = open_seal(data)
         inner = parse(body)
         # What was sealed must name the same id (not merely what follows it).
         if _first_line_raw(inner)[1].get(name) != pid or inner.subjects != packet.subjects:
             return None
-        return inner, pid
+        return inner, pid, n
     except (SealError, ParseError, ValueError):
         return None
 
@@ -1985,9 +1989,10 @@ class Caller:
                 self.strays += 1
                 return
             call = self._calls.get(raw.get("id"))
-            # Only the provider the call is with may speak for it; the rest
-            # is not worth checking a signature for.
-            if call is None or call["sent_to"] is None or raw.get("from") != call["sent_to"]:
+            frm = raw.get("from")
+            # Only a provider the call was sent to may take or end it, and once
+            # one took it, only that one; the rest is not worth a signature check.
+            if call is None or frm not in call["tried"] or (call["accepted"] and frm != call["sent_to"]):
                 self.strays += 1
                 return
             opened = _open_from(packet, "from")
@@ -2001,9 +2006,16 @@ class Caller:
         if opened is None:
             self.forged += 1
             return
-        inner, pid = opened
+        inner, pid, n = opened
+        known = self._providers.get(pid)
+        if known is not None:
+            # A notice recorded and sent again must not keep a dead provider alive.
+            if n <= known["n"]:
+                self.forged += 1
+                return
+            known["n"] = n
         if label == "leaving":
-            if pid in self._providers:
+            if known is not None:
                 self._leaving(now, pid)
             return
         fields = inner.lines[0][1]
@@ -2013,7 +2025,7 @@ class Caller:
             return
         nonce = _first_line_raw(inner)[1].get("nonce")
         echoed = nonce is not None and nonce == self._nonce
-        self._note_provider(now, pid, min(max(ms, MIN_LEASE_MS) / 1000.0, _LONGEST_LEASE), echoed)
+        self._note_provider(now, pid, min(max(ms, MIN_LEASE_MS) / 1000.0, _LONGEST_LEASE), echoed, n)
 
     def _on_answer(self, now, inner, label, call_id, frm):
         call = self._calls[call_id]
@@ -2023,8 +2035,8 @@ class Caller:
             known.update(seen=now, expires=max(known["expires"], now + known["lease"]),
                          proven=True, unresponsive=False)
         if label == "accepted":
-            call["accepted"] = True
-            call["ack_by"] = None
+            # Taken (perhaps by a provider passed over, late): it goes nowhere else.
+            call.update(accepted=True, ack_by=None, sent_to=frm, late=False)
             return
         if label == "refused":
             # A bare reason as written, a quoted one unescaped; a group is no reason.
@@ -2039,6 +2051,8 @@ class Caller:
             result = Answer(call_id, frm, _body_lines(inner))
         del self._calls[call_id]
         self._outcomes.append((call_id, result))
+        # A call waiting for a provider may go to the one proven just now.
+        self._dispatch(now)
 
     def handle_timeout(self, now):
         for pid in [p for p, k in self._providers.items() if k["expires"] <= now]:
@@ -2082,7 +2096,7 @@ class Caller:
             self._nonce = _fresh_id()
             self._outbox.append(_rpc_packet(self.channel, 0, "who nonce " + self._nonce, ()))
 
-    def _note_provider(self, now, pid, lease, echoed):
+    def _note_provider(self, now, pid, lease, echoed, n):
         known = self._providers.get(pid)
         if known is not None:
             known.update(lease=lease, seen=now, expires=max(known["expires"], now + lease), left=False)
@@ -2094,7 +2108,7 @@ class Caller:
                     return
                 self._drop(soonest, now)
             self._order.append(pid)
-            known = self._providers[pid] = {"lease": lease, "seen": now, "expires": now + lease,
+            known = self._providers[pid] = {"lease": lease, "seen": now, "expires": now + lease, "n": n,
                                              "left": False, "proven": False, "unresponsive": False}
         # An echo proves the process lives, not that it takes calls: one that
         # let a call go unaccepted stays last until it accepts one.
@@ -2144,17 +2158,12 @@ class Caller:
             call["tried"].add(to)
 
     def _leaving(self, now, pid):
-        # Sealed, so it is the provider's own word: it takes no new calls,
-        # the ones it accepted end now, and the ones it never took go elsewhere.
+        # It takes no new calls, and those it never took go elsewhere now; the
+        # ones it accepted may still be answered, so they end with its lease.
         self._providers[pid]["left"] = True
-        for call_id in [c for c, call in self._calls.items() if call["sent_to"] == pid]:
-            call = self._calls[call_id]
-            if call["accepted"]:
-                del self._calls[call_id]
-                self._outcomes.append((call_id, CallError(
-                    "provider_left", "provider {} stopped before answering".format(pid), pid)))
-            else:
-                call.update(ack_by=now, late=False)
+        for call in self._calls.values():
+            if call["sent_to"] == pid and not call["accepted"] and not call["late"]:
+                call["ack_by"] = now
         self._dispatch(now)
 
     def _drop(self, pid, now):
@@ -2267,8 +2276,8 @@ class Provider:
         """Answers with these lines; raises ParseError if they do not make a packet."""
         first = "reply id {} from {}".format(call.id, self.id)
         packet = _rpc_packet(call.reply_to, call.priority, first, [str(l) for l in lines])
-        if len(packet) + 230 > MAX_PACKET:
-            raise ParseError("too_large", 1, 1, len=len(packet) + 230)
+        if len(packet) + _SEALED_ROOM > MAX_PACKET:
+            raise ParseError("too_large", 1, 1, len=len(packet) + _SEALED_ROOM)
         self._outbox.append(packet)
         self.served += 1
 
@@ -2287,7 +2296,7 @@ class Provider:
         return self._last_announced + self.lease / 3.0
 
     def leave(self):
-        """Says the provider is stopping, so callers end its calls at once."""
+        """Says the provider is stopping: callers send it no new calls."""
         self._notice = _rpc_packet(self.channel, 0, "leaving id " + self.id, ())
 
     def poll_transmit(self):

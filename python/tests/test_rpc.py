@@ -287,15 +287,65 @@ class SansIO(unittest.TestCase):
         (_, err), = net.outcomes()
         self.assertEqual((err.kind, str(err).endswith("asked to fail")), ("refused", True))
 
-        # A sealed `leaving` is the provider's own word: the calls it took end now.
+        # A provider that says it is leaving gets no new calls; the ones it
+        # took may still be answered, so they end with its lease.
         net.stuck[0] = True
         net.caller.call(0.0, ["x y 1"])
         net.run(0.0)
         net.providers[0].leave()
         net.run(0.0)
+        self.assertEqual(net.outcomes(), [])
+        self.assertEqual(net.caller.providers(), [])
+        net.dead[0] = True
+        net.tick(LEASE + 0.05)
         (_, err), = net.outcomes()
         self.assertEqual(err.kind, "provider_left")
-        self.assertEqual(net.caller.providers(), [])
+
+    def test_a_call_sent_to_a_provider_that_leaves_before_taking_it_goes_elsewhere(self):
+        net = Net(2, 0.0)
+        net.run(0.0)
+        net.caller.call(0.0, ["warm up 1"])
+        net.run(0.0)
+        net.outcomes()
+        net.dead[0] = True
+        net.caller._turn = 0
+        call_id = net.caller.call(0.0, ["x y 1"])
+        net.run(0.0)
+        net.dead[0] = False
+        net.providers[0].leave()
+        net.run(0.0)
+        (got, answer), = net.outcomes()
+        self.assertEqual((got, answer.provider), (call_id, pid(2)))
+
+    def test_a_provider_passed_over_may_still_take_the_call_it_was_sent(self):
+        net = Net(2, 0.0)
+        net.run(0.0)
+        net.caller.call(0.0, ["warm up 1"])
+        net.run(0.0)
+        net.outcomes()
+        net.caller._turn = 0
+        net.dead = [True, True]
+        call_id = net.caller.call(0.0, ["x y 1"], timeout=10.0)
+        net.run(0.0)
+        net.caller.handle_timeout(0.25)  # passed over: sent to the second
+        net.run(0.25)
+        sent = [p.subjects[0] for p in net.heard if p.labels()[0] == "call" and ("call id " + call_id) in p.text]
+        self.assertEqual(sent, [net.providers[0].inbox, net.providers[1].inbox])
+        # The first one's `accepted` comes late: the call is its, and only its answer ends it.
+        late = net.providers[0]
+        call = cc.Call(call_id, net.caller.inbox, 0, ["x y 1"], None)
+        late._outbox.append(cc._rpc_packet(net.caller.inbox, 0, "accepted id %s from %s" % (call_id, late.id), ()))
+        for d in drain(late):
+            net.caller.handle_packet(0.3, cc.parse(d))
+        net.providers[1].answer(call, ["x y 2"])
+        for d in drain(net.providers[1]):
+            net.caller.handle_packet(0.3, cc.parse(d))
+        self.assertEqual(net.outcomes(), [])
+        late.answer(call, ["x y 1"])
+        for d in drain(late):
+            net.caller.handle_packet(0.3, cc.parse(d))
+        (got, answer), = net.outcomes()
+        self.assertEqual((got, answer.provider, answer.lines), (call_id, pid(1), ["x y 1"]))
 
     def test_forged_and_repeated_answers_are_not_taken(self):
         net = Net(1, 0.0)
@@ -379,8 +429,14 @@ class SansIO(unittest.TestCase):
         net.caller.call(0.0, ["x y 1"], timeout=60.0)
         net.run(0.0)
         net.dead[0] = True
-        # Its own announcement, sent again, with a short lease: a lease is never cut.
-        short = identity(1).seal("@ <svc.echo> 0\nprovider id %s lease_ms 0\n" % pid(1)).decode()
+        # Its own announcements, sent again: a copy is refused, and a lease is never cut.
+        copy = next(p for p in net.heard if p.labels()[0] == "provider")
+        forged = net.caller.forged
+        net.caller.handle_packet(0.0, copy)
+        self.assertEqual(net.caller.forged, forged + 1)
+        short = identity(1)
+        short.n = 1000
+        short = short.seal("@ <svc.echo> 0\nprovider id %s lease_ms 0\n" % pid(1)).decode()
         net.caller.handle_packet(0.0, cc.parse(short.encode()))
         net.caller.handle_timeout(1.0)
         self.assertEqual(net.outcomes(), [])
