@@ -16,7 +16,7 @@ pub enum StatusError {
     #[error(transparent)]
     Connect(#[from] ConnectError),
     /// Nothing answered in time.
-    #[error("no answer from a hub at {addr} within {:.1} s (is `colony hub` running there?)", timeout.as_secs_f64())]
+    #[error("no answer from a hub at {addr} within {:.1} s (is `colony hub` running there? a hub run with --auth-all answers only packets signed with its key: --key FILE or COLONY_KEY)", timeout.as_secs_f64())]
     NoAnswer {
         /// The hub's address, resolved.
         addr: std::net::SocketAddr,
@@ -36,7 +36,15 @@ pub enum StatusError {
 /// (the hub answers a large reply only to an address that proved it
 /// receives there); the session asks again with it by itself.
 pub fn fetch_status(hub: &str, timeout: Duration) -> Result<StatusReport, StatusError> {
-    let mut client = UdpClient::connect_to(hub)?;
+    fetch_status_with(UdpClient::connect_to(hub)?, timeout)
+}
+
+/// As [`fetch_status`], through a client of the hub made by the caller (one
+/// that signs with the hub's key, for a hub that asks every packet to be signed).
+pub fn fetch_status_with(
+    mut client: UdpClient,
+    timeout: Duration,
+) -> Result<StatusReport, StatusError> {
     // A timeout beyond what the clock can hold waits as long as it can.
     let deadline = Instant::now()
         .checked_add(timeout)

@@ -358,6 +358,7 @@ fn fast(plan: &MatchPlan, args: &MatchArgs) -> anyhow::Result<()> {
 }
 
 fn part(args: PartArgs) -> anyhow::Result<()> {
+    args.hub.no_key("colony game part")?;
     let mode: Mode = args.mode.parse()?;
     let plan = load(mode, &args.setup)?;
     let part = match args.part {

@@ -22,7 +22,7 @@ use anyhow::Context as _;
 use clap::Args;
 use colony_client::UdpClient;
 
-/// Where the hub is, for every command that talks to one.
+/// Where the hub is, and its key, for every command that talks to one.
 #[derive(Args, Debug, Clone)]
 pub struct HubAddr {
     /// The hub's address.
@@ -33,11 +33,46 @@ pub struct HubAddr {
         value_name = "HOST:PORT"
     )]
     pub addr: String,
+    /// The hub's shared key (`colony hub --key FILE`): every packet is signed
+    /// with it, as a hub run with `--auth-all` asks, and operator requests
+    /// count as a console's.
+    #[arg(long = "key", env = "COLONY_KEY", value_name = "FILE")]
+    pub key: Option<std::path::PathBuf>,
 }
 
 impl HubAddr {
+    /// The hub at `addr`, with no key.
+    pub fn at(addr: &str) -> HubAddr {
+        HubAddr {
+            addr: addr.to_owned(),
+            key: None,
+        }
+    }
+
+    /// A client of the hub, signing with the key when there is one.
     pub fn connect(&self) -> anyhow::Result<UdpClient> {
-        Ok(UdpClient::connect_to(&self.addr)?)
+        let mut client = UdpClient::connect_to(&self.addr)?;
+        if let Some(key) = self.read_key()? {
+            client.set_key(key);
+        }
+        Ok(client)
+    }
+
+    /// The key, read from its file.
+    pub fn read_key(&self) -> anyhow::Result<Option<colony_wire::auth::Key>> {
+        self.key.as_deref().map(read_key).transpose()
+    }
+
+    /// Refuses a key for a command that cannot sign yet, rather than ignore it.
+    pub fn no_key(&self, command: &str) -> anyhow::Result<()> {
+        match &self.key {
+            Some(path) => anyhow::bail!(
+                "--key {} (or COLONY_KEY): {command} does not sign its packets yet, so a hub \
+                 run with --auth-all would drop them; run it against a hub without --auth-all",
+                path.display()
+            ),
+            None => Ok(()),
+        }
     }
 }
 

@@ -30,10 +30,6 @@ pub struct Args {
     /// then anyone who can reach the port may drive the robots.
     #[arg(long)]
     pub no_token: bool,
-    /// The hub's shared key (`colony hub --key FILE`): the monitor signs its
-    /// operator requests with it, so the hub takes them as a console's.
-    #[arg(long, value_name = "FILE")]
-    pub key: Option<std::path::PathBuf>,
 }
 
 /// Refuses what would open the robots to the web: another site's pages let into the Foxglove
@@ -58,7 +54,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bind: args.bind,
         allow_hosts: args.allow_host,
         token: !args.no_token,
-        key: args.key.as_deref().map(super::read_key).transpose()?,
+        key: args.hub.read_key()?,
     })?;
     for origin in &args.foxglove_origin {
         monitor.allow_foxglove_origin(origin);

@@ -209,7 +209,7 @@ fn demo(args: DemoArgs) -> anyhow::Result<()> {
     let site = HubSite::here_or_elsewhere(args.hub.as_deref(), &HubSpec::new("127.0.0.1:0"), &stop)
         .context("cannot start a hub on loopback")?;
     let addr = match &site {
-        HubSite::Elsewhere(a) => super::HubAddr { addr: a.clone() }.connect()?.hub_addr(),
+        HubSite::Elsewhere(a) => super::HubAddr::at(a).connect()?.hub_addr(),
         HubSite::Here(h) => {
             println!("hub on {}", h.addr());
             h.addr()
@@ -263,6 +263,7 @@ fn agent(args: AgentArgs) -> anyhow::Result<()> {
             fails: true,
         });
     }
+    config.key = args.hub.read_key()?;
     let hub = args.hub.connect()?.hub_addr();
     let stop = super::stop_flag()?;
     let summary = colony_tasks::robot::run(hub, config, &stop, |line| println!("{line}"))
@@ -277,6 +278,7 @@ fn agent(args: AgentArgs) -> anyhow::Result<()> {
 fn room(args: RoomArgs) -> anyhow::Result<()> {
     let mut room = colony_tasks::room::Room::new(args.side, usize::from(args.bodies), args.speed)
         .map_err(anyhow::Error::msg)?;
+    args.hub.no_key("colony tasks room")?;
     let hub = args.hub.connect()?.hub_addr();
     let stop = super::stop_flag()?;
     println!(
@@ -307,6 +309,7 @@ fn announce(args: AnnounceArgs) -> anyhow::Result<()> {
     let stop = super::stop_flag()?;
     let outcome = colony_tasks::request::introduce(
         hub,
+        args.hub.read_key()?.as_ref(),
         token(args.announcer, "user")?,
         spec,
         colony_tasks::AuctionConfig::default(),
@@ -432,7 +435,7 @@ fn boxpush(args: BoxpushArgs) -> anyhow::Result<()> {
     }
     let out = match &args.hub {
         Some(hub) => {
-            let hub = super::HubAddr { addr: hub.clone() }.connect()?.hub_addr();
+            let hub = super::HubAddr::at(hub).connect()?.hub_addr();
             let stop = super::stop_flag()?;
             println!(
                 "box pushing live on the hub at {hub}, {}x real time",

@@ -64,10 +64,6 @@ last rates stay on the screen.")]
 pub struct Args {
     #[command(flatten)]
     pub hub: HubAddr,
-    /// The hub's shared key (`colony hub --key FILE`): the spy signs its requests with it and
-    /// taps as a console, which a hub never refuses for too many taps.
-    #[arg(long, value_name = "FILE", conflicts_with = "log")]
-    pub key: Option<PathBuf>,
     /// Play this traffic log (a `.clog` or an MCAP, as `colony hub --log` writes them) instead
     /// of tapping a hub.
     #[arg(long, value_name = "FILE")]
@@ -93,10 +89,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let source = match &args.log {
         Some(file) => Source::Log(Box::new(TrafficReader::open(file)?)),
         None => {
-            let mut client = args.hub.connect()?;
-            if let Some(key) = &args.key {
-                client.set_key(super::read_key(key)?);
-            }
+            // With the hub's key it taps as a console, which a hub never
+            // refuses for too many taps.
+            let client = args.hub.connect()?;
             Source::Hub(Box::new(client))
         }
     };
