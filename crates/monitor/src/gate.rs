@@ -5,8 +5,10 @@
 //!
 //! - **Host**: every request must name one of the monitor's own hosts (the address it is bound
 //!   to, `localhost`, `127.0.0.1` and `[::1]` with its port, and names given with
-//!   `--allow-host`). This defeats DNS rebinding: a page at `evil.example` whose name is made to
-//!   point at 127.0.0.1 still sends `Host: evil.example`.
+//!   `--allow-host`), once. This defeats DNS rebinding: a page at `evil.example` whose name is
+//!   made to point at 127.0.0.1 still sends `Host: evil.example`. A request with two `Host`
+//!   headers is refused whatever they say (`400`, as RFC 9112 §3.2 asks): the gate would judge
+//!   one while a proxy in front, or a handler behind, might believe the other.
 //! - **Origin**: a WebSocket upgrade that carries an `Origin` must come from
 //!   `http://` (or `https://`) one of those hosts. Browsers do not apply the same-origin policy
 //!   to WebSockets; this is the check that stops cross-site WebSocket hijacking.
@@ -16,8 +18,9 @@
 //!   style sheets are served without it: they are the same for everyone and hold no secret, and
 //!   nothing works without the page and the WebSocket.
 //!
-//! A refusal is answered `403` with a one-line reason; [`RefusalLog`] counts refusals and says
-//! when one may be logged (about one line a second, however fast they come).
+//! A refusal is answered `403` (`400` for two `Host` headers) with a one-line reason;
+//! [`RefusalLog`] counts refusals and says when one may be logged (about one line a second,
+//! however fast they come).
 
 use std::net::{IpAddr, SocketAddr};
 use std::time::{Duration, Instant};
@@ -39,6 +42,8 @@ const LOG_EVERY: Duration = Duration::from_secs(1);
 pub enum Refusal {
     /// The `Host` header is missing or names a host that is not the monitor's.
     Host,
+    /// More than one `Host` header.
+    Hosts,
     /// A WebSocket upgrade from a page of another origin.
     Origin,
     /// The token is missing or wrong.
@@ -46,9 +51,19 @@ pub enum Refusal {
 }
 
 impl Refusal {
+    /// The answer's HTTP status: `400` for a request no server may take, `403` for one this
+    /// monitor does not take.
+    pub fn status(self) -> u16 {
+        match self {
+            Refusal::Hosts => 400,
+            Refusal::Host | Refusal::Origin | Refusal::Token => 403,
+        }
+    }
+
     /// A short plain-text reason, for the browser.
     pub fn message(self) -> &'static str {
         match self {
+            Refusal::Hosts => "400 bad request: more than one Host header\n",
             Refusal::Host => {
                 "403 forbidden: this monitor answers only to its own host names \
                  (start it with --allow-host NAME to add one)\n"
@@ -67,6 +82,7 @@ impl Refusal {
     pub fn as_str(self) -> &'static str {
         match self {
             Refusal::Host => "host",
+            Refusal::Hosts => "hosts",
             Refusal::Origin => "origin",
             Refusal::Token => "token",
         }
@@ -82,6 +98,8 @@ pub struct Request<'a> {
     pub query: Option<&'a str>,
     /// The `Host` header (or the authority of an absolute request target).
     pub host: Option<&'a str>,
+    /// Whether the request carried more than one `Host` header.
+    pub more_hosts: bool,
     /// The `Origin` header.
     pub origin: Option<&'a str>,
     /// Whether this asks for a WebSocket (an `Upgrade` header, or the WebSocket's path).
@@ -147,6 +165,9 @@ impl Gate {
 
     /// Whether `request` may go on, and if not, why.
     pub fn check(&self, request: &Request<'_>) -> Result<(), Refusal> {
+        if request.more_hosts {
+            return Err(Refusal::Hosts);
+        }
         let host_ok = request.host.is_some_and(|h| self.check_host(h));
         if !host_ok {
             return Err(Refusal::Host);
@@ -275,6 +296,7 @@ mod tests {
             host: Some(host),
             origin,
             upgrade: true,
+            more_hosts: false,
         }
     }
 
@@ -310,6 +332,25 @@ mod tests {
             ..Request::default()
         };
         assert_eq!(g.check(&no_host), Err(Refusal::Host));
+    }
+
+    #[test]
+    fn two_host_headers_are_refused_whatever_they_say() {
+        let g = gate();
+        let q = Some("token=00112233445566778899aabbccddeeff");
+        let mut r = page("127.0.0.1:8080", q);
+        assert_eq!(g.check(&r), Ok(()));
+        r.more_hosts = true;
+        assert_eq!(g.check(&r), Err(Refusal::Hosts));
+        assert_eq!(Refusal::Hosts.status(), 400);
+        assert!(Refusal::Hosts.message().starts_with("400"));
+        let mut socket = ws("127.0.0.1:8080", None);
+        socket.more_hosts = true;
+        assert_eq!(g.check(&socket), Err(Refusal::Hosts));
+        for r in [Refusal::Host, Refusal::Origin, Refusal::Token] {
+            assert_eq!(r.status(), 403);
+            assert!(r.message().starts_with("403"));
+        }
     }
 
     #[test]

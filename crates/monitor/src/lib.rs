@@ -24,7 +24,9 @@
 //! The web server answers only to its own host names, refuses WebSockets
 //! from other sites' pages, and (unless told otherwise) needs a random token
 //! that the printed address carries (see [`gate`]). An override belongs to the
-//! page that took it and ends when that page's WebSocket closes.
+//! page that took it and ends when that page's WebSocket closes, or when the page
+//! stops answering pings or taking messages ([`Liveness`]): a frozen page cannot
+//! hold the robots.
 //!
 //! The game page (`/game`) is the strategy game's player client: the
 //! battlefield, every robot and squad with its behaviour and planned path,
@@ -65,10 +67,12 @@ mod bridge;
 pub mod foxglove;
 pub mod game;
 pub mod gate;
+mod liveness;
 pub mod protocol;
 mod server;
 pub mod state;
 pub mod tasks;
 
 pub use bridge::{EXTRA_CHANNELS, LEASE_CHANNEL};
+pub use liveness::Liveness;
 pub use server::{Monitor, MonitorConfig, MonitorError};

@@ -33,6 +33,7 @@ use tokio::time::Instant;
 
 use crate::bridge::{Bridge, Envelope};
 use crate::gate::{Gate, RefusalLog};
+use crate::liveness::{ping_if_due, ready, send_within, End, Liveness, Pinger, MAX_READY};
 use crate::protocol::{kind_of, parse_message, ReplyJson, MAX_MESSAGE};
 use crate::state::PageId;
 
@@ -133,6 +134,8 @@ struct App {
     viewers: crate::foxglove::Viewers,
     /// For the refusals the page shows.
     guard: Arc<Guard>,
+    /// When a page or a viewer that stopped answering is dropped.
+    liveness: Liveness,
 }
 
 /// A running monitor: the web server and the hub bridge, each on its own
@@ -150,8 +153,18 @@ pub struct Monitor {
 
 impl Monitor {
     /// Binds the web server and joins the hub; returns once both are in place,
-    /// so a port already taken is an error here.
+    /// so a port already taken is an error here. Pages and viewers are pinged as
+    /// [`Liveness::default`] says.
     pub fn start(config: &MonitorConfig) -> Result<Monitor, MonitorError> {
+        Monitor::start_with_liveness(config, Liveness::default())
+    }
+
+    /// [`start`](Self::start), dropping a page or a Foxglove viewer, and letting go what it
+    /// held, when it does not answer a ping or take a message within `liveness`' bounds.
+    pub fn start_with_liveness(
+        config: &MonitorConfig,
+        liveness: Liveness,
+    ) -> Result<Monitor, MonitorError> {
         let hub = resolve(&config.hub)?;
         let listener = std::net::TcpListener::bind(config.bind.as_str()).map_err(|source| {
             MonitorError::Bind {
@@ -195,6 +208,7 @@ impl Monitor {
             shutdown: shutdown.clone(),
             viewers: viewers.clone(),
             guard: guard.clone(),
+            liveness,
         };
         let server_guard = guard.clone();
         let server = std::thread::Builder::new()
@@ -393,8 +407,8 @@ fn monitor_json(app: &App) -> String {
     .to_string()
 }
 
-/// Lets a request through [`Gate`] or answers 403, and adds the security headers to every
-/// answer.
+/// Lets a request through [`Gate`] or answers its refusal (403, or 400), and adds the security
+/// headers to every answer.
 async fn guarded(
     State(guard): State<Arc<Guard>>,
     ConnectInfo(peer): ConnectInfo<SocketAddr>,
@@ -426,6 +440,7 @@ async fn guarded(
         path: uri.path(),
         query: uri.query(),
         host,
+        more_hosts: headers.get_all(header::HOST).iter().nth(1).is_some(),
         origin,
         upgrade: headers.contains_key(header::UPGRADE)
             || uri.path() == "/ws"
@@ -456,7 +471,7 @@ async fn guarded(
                 );
             }
             (
-                StatusCode::FORBIDDEN,
+                StatusCode::from_u16(refusal.status()).unwrap_or(StatusCode::FORBIDDEN),
                 [(header::CONTENT_TYPE, "text/plain; charset=utf-8")],
                 refusal.message(),
             )
@@ -628,6 +643,7 @@ async fn foxglove_ws(upgrade: WebSocketUpgrade, State(app): State<App>) -> Respo
                 closed: app.closed.clone(),
                 page: PageId(app.pages.fetch_add(1, Ordering::Relaxed)),
                 shutdown: app.shutdown.clone(),
+                liveness: app.liveness,
             };
             crate::foxglove::run(socket, app.viewers.clone(), link)
         })
@@ -735,27 +751,14 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
     let mut next_world = Instant::now();
     let mut counts_tick = tokio::time::interval(COUNTS_EVERY);
     let mut counts_sent = String::new();
+    let mut pinger = Pinger::new(app.liveness, std::time::Instant::now());
+    let within = pinger.deadline();
+    let mut end = None;
     loop {
         tokio::select! {
             incoming = socket.recv() => {
-                let text = match incoming {
-                    None | Some(Err(_)) | Some(Ok(Message::Close(_))) => break,
-                    Some(Ok(Message::Text(t))) => t,
-                    Some(Ok(Message::Binary(_))) => {
-                        let r = reply(None, &Err(crate::protocol::Refusal {
-                            message: "send JSON text, not binary".into(),
-                            line: None,
-                            column: None,
-                        }));
-                        if socket.send(Message::Text(r.into())).await.is_err() {
-                            break;
-                        }
-                        continue;
-                    }
-                    Some(Ok(_)) => continue,
-                };
-                let answer = handle(&app, page, text.as_str()).await;
-                if socket.send(Message::Text(answer.into())).await.is_err() {
+                if let Err(e) = take_in(&mut socket, &app, page, &mut pinger, incoming).await {
+                    end = Some(e);
                     break;
                 }
             }
@@ -766,7 +769,8 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
                 // At most 30 a second; whatever arrives meanwhile replaces the snapshot.
                 tokio::time::sleep_until(next_world).await;
                 let snapshot = world.borrow_and_update().clone();
-                if socket.send(Message::Text(snapshot.as_ref().into())).await.is_err() {
+                if let Err(e) = send_text(&mut socket, &snapshot, within).await {
+                    end = Some(e);
                     break;
                 }
                 next_world = Instant::now() + MIN_SEND_INTERVAL;
@@ -774,7 +778,8 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
             _ = counts_tick.tick(), if monitor => {
                 let counts = monitor_json(&app);
                 if counts != counts_sent {
-                    if socket.send(Message::Text(counts.as_str().into())).await.is_err() {
+                    if let Err(e) = send_text(&mut socket, &counts, within).await {
+                        end = Some(e);
                         break;
                     }
                     counts_sent = counts;
@@ -785,7 +790,8 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
                     break;
                 }
                 let snapshot = hub.borrow_and_update().clone();
-                if socket.send(Message::Text(snapshot.as_ref().into())).await.is_err() {
+                if let Err(e) = send_text(&mut socket, &snapshot, within).await {
+                    end = Some(e);
                     break;
                 }
             }
@@ -794,7 +800,8 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
                     break;
                 }
                 let snapshot = map.borrow_and_update().clone();
-                if socket.send(Message::Text(snapshot.as_ref().into())).await.is_err() {
+                if let Err(e) = send_text(&mut socket, &snapshot, within).await {
+                    end = Some(e);
                     break;
                 }
             }
@@ -809,7 +816,8 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
                         // What was said before the page came is its backlog, not news.
                         let backlog = chat_sent.is_none() && at_connect.as_deref() == Some(&*mine);
                         let text = crate::game::chat_message(team, backlog, &mine);
-                        if socket.send(Message::Text(text.into())).await.is_err() {
+                        if let Err(e) = send_text(&mut socket, &text, within).await {
+                            end = Some(e);
                             break;
                         }
                         chat_sent = Some(mine);
@@ -821,7 +829,8 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
                     break;
                 }
                 let snapshot = tasks.borrow_and_update().clone();
-                if socket.send(Message::Text(snapshot.as_ref().into())).await.is_err() {
+                if let Err(e) = send_text(&mut socket, &snapshot, within).await {
+                    end = Some(e);
                     break;
                 }
             }
@@ -830,16 +839,81 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
                     break;
                 }
                 let snapshot = game.borrow_and_update().clone();
-                if socket.send(Message::Text(snapshot.as_ref().into())).await.is_err() {
+                if let Err(e) = send_text(&mut socket, &snapshot, within).await {
+                    end = Some(e);
+                    break;
+                }
+            }
+            _ = pinger.sleep() => {
+                let mut flow = Ok(());
+                if pinger.overdue(std::time::Instant::now()) {
+                    for _ in 0..MAX_READY {
+                        let Some(incoming) = ready(&mut socket).await else { break };
+                        flow = take_in(&mut socket, &app, page, &mut pinger, incoming).await;
+                        if flow.is_err() {
+                            break;
+                        }
+                    }
+                }
+                if flow.is_ok() {
+                    flow = ping_if_due(&mut pinger, &mut socket).await.map_err(End::from);
+                }
+                if let Err(e) = flow {
+                    end = Some(e);
                     break;
                 }
             }
             changed = shutdown.changed() => {
                 if changed.is_err() || *shutdown.borrow_and_update() {
-                    let _ = socket.send(Message::Close(None)).await;
+                    let _ = send_within(&mut socket, Message::Close(None), within).await;
                     break;
                 }
             }
         }
     }
+    if let Some(why) = end.and_then(End::frozen) {
+        tracing::info!(
+            page = page.0,
+            "a page was dropped because {why}: what it held is let go"
+        );
+    }
+}
+
+/// Sends `text` to a page, giving up after `within`.
+async fn send_text(socket: &mut WebSocket, text: &str, within: Duration) -> Result<(), End> {
+    Ok(send_within(socket, Message::Text(text.into()), within).await?)
+}
+
+/// Takes in one frame from a page: a request is carried out and answered, a pong goes to
+/// `pinger`.
+async fn take_in(
+    socket: &mut WebSocket,
+    app: &App,
+    page: PageId,
+    pinger: &mut Pinger,
+    incoming: Option<Result<Message, axum::Error>>,
+) -> Result<(), End> {
+    let within = pinger.deadline();
+    let text = match incoming {
+        None | Some(Err(_)) | Some(Ok(Message::Close(_))) => return Err(End::Closed),
+        Some(Ok(Message::Text(t))) => t,
+        Some(Ok(Message::Pong(p))) => {
+            pinger.on_pong(&p, std::time::Instant::now());
+            return Ok(());
+        }
+        Some(Ok(Message::Binary(_))) => {
+            let r = reply(
+                None,
+                &Err(crate::protocol::Refusal {
+                    message: "send JSON text, not binary".into(),
+                    line: None,
+                    column: None,
+                }),
+            );
+            return send_text(socket, &r, within).await;
+        }
+        Some(Ok(_)) => return Ok(()),
+    };
+    let answer = handle(app, page, text.as_str()).await;
+    send_text(socket, &answer, within).await
 }

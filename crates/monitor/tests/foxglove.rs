@@ -1,13 +1,14 @@
 //! The Foxglove endpoint's gate, against a real monitor on a real hub: the page's WebSocket
 //! rules (host names, origin, token), and the hosted viewers' origins an operator allows for
-//! this endpoint alone. (What a viewer gets is driven with Foxglove's own client by
-//! `tests/browser/foxglove.test.mjs`.)
+//! this endpoint alone; and a viewer that took robots and then froze lets go of them. (What a
+//! viewer gets is driven with Foxglove's own client by `tests/browser/foxglove.test.mjs`.)
 
 mod common;
 
 use std::time::Duration;
 
-use common::{monitor, with_token, Hub, Ws};
+use colony_monitor::Liveness;
+use common::{monitor, monitor_with, watch_override, with_token, Hub, OverrideView, Ws};
 
 #[test]
 fn the_foxglove_endpoint_passes_the_pages_gate_and_answers_with_server_info() {
@@ -67,5 +68,54 @@ fn the_foxglove_endpoint_passes_the_pages_gate_and_answers_with_server_info() {
             .unwrap_or_else(|| panic!("{what} was opened to an allowed viewer origin"));
         assert!(refused.starts_with("HTTP/1.1 403"), "{what}: {refused}");
     }
+    m.shutdown().unwrap();
+}
+
+#[test]
+fn a_viewer_that_took_robots_and_stops_answering_lets_go_of_them() {
+    let hub = Hub::with_console();
+    let m = monitor_with(
+        &hub,
+        Liveness {
+            ping_every: Duration::from_millis(250),
+            deadline: Duration::from_secs(2),
+        },
+    );
+    let addr = m.local_addr();
+    let mut viewer = Ws::handshake(addr, &with_token(&m, "/foxglove"), &addr.to_string(), None)
+        .unwrap_or_else(|head| panic!("{head}"));
+    viewer.until(Duration::from_secs(10), "serverInfo", |v| {
+        v["op"] == "serverInfo"
+    });
+    viewer.send(
+        r#"{"op":"advertise","channels":[{"id":4,"topic":"/colony/override","encoding":"json","schemaName":"colony.Override"}]}"#,
+    );
+    for request in [r#"{"t":"take","ids":[5,6]}"#, r#"{"t":"take_all"}"#] {
+        let mut frame = vec![1, 4, 0, 0, 0];
+        frame.extend_from_slice(request.as_bytes());
+        viewer.send_binary(&frame);
+    }
+    let mut watcher = Ws::connect(addr, &with_token(&m, "/ws"));
+    let mut view = OverrideView::default();
+    watch_override(
+        &mut watcher,
+        Some(&mut viewer),
+        &mut view,
+        Duration::from_secs(30),
+        "override in force while its viewer answers",
+        OverrideView::in_force,
+    );
+    assert_eq!(m.foxglove_viewers().0, 1);
+    // The viewer freezes with its connection open.
+    watch_override(
+        &mut watcher,
+        None,
+        &mut view,
+        Duration::from_secs(60),
+        "release of a frozen viewer's override",
+        OverrideView::released,
+    );
+    assert_eq!(m.foxglove_viewers().0, 0, "the frozen viewer was dropped");
+    drop(viewer);
     m.shutdown().unwrap();
 }

@@ -2,15 +2,21 @@
 //! page, script and style from the binary, reports a taken port clearly,
 //! joins the hub as an ordinary client, and stops promptly. It answers only
 //! to its own host names, opens no WebSocket for another site's page, needs
-//! its token, and lets a page's robots go when the page goes.
+//! its token, refuses a request with two `Host` headers, and lets a page's robots go when the
+//! page goes, or freezes.
 
 mod common;
 
 use std::time::{Duration, Instant};
 
-use colony_monitor::{Monitor, MonitorConfig, MonitorError};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
-use common::{get, monitor, request, with_token, Hub, Ws};
+use colony_monitor::{Liveness, Monitor, MonitorConfig, MonitorError};
+
+use common::{
+    get, monitor, monitor_with, request, watch_override, with_token, Hub, OverrideView, Ws,
+};
 
 #[test]
 fn the_page_its_script_and_its_style_are_served_from_the_binary() {
@@ -358,5 +364,171 @@ fn closing_the_page_that_took_robots_hands_them_back() {
     watcher.until(Duration::from_secs(10), "robots 5 and 6 handed back", |v| {
         v["t"] == "world" && held(v).is_empty()
     });
+    m.shutdown().unwrap();
+}
+
+#[test]
+fn a_request_with_two_host_headers_is_refused() {
+    let hub = Hub::start();
+    let m = monitor(&hub);
+    let addr = m.local_addr();
+    let page = with_token(&m, "/");
+    let port = addr.port();
+    // Its own host first, then another: the gate must not judge one while a proxy or a
+    // handler believes the other. Nor two of its own, nor either order.
+    for (first, second) in [
+        (addr.to_string(), format!("evil.example:{port}")),
+        (format!("evil.example:{port}"), addr.to_string()),
+        (addr.to_string(), addr.to_string()),
+        (addr.to_string(), format!("localhost:{port}")),
+    ] {
+        for path in [page.as_str(), "/app.js"] {
+            let answer = request(
+                addr,
+                &format!(
+                    "GET {path} HTTP/1.1\r\nHost: {first}\r\nHost: {second}\r\n\
+                     Connection: close\r\n\r\n"
+                ),
+            );
+            assert!(
+                answer.starts_with("HTTP/1.1 400") && answer.contains("more than one Host"),
+                "{first} {second} {path}: {answer}"
+            );
+        }
+        let refused = Ws::handshake(
+            addr,
+            &with_token(&m, "/ws"),
+            &format!("{first}\r\nHost: {second}"),
+            None,
+        )
+        .err();
+        assert!(
+            refused.is_some_and(|r| r.starts_with("HTTP/1.1 400")),
+            "{first} {second}"
+        );
+    }
+    assert_eq!(m.refused(), 12);
+    // One of its own is still served, and one foreign is still refused as before.
+    let ok = request(
+        addr,
+        &format!("GET {page} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"),
+    );
+    assert!(ok.starts_with("HTTP/1.1 200"), "{ok:.300}");
+    let foreign = request(
+        addr,
+        &format!("GET {page} HTTP/1.1\r\nHost: evil.example:{port}\r\nConnection: close\r\n\r\n"),
+    );
+    assert!(foreign.starts_with("HTTP/1.1 403"), "{foreign}");
+    m.shutdown().unwrap();
+}
+
+/// Pings every quarter second, two seconds to answer: a frozen peer goes well within the
+/// tests' waits.
+const QUICK: Liveness = Liveness {
+    ping_every: Duration::from_millis(250),
+    deadline: Duration::from_secs(2),
+};
+
+/// A page on `m` that takes robots 5 and 6 and then all of them.
+fn holder(m: &Monitor) -> Ws {
+    let mut holder = Ws::connect(m.local_addr(), &with_token(m, "/ws"));
+    holder.send(r#"{"t":"take","ids":[5,6]}"#);
+    holder.send(r#"{"t":"take_all"}"#);
+    holder
+}
+
+#[test]
+fn a_page_that_stops_answering_lets_go_of_the_robots_and_the_hubs_minimum() {
+    let hub = Hub::with_console();
+    let m = monitor_with(&hub, QUICK);
+    let mut holder = holder(&m);
+    let mut watcher = Ws::connect(m.local_addr(), &with_token(&m, "/ws"));
+    let mut view = OverrideView::default();
+    watch_override(
+        &mut watcher,
+        Some(&mut holder),
+        &mut view,
+        Duration::from_secs(30),
+        "override in force while its page answers",
+        OverrideView::in_force,
+    );
+    // The page freezes: its connection stays open, and it reads nothing more, so it never
+    // sees a ping.
+    watch_override(
+        &mut watcher,
+        None,
+        &mut view,
+        Duration::from_secs(60),
+        "release of a frozen page's override",
+        OverrideView::released,
+    );
+    drop(holder);
+    m.shutdown().unwrap();
+}
+
+/// A vision frame of `n` robots: a world snapshot of a few dozen kilobytes.
+fn big_frame(step: u64, n: u32) -> String {
+    let mut f = format!(
+        "@ <vision> 20\nstep n {step} part 0 parts 1\narena width 3000 height 3000 corner 15\n\
+         sizes robot_length 12.5 robot_width 10.8 gripper_radius 3.6 puck_diameter 6.3\n"
+    );
+    for id in 0..n {
+        let (x, y) = (
+            (id % 40) as f64 * 20.0,
+            (id / 40) as f64 * 20.0 + step as f64 % 7.0,
+        );
+        f.push_str(&format!("robot id {id} x {x:.1} y {y:.1} theta 0.25\n"));
+    }
+    f
+}
+
+#[test]
+fn a_page_whose_connection_stays_full_lets_go_even_without_pings() {
+    let hub = Hub::with_console();
+    // Pings all but off: only a send that cannot finish can find this page gone.
+    let m = monitor_with(
+        &hub,
+        Liveness {
+            ping_every: Duration::from_secs(86_400),
+            ..QUICK
+        },
+    );
+    let mut holder = holder(&m);
+    let mut watcher = Ws::connect(m.local_addr(), &with_token(&m, "/ws"));
+    let mut view = OverrideView::default();
+    watch_override(
+        &mut watcher,
+        Some(&mut holder),
+        &mut view,
+        Duration::from_secs(30),
+        "override in force while its page reads",
+        OverrideView::in_force,
+    );
+    // Big snapshots, many a second, until the frozen page's buffers are full.
+    let stop = Arc::new(AtomicBool::new(false));
+    let flood = {
+        let stop = stop.clone();
+        let addr = hub.addr;
+        std::thread::spawn(move || {
+            let mut c = colony_client::UdpClient::connect(addr).unwrap();
+            let mut step = 0;
+            while !stop.load(Ordering::Relaxed) {
+                step += 1;
+                let _ = c.publish(big_frame(step, 1000).as_bytes());
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        })
+    };
+    watch_override(
+        &mut watcher,
+        None,
+        &mut view,
+        Duration::from_secs(90),
+        "release of the override of a page that reads nothing",
+        OverrideView::released,
+    );
+    stop.store(true, Ordering::Relaxed);
+    flood.join().unwrap();
+    drop(holder);
     m.shutdown().unwrap();
 }

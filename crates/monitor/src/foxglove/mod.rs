@@ -19,9 +19,10 @@
 //!   JSON is written on the web server's threads, for the channels a viewer subscribed to.
 //! - **Publishing is the override.** A viewer may publish only the operator's override
 //!   ([`session::OVERRIDE_TOPIC`] or `radio`), which becomes the monitor page's own commands,
-//!   carried out by the bridge for this connection exactly as for a page (and let go when it
-//!   closes). The endpoint passes the same [`crate::gate`] as the page's WebSocket: the
-//!   monitor's host names, a same-site `Origin` if there is one, and the token.
+//!   carried out by the bridge for this connection exactly as for a page, and let go when it
+//!   closes or stops answering pings or taking messages (see [`crate::Liveness`]). The endpoint
+//!   passes the same [`crate::gate`] as the page's WebSocket: the monitor's host names, a
+//!   same-site `Origin` if there is one, and the token.
 
 pub mod protocol;
 pub mod scene;
@@ -38,6 +39,7 @@ use colony_wire::Packet;
 use tokio::sync::{broadcast, oneshot, watch};
 
 use crate::bridge::Envelope;
+use crate::liveness::{ping_if_due, ready, send_within, End, Pinger, MAX_READY};
 use crate::state::PageId;
 use protocol::{Channel, Level};
 use session::{Out, Session};
@@ -403,6 +405,8 @@ pub struct Link {
     pub page: PageId,
     /// Whether the monitor is stopping.
     pub shutdown: watch::Receiver<bool>,
+    /// When a viewer that stopped answering is dropped.
+    pub liveness: crate::Liveness,
 }
 
 /// Tells the bridge the connection has gone, however it ends.
@@ -469,12 +473,12 @@ pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
             "a Foxglove viewer was refused: {MAX_VIEWERS} are connected"
         );
         let _ = link.closed.send(link.page);
-        let _ = socket
-            .send(Message::Close(Some(axum::extract::ws::CloseFrame {
-                code: 1013,
-                reason: format!("too many Foxglove viewers: at most {MAX_VIEWERS} at once").into(),
-            })))
-            .await;
+        let close = Message::Close(Some(axum::extract::ws::CloseFrame {
+            code: 1013,
+            reason: format!("too many Foxglove viewers: at most {MAX_VIEWERS} at once").into(),
+        }));
+        let within = Pinger::new(link.liveness, std::time::Instant::now()).deadline();
+        let _ = send_within(&mut socket, close, within).await;
         return;
     }
     let mut gone = Gone {
@@ -489,6 +493,9 @@ pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
     let mut tick = tokio::time::interval(Duration::from_millis(500));
     let mut reported = 0;
     let mut refused_told = 0;
+    let mut pinger = Pinger::new(link.liveness, std::time::Instant::now());
+    let within = pinger.deadline();
+    let mut end = None;
     'conn: loop {
         // Take in what the feed has, then send what waits, newest first per channel.
         loop {
@@ -504,7 +511,8 @@ pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
                     protocol::message_data(subscription, receive_ns, &payload.to_json()).into(),
                 ),
             };
-            if socket.send(msg).await.is_err() {
+            if let Err(e) = send_within(&mut socket, msg, within).await {
+                end = Some(End::from(e));
                 break 'conn;
             }
         }
@@ -517,27 +525,10 @@ pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
         }
         tokio::select! {
             incoming = socket.recv() => {
-                let commands = match incoming {
-                    None | Some(Err(_)) | Some(Ok(Message::Close(_))) => break,
-                    Some(Ok(Message::Text(t))) => {
-                        let before = subscribed_latched(&s, &viewers);
-                        let commands = s.handle_text(t.as_str());
-                        let [arena, field, terrain] = viewers.scenes.map(|c| s.is_subscribed(c));
-                        gone.scenes([arena, field || terrain]);
-                        for (channel, ns, payload) in viewers.latched() {
-                            if s.is_subscribed(channel) && !before.contains(&channel) {
-                                s.on_message(channel, ns, payload);
-                            }
-                        }
-                        commands
-                    }
-                    Some(Ok(Message::Binary(b))) => s.handle_binary(&b),
-                    Some(Ok(_)) => continue,
-                };
-                for c in commands {
-                    if let Err(e) = carry_out(&link, c).await {
-                        s.status(Level::Error, &e);
-                    }
+                let flow = take_in(incoming, &mut s, &viewers, &mut gone, &link, &mut pinger);
+                if let Err(e) = flow.await {
+                    end = Some(e);
+                    break;
                 }
             }
             event = rx.recv() => match event {
@@ -553,13 +544,39 @@ pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
                     s.status(Level::Warning, &not_advertised_status(refused));
                 }
             }
+            _ = pinger.sleep() => {
+                let mut flow = Ok(());
+                if pinger.overdue(std::time::Instant::now()) {
+                    for _ in 0..MAX_READY {
+                        let Some(incoming) = ready(&mut socket).await else { break };
+                        flow = take_in(incoming, &mut s, &viewers, &mut gone, &link, &mut pinger)
+                            .await;
+                        if flow.is_err() {
+                            break;
+                        }
+                    }
+                }
+                if flow.is_ok() {
+                    flow = ping_if_due(&mut pinger, &mut socket).await.map_err(End::from);
+                }
+                if let Err(e) = flow {
+                    end = Some(e);
+                    break;
+                }
+            }
             changed = link.shutdown.changed() => {
                 if changed.is_err() || *link.shutdown.borrow_and_update() {
-                    let _ = socket.send(Message::Close(None)).await;
+                    let _ = send_within(&mut socket, Message::Close(None), within).await;
                     break;
                 }
             }
         }
+    }
+    if let Some(why) = end.and_then(End::frozen) {
+        tracing::info!(
+            page = link.page.0,
+            "a Foxglove viewer was dropped because {why}: what it held is let go"
+        );
     }
     if s.dropped() > 0 {
         tracing::info!(
@@ -568,6 +585,45 @@ pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
             "a Foxglove viewer left; it was sent the newest of each channel and missed the rest"
         );
     }
+}
+
+/// Takes in one frame from a viewer: its requests are handled (the override's carried out by
+/// the bridge), a pong goes to `pinger`.
+async fn take_in(
+    incoming: Option<Result<Message, axum::Error>>,
+    s: &mut Session<Payload>,
+    viewers: &Viewers,
+    gone: &mut Gone,
+    link: &Link,
+    pinger: &mut Pinger,
+) -> Result<(), End> {
+    let commands = match incoming {
+        None | Some(Err(_)) | Some(Ok(Message::Close(_))) => return Err(End::Closed),
+        Some(Ok(Message::Text(t))) => {
+            let before = subscribed_latched(s, viewers);
+            let commands = s.handle_text(t.as_str());
+            let [arena, field, terrain] = viewers.scenes.map(|c| s.is_subscribed(c));
+            gone.scenes([arena, field || terrain]);
+            for (channel, ns, payload) in viewers.latched() {
+                if s.is_subscribed(channel) && !before.contains(&channel) {
+                    s.on_message(channel, ns, payload);
+                }
+            }
+            commands
+        }
+        Some(Ok(Message::Binary(b))) => s.handle_binary(&b),
+        Some(Ok(Message::Pong(p))) => {
+            pinger.on_pong(&p, std::time::Instant::now());
+            return Ok(());
+        }
+        Some(Ok(_)) => return Ok(()),
+    };
+    for c in commands {
+        if let Err(e) = carry_out(link, c).await {
+            s.status(Level::Error, &e);
+        }
+    }
+    Ok(())
 }
 
 fn subscribed_latched(s: &Session<Payload>, viewers: &Viewers) -> Vec<u32> {

@@ -22,7 +22,20 @@ pub struct Hub {
 
 impl Hub {
     pub fn start() -> Hub {
-        let mut server = Server::bind("127.0.0.1:0", HubConfig::default()).unwrap();
+        Hub::start_with(HubConfig::default())
+    }
+
+    /// A hub that takes operator requests from loopback: the monitor's "take control of all"
+    /// then raises its minimum priority.
+    pub fn with_console() -> Hub {
+        Hub::start_with(HubConfig {
+            consoles: vec!["127.0.0.1/32".parse().unwrap()],
+            ..HubConfig::default()
+        })
+    }
+
+    pub fn start_with(config: HubConfig) -> Hub {
+        let mut server = Server::bind("127.0.0.1:0", config).unwrap();
         let addr = server.local_addr().unwrap();
         let stop = Arc::new(AtomicBool::new(false));
         let s = stop.clone();
@@ -147,6 +160,10 @@ impl Ws {
         self.frame(0x1, text.as_bytes());
     }
 
+    pub fn send_binary(&mut self, bytes: &[u8]) {
+        self.frame(0x2, bytes);
+    }
+
     /// Closes the WebSocket as a closed tab does (a close frame, then the connection).
     pub fn close(mut self) {
         self.frame(0x8, &[]);
@@ -157,35 +174,110 @@ impl Ws {
     pub fn recv(&mut self) -> Value {
         let mut message = Vec::new();
         loop {
-            let mut h = [0u8; 2];
-            self.stream.read_exact(&mut h).unwrap();
-            let (fin, opcode) = (h[0] & 0x80 != 0, h[0] & 0x0f);
-            let len = match h[1] & 0x7f {
-                126 => {
-                    let mut b = [0u8; 2];
-                    self.stream.read_exact(&mut b).unwrap();
-                    u16::from_be_bytes(b) as usize
-                }
-                127 => {
-                    let mut b = [0u8; 8];
-                    self.stream.read_exact(&mut b).unwrap();
-                    u64::from_be_bytes(b) as usize
-                }
-                n => n as usize,
-            };
-            let mut payload = vec![0u8; len];
-            self.stream.read_exact(&mut payload).unwrap();
+            let mut first = [0u8];
+            self.stream.read_exact(&mut first).unwrap();
+            let (fin, opcode, payload) = self.rest_of_frame(first[0]);
             match opcode {
-                0x9 => self.frame(0xA, &payload),
-                0x8 => panic!("the server closed the WebSocket"),
                 0x0..=0x2 => {
                     message.extend_from_slice(&payload);
                     if fin {
                         return serde_json::from_slice(&message).unwrap();
                     }
                 }
-                _ => {}
+                _ => self.control(opcode, &payload),
             }
+        }
+    }
+
+    /// Reads whatever comes for `within`, answering pings as it goes (as a browser does for a
+    /// page, whatever its script is doing): the text messages, as JSON. Binary messages are
+    /// skipped.
+    pub fn pump(&mut self, within: Duration) -> Vec<Value> {
+        let end = Instant::now() + within;
+        let mut out = Vec::new();
+        let mut message: Option<(bool, Vec<u8>)> = None;
+        loop {
+            let left = end.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                break;
+            }
+            // Only the wait for a frame's first byte may time out, so no frame is cut in two.
+            self.stream
+                .set_read_timeout(Some(left.max(Duration::from_millis(1))))
+                .unwrap();
+            let mut first = [0u8];
+            let got = self.stream.read(&mut first);
+            self.stream
+                .set_read_timeout(Some(Duration::from_secs(5)))
+                .unwrap();
+            match got {
+                Ok(0) => panic!("the server closed the connection"),
+                Ok(_) => {}
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                    ) =>
+                {
+                    if message.is_none() {
+                        break;
+                    }
+                    continue;
+                }
+                Err(e) => panic!("{e}"),
+            }
+            let (fin, opcode, payload) = self.rest_of_frame(first[0]);
+            match opcode {
+                0x1 | 0x2 => message = Some((opcode == 0x1, payload)),
+                0x0 => {
+                    if let Some((_, m)) = message.as_mut() {
+                        m.extend_from_slice(&payload);
+                    }
+                }
+                _ => {
+                    self.control(opcode, &payload);
+                    continue;
+                }
+            }
+            if fin {
+                if let Some((true, m)) = message.take() {
+                    out.push(serde_json::from_slice(&m).unwrap());
+                }
+                message = None;
+            }
+        }
+        out
+    }
+
+    /// A frame's flag, opcode and payload, its first byte read already.
+    fn rest_of_frame(&mut self, first: u8) -> (bool, u8, Vec<u8>) {
+        let (fin, opcode) = (first & 0x80 != 0, first & 0x0f);
+        let mut b = [0u8];
+        self.stream.read_exact(&mut b).unwrap();
+        let len = match b[0] & 0x7f {
+            126 => {
+                let mut b = [0u8; 2];
+                self.stream.read_exact(&mut b).unwrap();
+                u16::from_be_bytes(b) as usize
+            }
+            127 => {
+                let mut b = [0u8; 8];
+                self.stream.read_exact(&mut b).unwrap();
+                u64::from_be_bytes(b) as usize
+            }
+            n => n as usize,
+        };
+        let mut payload = vec![0u8; len];
+        self.stream.read_exact(&mut payload).unwrap();
+        (fin, opcode, payload)
+    }
+
+    /// A control frame: pings are answered, a close is the end of the test's connection.
+    fn control(&mut self, opcode: u8, payload: &[u8]) {
+        match opcode {
+            0x9 => self.frame(0xA, payload),
+            0x8 => panic!("the server closed the WebSocket"),
+            _ => {}
         }
     }
 
@@ -202,4 +294,97 @@ impl Ws {
         }
         panic!("no {what} within {within:?}; the last message: {last}");
     }
+}
+
+/// A monitor joined to `hub` that drops pages and viewers as `liveness` says.
+pub fn monitor_with(hub: &Hub, liveness: colony_monitor::Liveness) -> Monitor {
+    Monitor::start_with_liveness(
+        &MonitorConfig {
+            hub: hub.addr.to_string(),
+            bind: "127.0.0.1:0".into(),
+            ..MonitorConfig::default()
+        },
+        liveness,
+    )
+    .unwrap()
+}
+
+/// The override as a page sees it: the robots held, whether "take control of all" is in
+/// force, whether the monitor has raised the hub's minimum priority, and that minimum as the
+/// hub's newest status report gives it.
+#[derive(Default, Clone, PartialEq)]
+pub struct OverrideView {
+    pub held: Vec<u64>,
+    pub all: bool,
+    pub min_raised: bool,
+    pub hub_min: Option<i64>,
+}
+
+impl std::fmt::Debug for OverrideView {
+    // A thousand held robots would bury the rest.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let shown: Vec<u64> = self.held.iter().copied().take(8).collect();
+        write!(
+            f,
+            "{} held (first {shown:?}), all: {}, min raised: {}, hub minimum: {:?}",
+            self.held.len(),
+            self.all,
+            self.min_raised,
+            self.hub_min
+        )
+    }
+}
+
+impl OverrideView {
+    pub fn update(&mut self, m: &Value) {
+        if m["t"] == "world" {
+            self.held = m["held"]
+                .as_array()
+                .map(|a| a.iter().filter_map(Value::as_u64).collect())
+                .unwrap_or_default();
+            self.all = m["all"] == true;
+            self.min_raised = m["min_raised"] == true;
+        } else if m["t"] == "hub" {
+            self.hub_min = m["min_priority"].as_i64();
+        }
+    }
+
+    /// Robots 5 and 6 held, all taken, and the hub's minimum at the override's priority.
+    pub fn in_force(&self) -> bool {
+        self.held.contains(&5)
+            && self.held.contains(&6)
+            && self.all
+            && self.min_raised
+            && self.hub_min == Some(10)
+    }
+
+    /// Nothing held, and the hub's minimum back below the override's priority.
+    pub fn released(&self) -> bool {
+        self.held.is_empty() && !self.all && !self.min_raised && self.hub_min.is_none_or(|m| m < 10)
+    }
+}
+
+/// Reads `watcher` until its view of the override satisfies `want`, for at most `within`;
+/// `holder`, if given, is read meanwhile too, so it answers its pings as a live page does.
+pub fn watch_override(
+    watcher: &mut Ws,
+    mut holder: Option<&mut Ws>,
+    view: &mut OverrideView,
+    within: Duration,
+    what: &str,
+    want: impl Fn(&OverrideView) -> bool,
+) {
+    let deadline = Instant::now() + within;
+    while Instant::now() < deadline {
+        for m in watcher.pump(Duration::from_millis(100)) {
+            view.update(&m);
+        }
+        if want(view) {
+            return;
+        }
+        if let Some(h) = holder.as_deref_mut() {
+            h.pump(Duration::from_millis(50));
+        }
+    }
+    panic!("no {what} within {within:?}: {view:?}");
 }
