@@ -115,6 +115,7 @@ fn two_providers_share_a_hundred_calls_and_a_killed_one_ends_its_calls_with_a_cl
         "the kill found no call waiting on the killed provider"
     );
     assert_eq!(client.caller().strays(), 0);
+    assert_eq!(client.caller().forged(), 0);
     assert_eq!(client.caller().providers().collect::<Vec<_>>(), [second_id]);
     eprintln!(
         "killed after {:?} calls ended; answered by {answered_by:?}; {failed} ended without an answer",

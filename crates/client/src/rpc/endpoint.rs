@@ -24,7 +24,8 @@ fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
     }
 }
 
-/// A [`Caller`] on its own hub client.
+/// A [`Caller`] on its own hub client. It publishes nothing until the hub
+/// has leased it its subscriptions, so the answers to its first `who` reach it.
 pub struct CallClient {
     client: UdpClient,
     caller: Caller,
@@ -87,6 +88,12 @@ impl CallClient {
     }
 
     fn flush(&mut self) -> io::Result<()> {
+        // Held until the hub has leased the subscriptions: a provider
+        // answers `who` in less than the hub's cookie round trip, and an
+        // echo sent before the caller's inbox exists is lost.
+        if self.client.session().lease().is_none() {
+            return Ok(());
+        }
         while let Some(packet) = self.caller.poll_transmit() {
             self.client.publish(&packet).map_err(io::Error::other)?;
         }

@@ -5,29 +5,43 @@
 //! `svc.S.P` (`P` the provider's id); a caller `C` has an inbox `reply.C`.
 //!
 //! ```text
-//! @ <svc.echo> 0                      a provider exists, for this long unless renewed
-//! provider id 8f1c0a2b3c4d5e6f lease_ms 3000
+//! @ <svc.echo> 0                      a caller asks who provides, with a fresh nonce
+//! who nonce 5b0e9d2c41f7a386
 //!
-//! @ <svc.echo> 0                      a caller asks who provides (answered at once)
-//! who
+//! @ <svc.echo> 0                      a provider exists (echoing the nonce it answers)
+//! provider id 8f1c0a2b3c4d5e6f lease_ms 3000 nonce 5b0e9d2c41f7a386
+//! seal n 7 key 3d40…(64 hex digits) sig 9f51…(128 hex digits)
 //!
 //! @ <svc.echo.8f1c0a2b3c4d5e6f> 0     a call: its id and where to answer, then its lines
 //! call id 00000000a1b2c3d4 reply_to reply.77e0c1d2e3f40516
 //! text value "hello"
 //!
+//! @ <reply.77e0c1d2e3f40516> 0        the provider took the call
+//! accepted id 00000000a1b2c3d4 from 8f1c0a2b3c4d5e6f
+//! seal n 8 key 3d40… sig 51c2…
+//!
 //! @ <reply.77e0c1d2e3f40516> 0        the answer, with the call's id and its provider
 //! reply id 00000000a1b2c3d4 from 8f1c0a2b3c4d5e6f
 //! text value "hello"
+//! seal n 9 key 3d40… sig 0a7e…
 //! ```
 //!
 //! A provider that stops cleanly says `leaving id P` on the service channel;
 //! one that cannot serve a call answers `refused id N from P text "why"`.
+//!
+//! Everything a provider says is sealed ([`colony_wire::seal`]) by a key it
+//! made for itself, and its id `P` is that key's fingerprint: a caller takes
+//! a provider's word only through [`proven`], so nobody else can announce,
+//! leave, accept or answer as `P`. Calls and `who` are not sealed: callers
+//! are anonymous, and their answers go to their own inbox.
 
 use std::fmt;
 use std::time::Duration;
 
+use colony_wire::seal::{self, PublicKey};
 use colony_wire::{
-    Line, Packet, PacketBuilder, ParseError, Priority, Subject, Value, MAX_SUBJECT_LEN,
+    ErrorKind, Line, Packet, PacketBuilder, ParseError, Priority, Subject, Value, MAX_PACKET,
+    MAX_SUBJECT_LEN,
 };
 
 use super::RpcError;
@@ -42,7 +56,14 @@ const ID_DIGITS: usize = 16;
 /// The longest service name: room in one subject for the prefix, a dot and a provider id.
 pub const MAX_SERVICE_LEN: usize = MAX_SUBJECT_LEN - SERVICE_PREFIX.len() - 1 - ID_DIGITS;
 
-/// A provider's, a caller's or a call's identity: 16 hex digits on the wire.
+/// Room a provider's packet leaves for what is added after it is built: the
+/// longest seal line (`seal n ` 20 digits ` key ` 64 ` sig ` 128, newline)
+/// and the longest `auth` line a hub key adds (`auth n ` 20 digits ` mac `
+/// 64, newline), so a sealed answer still fits one datagram.
+const SEALED_ROOM: usize = (7 + 20 + 5 + 64 + 5 + 128 + 1) + (7 + 20 + 5 + 64 + 1);
+
+/// A provider's, a caller's or a call's identity, or a `who` nonce: 16 hex
+/// digits on the wire. A provider's id is its key's fingerprint.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct Id(pub u64);
 
@@ -66,6 +87,12 @@ impl Id {
         );
         h.write_u32(std::process::id());
         Id(h.finish())
+    }
+}
+
+impl From<PublicKey> for Id {
+    fn from(key: PublicKey) -> Id {
+        Id(key.fingerprint())
     }
 }
 
@@ -133,6 +160,8 @@ pub enum Notice {
         id: Id,
         /// How long to believe it without hearing from it again.
         lease: Duration,
+        /// The `who` it answers, if it answers one: proof it is alive now.
+        nonce: Option<Id>,
     },
     /// A provider stopped; calls still waiting on it will not be answered.
     Leaving {
@@ -140,28 +169,45 @@ pub enum Notice {
         id: Id,
     },
     /// A caller asks every provider to announce itself now.
-    Who,
+    Who {
+        /// Fresh per question, so an echo cannot have been recorded earlier.
+        nonce: Option<Id>,
+    },
 }
 
 impl Notice {
-    /// The notice as a packet on `service`'s channel.
+    /// The notice as a packet on `service`'s channel (unsealed).
     pub fn to_packet(&self, service: &Service) -> Vec<u8> {
         let mut b = PacketBuilder::new([service.channel()], Priority(0));
         match self {
-            Notice::Provider { id, lease } => {
+            Notice::Provider { id, lease, nonce } => {
                 let ms = u64::try_from(lease.as_millis()).unwrap_or(u64::MAX);
-                b.line("provider")
-                    .bare("id", &id.to_string())
-                    .field("lease_ms", ms);
+                let mut line = b.line("provider");
+                line.bare("id", &id.to_string()).field("lease_ms", ms);
+                if let Some(nonce) = nonce {
+                    line.bare("nonce", &nonce.to_string());
+                }
             }
             Notice::Leaving { id } => {
                 b.line("leaving").bare("id", &id.to_string());
             }
-            Notice::Who => {
-                b.line("who");
+            Notice::Who { nonce } => {
+                let mut line = b.line("who");
+                if let Some(nonce) = nonce {
+                    line.bare("nonce", &nonce.to_string());
+                }
             }
         }
         b.finish().expect("notices are built from valid parts")
+    }
+
+    /// The provider a notice speaks for: only that provider's seal makes it
+    /// true. `who` speaks for nobody.
+    pub fn speaker(&self) -> Option<Id> {
+        match self {
+            Notice::Provider { id, .. } | Notice::Leaving { id } => Some(*id),
+            Notice::Who { .. } => None,
+        }
     }
 
     /// The notice a packet on a service channel holds, if it is one (its first line decides).
@@ -173,12 +219,15 @@ impl Notice {
                 Some(Notice::Provider {
                     id: id_field(&line, "id")?,
                     lease: Duration::from_millis(ms),
+                    nonce: optional_id(&line, "nonce")?,
                 })
             }
             "leaving" => Some(Notice::Leaving {
                 id: id_field(&line, "id")?,
             }),
-            "who" => Some(Notice::Who),
+            "who" => Some(Notice::Who {
+                nonce: optional_id(&line, "nonce")?,
+            }),
             _ => None,
         }
     }
@@ -195,6 +244,14 @@ fn bare<'a>(line: &Line<'a>, name: &str) -> Option<&'a str> {
 
 fn id_field(line: &Line<'_>, name: &str) -> Option<Id> {
     Id::parse(bare(line, name)?)
+}
+
+/// An absent field is `Some(None)`; a present one that is no id spoils the line.
+fn optional_id(line: &Line<'_>, name: &str) -> Option<Option<Id>> {
+    match line.get(name) {
+        None => Some(None),
+        Some(_) => id_field(line, name).map(Some),
+    }
 }
 
 /// The first line of a call: which call, and where its answer goes.
@@ -238,20 +295,32 @@ impl CallHeader {
     }
 }
 
-/// The first line of an answer.
+/// What a provider says to a caller about one call.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Said {
+    /// It took the call and will answer it: the call goes nowhere else.
+    Accepted,
+    /// Its answer; the lines follow the header.
+    Reply,
+    /// Why it could not serve the call.
+    Refused(String),
+}
+
+/// The first line of what a provider sends a caller.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct AnswerHeader {
     /// The call answered.
     pub id: Id,
     /// The provider that answered.
     pub from: Id,
-    /// Why the provider could not serve the call, if it could not.
-    pub refused: Option<String>,
+    /// Taken, answered or refused.
+    pub said: Said,
 }
 
 impl AnswerHeader {
-    /// The answer as a packet to the caller's inbox, with the provider's `lines`
-    /// (a refusal carries none).
+    /// The answer as a packet to the caller's inbox, with the provider's
+    /// `lines` (only a reply carries any), unsealed but leaving room for the
+    /// seal and a hub key's `auth` line.
     pub fn to_packet(
         &self,
         to: &Subject,
@@ -259,32 +328,45 @@ impl AnswerHeader {
         lines: &[String],
     ) -> Result<Vec<u8>, ParseError> {
         let mut b = PacketBuilder::new([to], priority);
-        match &self.refused {
-            None => {
-                b.line("reply")
-                    .bare("id", &self.id.to_string())
-                    .bare("from", &self.from.to_string());
+        let (id, from) = (self.id.to_string(), self.from.to_string());
+        match &self.said {
+            Said::Accepted => {
+                b.line("accepted").bare("id", &id).bare("from", &from);
+            }
+            Said::Reply => {
+                b.line("reply").bare("id", &id).bare("from", &from);
                 for l in lines {
                     b.raw_line(l);
                 }
             }
-            Some(why) => {
+            Said::Refused(why) => {
                 b.line("refused")
-                    .bare("id", &self.id.to_string())
-                    .bare("from", &self.from.to_string())
+                    .bare("id", &id)
+                    .bare("from", &from)
                     .field("text", why.as_str());
             }
         }
-        b.finish()
+        let packet = b.finish()?;
+        if packet.len() + SEALED_ROOM > MAX_PACKET {
+            return Err(ParseError {
+                kind: ErrorKind::TooLarge {
+                    len: packet.len() + SEALED_ROOM,
+                },
+                line: 1,
+                column: 1,
+            });
+        }
+        Ok(packet)
     }
 
     /// The header of an answer packet, if its first line is one.
     pub fn read(packet: &Packet<'_>) -> Option<AnswerHeader> {
         let line = packet.lines().next()?;
-        let refused = match line.label() {
-            "reply" => None,
+        let said = match line.label() {
+            "accepted" => Said::Accepted,
+            "reply" => Said::Reply,
             // A bare reason as written, a quoted one unescaped; a group is no reason.
-            "refused" => Some(match line.get("text")? {
+            "refused" => Said::Refused(match line.get("text")? {
                 Value::Bare(token) => token.to_owned(),
                 Value::Quoted(q) => q.unescape().into_owned(),
                 Value::Group(_) => return None,
@@ -294,9 +376,31 @@ impl AnswerHeader {
         Some(AnswerHeader {
             id: id_field(&line, "id")?,
             from: id_field(&line, "from")?,
-            refused,
+            said,
         })
     }
+}
+
+/// A provider's packet whose seal proves it came from the provider it names.
+#[derive(Debug, Clone, Copy)]
+pub struct Proven<'a> {
+    /// The packet as the provider built it, its seal line left out.
+    pub packet: Packet<'a>,
+    /// Its count among the packets the provider's key sealed.
+    pub n: u64,
+}
+
+/// The one check on a provider's word: `packet` counts as said by provider
+/// `named` only if it is sealed by a key whose fingerprint is `named`.
+pub fn proven<'a>(packet: &Packet<'a>, named: Id) -> Option<Proven<'a>> {
+    let sealed = seal::open(packet.as_str().as_bytes()).ok()?;
+    if Id::from(sealed.key) != named {
+        return None;
+    }
+    Some(Proven {
+        packet: Packet::parse(sealed.body).ok()?,
+        n: sealed.n,
+    })
 }
 
 /// The lines of a call or answer after its first, as written.

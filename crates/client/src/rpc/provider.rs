@@ -1,18 +1,22 @@
 //! The serving side, sans I/O: announcing the provider, taking calls, and
-//! writing their answers.
+//! writing their answers, every word of it sealed by the provider's key.
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
+use colony_wire::seal::Identity;
 use colony_wire::{Line, Packet, ParseError, Priority, Subject, MIN_LEASE_MS};
 
-use super::message::{AnswerHeader, CallHeader, Id, Notice, Service};
+use super::message::{AnswerHeader, CallHeader, Id, Notice, Said, Service};
 use super::{RpcError, LONGEST_LEASE};
 
-/// A provider answers `who` at most once per third of its lease (when it
-/// would announce anyway), and at least this often, so that a new caller
-/// need not wait long; forged questions cannot make it a loudspeaker.
-const ANSWER_WHO_AT_LEAST_EVERY: Duration = Duration::from_secs(1);
+/// A provider answers each `who` at once while it has credit: one answer
+/// costs this much, credit grows with time, and it holds at most
+/// [`WHO_BURST`] answers. A new caller hears back in milliseconds, and forged
+/// questions cannot make the provider a loudspeaker (10 a second at most).
+const WHO_COST: Duration = Duration::from_millis(100);
+/// Answers to `who` a provider can give at once after a quiet spell.
+const WHO_BURST: u32 = 10;
 
 /// A call taken by a provider, borrowing the packet it came in.
 #[derive(Debug, Clone)]
@@ -64,46 +68,57 @@ pub struct Ticket {
 /// [`answer`](Provider::answer) or [`refuse`](Provider::refuse) each, now or
 /// later. Publish what [`poll_transmit`](Provider::poll_transmit) gives.
 ///
-/// It announces itself when made, every third of its lease, and at once
-/// when a caller asks who provides (at most once per third of its lease, and
-/// per second); callers stop believing in it one lease after they last
-/// heard from it (an announcement or an answer).
+/// Its id is its key's fingerprint, and everything it publishes is sealed
+/// by that key, so callers can tell its word from anyone else's. It
+/// announces itself when made and every third of its lease, answers each
+/// `who` at once (echoing its nonce, up to 10 a second), and tells a caller
+/// `accepted` as soon as it takes a call; callers stop believing in it one
+/// lease after they last heard from it (an announcement or an answer).
 #[derive(Debug)]
 pub struct Provider {
     service: Service,
+    identity: Identity,
     id: Id,
     inbox: Subject,
     lease: Duration,
     last_announced: Instant,
-    last_answered_who: Option<Instant>,
+    /// Credit for answering `who`, at most `WHO_BURST` answers' worth.
+    who_credit: Duration,
+    who_credit_at: Instant,
     /// The announcement (or farewell) not yet sent: one at most, so a
     /// provider that waits for its hub does not pile them up.
     notice: Option<Vec<u8>>,
+    /// Built but not yet sealed: sealing as they leave keeps the seal counts
+    /// in the order the packets are sent, so callers can refuse a replay.
     outbox: VecDeque<Vec<u8>>,
     served: u64,
 }
 
 impl Provider {
-    /// A provider of `service` with a fresh id, announcing itself at `now`.
+    /// A provider of `service` with a key of its own, announcing itself at `now`.
     pub fn new(service: &str, lease: Duration, now: Instant) -> Result<Provider, RpcError> {
-        Provider::with_id(service, Id::fresh(), lease, now)
+        Provider::with_identity(service, Identity::generate(), lease, now)
     }
 
-    /// A provider with a chosen id.
-    pub fn with_id(
+    /// A provider with a chosen key (tests and reproducible runs: see
+    /// [`Identity::from_seed`]); its id is the key's fingerprint.
+    pub fn with_identity(
         service: &str,
-        id: Id,
+        identity: Identity,
         lease: Duration,
         now: Instant,
     ) -> Result<Provider, RpcError> {
         let service = Service::new(service)?;
+        let id = Id::from(identity.public());
         let mut p = Provider {
             inbox: service.inbox(id),
             service,
+            identity,
             id,
             lease: lease.clamp(Duration::from_millis(MIN_LEASE_MS), LONGEST_LEASE),
             last_announced: now,
-            last_answered_who: None,
+            who_credit: WHO_COST * WHO_BURST,
+            who_credit_at: now,
             notice: None,
             outbox: VecDeque::new(),
             served: 0,
@@ -118,7 +133,7 @@ impl Provider {
         [self.service.channel(), &self.inbox]
     }
 
-    /// This provider's id.
+    /// This provider's id: its key's fingerprint.
     pub fn id(&self) -> Id {
         self.id
     }
@@ -133,33 +148,44 @@ impl Provider {
         self.served
     }
 
-    fn announce(&mut self, now: Instant) {
-        self.last_announced = now;
-        let notice = Notice::Provider {
+    fn announcement(&self, nonce: Option<Id>) -> Vec<u8> {
+        Notice::Provider {
             id: self.id,
             lease: self.lease,
-        };
-        self.notice = Some(notice.to_packet(&self.service));
+            nonce,
+        }
+        .to_packet(&self.service)
     }
 
-    fn who_every(&self) -> Duration {
-        (self.lease / 3).min(ANSWER_WHO_AT_LEAST_EVERY)
+    fn announce(&mut self, now: Instant) {
+        self.last_announced = now;
+        self.notice = Some(self.announcement(None));
+    }
+
+    /// Spends one answer's credit if there is one.
+    fn may_answer_who(&mut self, now: Instant) -> bool {
+        let earned = now.saturating_duration_since(self.who_credit_at);
+        self.who_credit_at = self.who_credit_at.max(now);
+        self.who_credit = (self.who_credit + earned).min(WHO_COST * WHO_BURST);
+        if self.who_credit < WHO_COST {
+            return false;
+        }
+        self.who_credit -= WHO_COST;
+        true
     }
 
     /// Notes a packet from one of [`subjects`](Provider::subjects); a call
-    /// for this provider is returned.
+    /// for this provider is returned, and `accepted` is on its way to the caller.
     pub fn handle_packet<'p>(&mut self, now: Instant, packet: &Packet<'p>) -> Option<Call<'p>> {
         if packet.subject_count() != 1 {
             return None;
         }
         if packet.has_subject(self.service.channel().as_str()) {
-            let ask = Notice::read(packet) == Some(Notice::Who);
-            let fresh = self
-                .last_answered_who
-                .is_some_and(|t| now.saturating_duration_since(t) < self.who_every());
-            if ask && !fresh {
-                self.last_answered_who = Some(now);
-                self.announce(now);
+            if let Some(Notice::Who { nonce }) = Notice::read(packet) {
+                if self.may_answer_who(now) {
+                    let echo = self.announcement(nonce);
+                    self.outbox.push_back(echo);
+                }
             }
             return None;
         }
@@ -167,37 +193,40 @@ impl Provider {
             return None;
         }
         let header = CallHeader::read(packet)?;
-        Some(Call {
+        let call = Call {
             packet: *packet,
             header,
-        })
+        };
+        // Said before the call runs: the caller must not send it elsewhere.
+        self.tell(&call.ticket(), Said::Accepted, &[]).ok()?;
+        Some(call)
     }
 
-    /// Answers a call with these lines (packet lines as written).
-    pub fn answer(&mut self, ticket: &Ticket, lines: &[String]) -> Result<(), ParseError> {
+    fn tell(&mut self, ticket: &Ticket, said: Said, lines: &[String]) -> Result<(), ParseError> {
         let header = AnswerHeader {
             id: ticket.id,
             from: self.id,
-            refused: None,
+            said,
         };
-        self.outbox
-            .push_back(header.to_packet(&ticket.reply_to, ticket.priority, lines)?);
+        let packet = header.to_packet(&ticket.reply_to, ticket.priority, lines)?;
+        self.outbox.push_back(packet);
+        Ok(())
+    }
+
+    /// Answers a call with these lines (packet lines as written); lines that
+    /// would not make one sealed datagram are refused.
+    pub fn answer(&mut self, ticket: &Ticket, lines: &[String]) -> Result<(), ParseError> {
+        self.tell(ticket, Said::Reply, lines)?;
         self.served += 1;
         Ok(())
     }
 
     /// Tells the caller this call cannot be served, and why.
     pub fn refuse(&mut self, ticket: &Ticket, why: &str) {
-        let header = AnswerHeader {
-            id: ticket.id,
-            from: self.id,
-            // Control characters would be escaped anyway; the limit keeps a
-            // long error from a script within one datagram.
-            refused: Some(why.chars().take(1024).collect()),
-        };
-        if let Ok(packet) = header.to_packet(&ticket.reply_to, ticket.priority, &[]) {
-            self.outbox.push_back(packet);
-        }
+        // Control characters would be escaped anyway; the limit keeps a
+        // long error from a script within one datagram.
+        let why = why.chars().take(1024).collect();
+        let _ = self.tell(ticket, Said::Refused(why), &[]);
         self.served += 1;
     }
 
@@ -217,13 +246,14 @@ impl Provider {
         self.next_announce()
     }
 
-    /// Says the provider is stopping, so callers end what they sent it at once.
+    /// Says the provider is stopping, so callers send it no new calls.
     pub fn leave(&mut self) {
         self.notice = Some(Notice::Leaving { id: self.id }.to_packet(&self.service));
     }
 
-    /// The next packet to publish.
+    /// The next packet to publish, sealed.
     pub fn poll_transmit(&mut self) -> Option<Vec<u8>> {
-        self.notice.take().or_else(|| self.outbox.pop_front())
+        let packet = self.notice.take().or_else(|| self.outbox.pop_front())?;
+        Some(self.identity.sealed(packet))
     }
 }

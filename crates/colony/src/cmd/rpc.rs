@@ -106,9 +106,17 @@ pub fn call(args: CallArgs) -> anyhow::Result<()> {
     let lines: Vec<&str> = lines.iter().map(String::as_str).collect();
     let caller = Caller::new(&args.service)?;
     let mut client = CallClient::with(client(&args.hub, args.key.as_deref())?, caller)?;
-    let answer = client
-        .call(Priority(args.priority), &lines, timeout)
-        .with_context(|| format!("calling `{}` on {}", args.service, args.hub.addr))?;
+    let answer = client.call(Priority(args.priority), &lines, timeout);
+    let forged = client.caller().forged();
+    if forged > 0 {
+        // Someone spoke for a provider: worth an operator's attention even
+        // when the real answer came.
+        eprintln!(
+            "colony: dropped {forged} answers or notices not sealed by the provider they name"
+        );
+    }
+    let answer =
+        answer.with_context(|| format!("calling `{}` on {}", args.service, args.hub.addr))?;
     let mut out = std::io::stdout().lock();
     for line in &answer.lines {
         writeln!(out, "{line}").context("cannot write to standard output")?;
