@@ -15,9 +15,10 @@
 //!
 //! This crate parses ([`Packet`], zero-copy), writes ([`PacketBuilder`]) and
 //! reads the hub's control requests ([`Request`], [`StatusReport`]); [`auth`]
-//! signs and checks packets with a shared key; [`batch`] joins and splits
-//! several packets in one datagram. It does no I/O; its one
-//! dependency is HMAC-SHA256. It is not a schema layer: what a
+//! signs and checks packets with a shared key; [`seal`] proves which process
+//! wrote a packet (Ed25519, a key per process); [`batch`] joins and splits
+//! several packets in one datagram. It does no I/O; its dependencies are
+//! HMAC-SHA256 and Ed25519. It is not a schema layer: what a
 //! label or field means is up to the programs that use it.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -29,6 +30,7 @@ mod control;
 mod error;
 mod packet;
 mod scan;
+pub mod seal;
 mod split;
 mod subject;
 

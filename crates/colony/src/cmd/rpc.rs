@@ -31,9 +31,6 @@ pub struct CallArgs {
     /// The call's priority (its answer keeps it).
     #[arg(long, short, default_value_t = 0, allow_negative_numbers = true)]
     pub priority: i32,
-    /// Sign every packet with this shared key (a hub started with `--auth-all` asks for it).
-    #[arg(long, value_name = "FILE")]
-    pub key: Option<std::path::PathBuf>,
     /// The service to call.
     pub service: String,
     /// The call's lines, such as `'text value "hi"'`; with none, they are
@@ -53,9 +50,6 @@ pub struct ServeArgs {
     /// Seconds a command may run for one call before it is killed and the call refused.
     #[arg(long, default_value_t = 10.0, value_parser = super::TIMEOUT)]
     pub command_timeout: f64,
-    /// Sign every packet with this shared key (a hub started with `--auth-all` asks for it).
-    #[arg(long, value_name = "FILE")]
-    pub key: Option<std::path::PathBuf>,
     /// Answer every call with its own lines instead of running a command.
     #[arg(long, conflicts_with = "command")]
     pub echo: bool,
@@ -69,17 +63,6 @@ pub struct ServeArgs {
     /// background is killed when it ends.
     #[arg(last = true, value_name = "COMMAND", required_unless_present = "echo")]
     pub command: Vec<String>,
-}
-
-fn client(
-    hub: &HubAddr,
-    key: Option<&std::path::Path>,
-) -> anyhow::Result<colony_client::UdpClient> {
-    let mut client = hub.connect()?;
-    if let Some(path) = key {
-        client.set_key(super::read_key(path)?);
-    }
-    Ok(client)
 }
 
 pub fn call(args: CallArgs) -> anyhow::Result<()> {
@@ -105,7 +88,7 @@ pub fn call(args: CallArgs) -> anyhow::Result<()> {
     };
     let lines: Vec<&str> = lines.iter().map(String::as_str).collect();
     let caller = Caller::new(&args.service)?;
-    let mut client = CallClient::with(client(&args.hub, args.key.as_deref())?, caller)?;
+    let mut client = CallClient::with(args.hub.connect()?, caller)?;
     let answer = client.call(Priority(args.priority), &lines, timeout);
     let forged = client.caller().forged();
     if forged > 0 {
@@ -129,7 +112,7 @@ pub fn serve(args: ServeArgs) -> anyhow::Result<()> {
     let limit = super::seconds("--command-timeout", args.command_timeout)?;
     let stop = super::stop_flag()?;
     let provider = Provider::new(&args.service, lease, Instant::now())?;
-    let mut server = ServeClient::with(client(&args.hub, args.key.as_deref())?, provider)?;
+    let mut server = ServeClient::with(args.hub.connect()?, provider)?;
     // On standard output, for the script that started it: which provider this is.
     println!(
         "provider {} serves `{}` through {}",
