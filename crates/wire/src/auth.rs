@@ -29,6 +29,8 @@ const MAC_HEX: usize = 64;
 const MAC_SEP: &str = " mac ";
 /// The shortest key accepted: 128 bits.
 pub const MIN_KEY_LEN: usize = 16;
+/// The longest `auth` line, its newline included: what signing may add to a packet.
+pub const MAX_LINE: usize = "auth n ".len() + 20 + MAC_SEP.len() + MAC_HEX + 1;
 
 /// A shared secret.
 #[derive(Clone)]

@@ -57,10 +57,9 @@ const ID_DIGITS: usize = 16;
 pub const MAX_SERVICE_LEN: usize = MAX_SUBJECT_LEN - SERVICE_PREFIX.len() - 1 - ID_DIGITS;
 
 /// Room a provider's packet leaves for what is added after it is built: the
-/// longest seal line (`seal n ` 20 digits ` key ` 64 ` sig ` 128, newline)
-/// and the longest `auth` line a hub key adds (`auth n ` 20 digits ` mac `
-/// 64, newline), so a sealed answer still fits one datagram.
-const SEALED_ROOM: usize = (7 + 20 + 5 + 64 + 5 + 128 + 1) + (7 + 20 + 5 + 64 + 1);
+/// longest seal line and the longest `auth` line a hub key adds, so a sealed
+/// answer still fits one datagram.
+const SEALED_ROOM: usize = colony_wire::seal::MAX_LINE + colony_wire::auth::MAX_LINE;
 
 /// A provider's, a caller's or a call's identity, or a `who` nonce: 16 hex
 /// digits on the wire. A provider's id is its key's fingerprint.
