@@ -103,7 +103,7 @@ fn pub_reads_whole_packets_from_standard_input() {
     let hub = HubProcess::start(&[]);
     let mut sub = subscribed(hub.addr, &["a", "b"]);
     let mut child = colony()
-        .args(["pub", "--hub", &hub.addr.to_string(), "a"])
+        .args(["pub", "--hub", &hub.addr.to_string()])
         .stdin(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -113,7 +113,7 @@ fn pub_reads_whole_packets_from_standard_input() {
         .stdin
         .take()
         .unwrap()
-        .write_all(b"@ <a> 0\nx y 1\n@ <b> 2\nz w 2\n")
+        .write_all(b"@ <a> 0\nx y 1\n\n@ <b> 2\nz w 2\n")
         .unwrap();
     assert!(child.wait().unwrap().success());
     let got = drain_until(&mut sub, Instant::now() + Duration::from_secs(3), |g| {

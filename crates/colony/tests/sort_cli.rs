@@ -324,3 +324,39 @@ fn a_robot_controller_can_be_killed_and_restarted_while_the_others_sort_on() {
         assert!(Instant::now() < deadline, "robot 2 never came back");
     }
 }
+
+#[test]
+fn robot_and_puck_counts_past_what_a_world_takes_are_refused_before_any_memory_is_reserved() {
+    // Each once asked for gigabytes and aborted; `--scale-robots` multiplies its count by 10.
+    for (flag, n, what) in [
+        ("--robots", "1000000000", "robots"),
+        ("--pucks", "1000000000", "pucks"),
+        ("--scale-robots", "1000000000", "robots"),
+        ("--scale-robots", "18446744073709551615", "robots"),
+    ] {
+        let (code, _, e) = common::run_bounded(
+            &[
+                "sort",
+                "run",
+                "--method",
+                "bhd",
+                "--types",
+                "1",
+                flag,
+                n,
+                "--steps",
+                "10",
+                "--trials",
+                "1",
+                "--out",
+                "/nonexistent/out",
+            ],
+            "warn",
+        );
+        assert_eq!(code, Some(1), "{flag} {n}: {e}");
+        assert!(
+            e.contains(&format!("{n} {what} is more than the")) && !e.contains("panicked"),
+            "{flag} {n}: {e}"
+        );
+    }
+}

@@ -87,6 +87,14 @@ impl Pacer {
         }
     }
 
+    /// Makes the packet logged `since` after the log's first record due at
+    /// `at`, and every later one as long after it as in the log (over the
+    /// speed): the time before it is skipped.
+    pub fn restart(&mut self, since: Duration, at: Instant) {
+        self.start = at;
+        self.first = Some(since);
+    }
+
     /// When the packet logged `since` after the log's first record is due.
     pub fn due(&mut self, since: Duration) -> Instant {
         let offset = since.saturating_sub(*self.first.get_or_insert(since));
@@ -109,6 +117,37 @@ pub struct ReplayOptions {
     pub speed: f64,
     /// Only packets on these channels (all when empty).
     pub channels: Vec<String>,
+    /// The longest wait for a packet (at the replay's speed): a log may hold a
+    /// silence of hours, or a forged record time a century ahead, and a longer
+    /// gap is skipped, the next packet published at once.
+    pub max_gap: Duration,
+}
+
+/// A gap in a log longer than [`ReplayOptions::max_gap`], skipped.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SkippedGap {
+    /// When the packet after the gap was logged, since the log's first record.
+    pub at: Duration,
+    /// How long the log was silent before it (on the channels replayed), in the log's time.
+    pub gap: Duration,
+}
+
+/// How long a wait sleeps before it looks at the stop flag again: short
+/// enough that Ctrl-C seems to act at once.
+const STOP_CHECK: Duration = Duration::from_millis(50);
+
+/// Sleeps until `due`, or until `stop` is set; whether `due` came first.
+fn wait_until(due: Instant, stop: &AtomicBool) -> bool {
+    loop {
+        if stop.load(Ordering::Relaxed) {
+            return false;
+        }
+        let now = Instant::now();
+        if now >= due {
+            return true;
+        }
+        std::thread::sleep((due - now).min(STOP_CHECK));
+    }
 }
 
 /// What a replay did.
@@ -123,7 +162,8 @@ pub struct Replayed {
 }
 
 /// Publishes the log at `path` again through `publish`, each packet when its
-/// time comes (sleeping in between), until the log ends or `stop` is set.
+/// time comes (sleeping in between), until the log ends or `stop` is set;
+/// `skipped` hears of each gap longer than [`ReplayOptions::max_gap`].
 /// Control requests belonged to their senders and are left out, as are
 /// records that are not packets.
 pub fn replay<E: From<LogError>>(
@@ -131,6 +171,7 @@ pub fn replay<E: From<LogError>>(
     options: &ReplayOptions,
     stop: &AtomicBool,
     publish: impl FnMut(&[u8]) -> Result<(), E>,
+    skipped: impl FnMut(&SkippedGap),
 ) -> Result<Replayed, E> {
     let mut reader = LogReader::open(path)?;
     let (sent, records) = replay_records(
@@ -138,6 +179,7 @@ pub fn replay<E: From<LogError>>(
         options,
         stop,
         publish,
+        skipped,
     )?;
     Ok(Replayed {
         sent,
@@ -153,8 +195,10 @@ pub fn replay_records<E>(
     options: &ReplayOptions,
     stop: &AtomicBool,
     mut publish: impl FnMut(&[u8]) -> Result<(), E>,
+    mut skipped: impl FnMut(&SkippedGap),
 ) -> Result<(u64, u64), E> {
     let mut pacer = Pacer::new(Instant::now(), options.speed);
+    let mut last: Option<Duration> = None;
     let mut sent = 0;
     let records = for_each_timed_in(records, |since, record| {
         if stop.load(Ordering::Relaxed) {
@@ -166,12 +210,21 @@ pub fn replay_records<E>(
         if packet.has_subject(HUB_SUBJECT) || !on_channels(&packet, &options.channels) {
             return Ok(true);
         }
-        let due = pacer.due(since);
+        let mut due = pacer.due(since);
         let now = Instant::now();
-        if due > now {
-            std::thread::sleep(due - now);
+        if due.saturating_duration_since(now) > options.max_gap {
+            skipped(&SkippedGap {
+                at: since,
+                gap: since.saturating_sub(last.unwrap_or(since)),
+            });
+            pacer.restart(since, now);
+            due = now;
+        }
+        if !wait_until(due, stop) {
+            return Ok(false);
         }
         publish(&record.payload)?;
+        last = Some(since);
         sent += 1;
         Ok(true)
     })?;
@@ -230,13 +283,82 @@ mod tests {
         let options = ReplayOptions {
             speed: 100.0,
             channels: Vec::new(),
+            max_gap: Duration::from_secs(10),
         };
-        let r = replay(&path, &options, &stop, |p| {
-            got.push(p.to_vec());
-            Ok::<(), LogError>(())
-        })
+        let r = replay(
+            &path,
+            &options,
+            &stop,
+            |p| {
+                got.push(p.to_vec());
+                Ok::<(), LogError>(())
+            },
+            |g| panic!("no gap to skip: {g:?}"),
+        )
         .unwrap();
         assert_eq!(r.sent, 2);
         assert_eq!(got[1], b"@ <b> 0\nx y 2\n");
+    }
+
+    fn record(at: Duration, payload: &[u8]) -> Result<Record, LogError> {
+        Ok(Record {
+            time_us: at.as_micros() as u64,
+            source: "127.0.0.1:5".to_string(),
+            payload: payload.to_vec(),
+        })
+    }
+
+    #[test]
+    fn a_gap_longer_than_the_bound_is_skipped_and_said() {
+        let century = Duration::from_secs(100 * 365 * 24 * 3600);
+        let records = vec![
+            record(Duration::ZERO, b"@ <a> 0\nx y 1\n"),
+            record(century, b"@ <a> 0\nx y 2\n"),
+            record(century + Duration::from_millis(20), b"@ <a> 0\nx y 3\n"),
+        ];
+        let options = ReplayOptions {
+            speed: 1.0,
+            channels: Vec::new(),
+            max_gap: Duration::from_secs(1),
+        };
+        let mut gaps = Vec::new();
+        let mut sent = Vec::new();
+        let (n, _) = replay_records(
+            records.into_iter(),
+            &options,
+            &AtomicBool::new(false),
+            |p| {
+                sent.push(p.to_vec());
+                Ok(())
+            },
+            |g| gaps.push(g.clone()),
+        )
+        .unwrap();
+        assert_eq!(n, 3);
+        assert_eq!(sent.len(), 3);
+        assert_eq!(
+            gaps,
+            [SkippedGap {
+                at: century,
+                gap: century
+            }]
+        );
+    }
+
+    #[test]
+    fn a_wait_ends_when_the_stop_flag_is_set() {
+        let stop = std::sync::Arc::new(AtomicBool::new(false));
+        let s = stop.clone();
+        let setter = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(100));
+            s.store(true, Ordering::Relaxed);
+        });
+        // An hour's wait: the test would hang, not fail, if the flag went unseen.
+        assert!(!wait_until(
+            Instant::now() + Duration::from_secs(3600),
+            &stop
+        ));
+        setter.join().unwrap();
+        assert!(wait_until(Instant::now(), &AtomicBool::new(false)));
     }
 }

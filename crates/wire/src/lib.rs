@@ -17,7 +17,9 @@
 //! reads the hub's control requests ([`Request`], [`StatusReport`]); [`auth`]
 //! signs and checks packets with a shared key; [`seal`] proves which process
 //! wrote a packet (Ed25519, a key per process); [`batch`] joins and splits
-//! several packets in one datagram. It does no I/O; its dependencies are
+//! several packets in one datagram; [`split_blocks`] and [`BlockWriter`] read
+//! and write several packets as text; [`terminal_text`] shows network text on
+//! a terminal. It does no I/O; its dependencies are
 //! HMAC-SHA256 and Ed25519. It is not a schema layer: what a
 //! label or field means is up to the programs that use it.
 #![forbid(unsafe_code)]
@@ -33,6 +35,7 @@ mod scan;
 pub mod seal;
 mod split;
 mod subject;
+mod terminal;
 
 pub use build::{write_quoted, write_token_or_quoted, LineBuilder, PacketBuilder, WireValue};
 pub use control::{
@@ -41,8 +44,9 @@ pub use control::{
 };
 pub use error::{ErrorKind, FieldError, FieldErrorKind, ParseError};
 pub use packet::{Field, Fields, Group, Line, Lines, Packet, Quoted, Subjects, Value};
-pub use split::split_packets;
-pub use subject::{Priority, Subject, SubjectError};
+pub use split::{split_blocks, split_packets, starts_with_packet, Block, BlockError, BlockWriter};
+pub use subject::{parse_subject_set, Priority, Subject, SubjectError, SubjectSetError};
+pub use terminal::{is_unsafe_for_terminal, terminal_line, terminal_text};
 
 /// The largest packet: the payload of one UDP datagram over IPv4.
 pub const MAX_PACKET: usize = 65_507;

@@ -6,7 +6,10 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use colony_client::HubState;
-use colony_wire::{split_packets, Packet, PacketBuilder, Priority, Subject};
+use colony_wire::{
+    parse_subject_set, split_blocks, starts_with_packet, BlockWriter, Packet, PacketBuilder,
+    Priority, Subject,
+};
 
 use super::HubAddr;
 
@@ -14,15 +17,20 @@ use super::HubAddr;
 pub struct PubArgs {
     #[command(flatten)]
     pub hub: HubAddr,
-    /// The packet's priority.
-    #[arg(long, short, default_value_t = 0, allow_negative_numbers = true)]
-    pub priority: i32,
-    /// Subjects, then body lines: `colony pub radio 'cmd id 3 vl 0.2 vr 0.2'`.
-    /// An argument with a blank in it starts the lines; with no lines, the
-    /// body is read from standard input (where text starting with `@` is
-    /// taken as whole packets, each published as it stands).
-    #[arg(required = true, value_name = "SUBJECT... LINE...")]
-    pub words: Vec<String>,
+    /// The packet's priority (default 0).
+    #[arg(long, short, allow_negative_numbers = true)]
+    pub priority: Option<i32>,
+    /// Where the packet goes: a channel (`radio`), or a subject set,
+    /// comma-separated (`mobile,camera`) or as a header writes it
+    /// (`'<mobile> <camera>'`). Left out, standard input holds whole packets.
+    #[arg(value_name = "SUBJECTS")]
+    pub subjects: Option<String>,
+    /// The packet's body, a line per argument: `colony pub radio 'cmd id 3 vl 0.2'
+    /// stop`. With none, the body is read from standard input, unless that
+    /// starts with a header (`@`): then it holds whole packets, each ended by a
+    /// blank line, as `colony sub` prints them.
+    #[arg(value_name = "LINE")]
+    pub lines: Vec<String>,
 }
 
 #[derive(clap::Args, Debug)]
@@ -32,30 +40,24 @@ pub struct SubArgs {
     /// Stop after this many packets.
     #[arg(long, short = 'n')]
     pub count: Option<u64>,
-    /// Subjects to subscribe to; each packet to any of them is printed.
+    /// Print each packet as it came, not with the characters that could act on
+    /// a terminal (C1 controls, marks that reorder text) shown as `\u{9b}`.
+    #[arg(long)]
+    pub raw: bool,
+    /// Subjects to subscribe to; each packet to any of them is printed, a blank
+    /// line between packets (`colony pub` reads them back).
     #[arg(required = true, value_name = "SUBJECT")]
     pub subjects: Vec<String>,
 }
 
-/// Splits `pub`'s words into subjects and lines.
-fn split_words(words: &[String]) -> anyhow::Result<(Vec<Subject>, Vec<&str>)> {
-    let first_line = words
-        .iter()
-        .position(|w| w.contains(char::is_whitespace))
-        .unwrap_or(words.len());
-    let subjects = words[..first_line]
-        .iter()
-        .map(|w| Subject::new(w).map_err(anyhow::Error::from))
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    if subjects.is_empty() {
-        anyhow::bail!(
-            "give at least one subject before the lines, e.g. `colony pub radio 'cmd id 3 vl 0.2'`"
-        );
-    }
-    Ok((
-        subjects,
-        words[first_line..].iter().map(String::as_str).collect(),
-    ))
+/// The subject set `pub` was given, as one argument.
+fn parse_subjects(text: &str) -> anyhow::Result<Vec<Subject>> {
+    parse_subject_set(text).map_err(|e| {
+        anyhow::anyhow!(
+            "{e} (`colony pub SUBJECTS LINE...`: the subjects are the first argument, each \
+             argument after it a line of the body)"
+        )
+    })
 }
 
 fn build(subjects: &[Subject], priority: i32, lines: &[&str]) -> anyhow::Result<Vec<u8>> {
@@ -67,26 +69,65 @@ fn build(subjects: &[Subject], priority: i32, lines: &[&str]) -> anyhow::Result<
         .context("malformed packet (the header counts as line 1)")
 }
 
+/// The whole packets on standard input; each must go to `subjects` when given.
+fn packets_in(text: &str, subjects: Option<&[Subject]>) -> anyhow::Result<Vec<Vec<u8>>> {
+    let blocks = split_blocks(text).context("standard input")?;
+    let mut packets = Vec::with_capacity(blocks.len());
+    for (i, block) in blocks.iter().enumerate() {
+        let what = || format!("packet {} (line {}) on standard input", i + 1, block.line);
+        let p = Packet::parse(block.text.as_bytes()).with_context(what)?;
+        if let Some(wanted) = subjects {
+            let mut got: Vec<&str> = p.subjects().collect();
+            let mut want: Vec<&str> = wanted.iter().map(Subject::as_str).collect();
+            got.sort_unstable();
+            want.sort_unstable();
+            if got != want {
+                anyhow::bail!(
+                    "{} goes to <{}>, not to the <{}> given (leave the subjects out to publish \
+                     each packet where its header says)",
+                    what(),
+                    got.join("> <"),
+                    want.join("> <")
+                );
+            }
+        }
+        packets.push(block.text.as_bytes().to_vec());
+    }
+    if packets.is_empty() {
+        anyhow::bail!("no packet on standard input");
+    }
+    Ok(packets)
+}
+
 pub fn publish(args: PubArgs) -> anyhow::Result<()> {
-    let (subjects, lines) = split_words(&args.words)?;
-    let mut packets = Vec::new();
-    if lines.is_empty() {
+    let subjects = args.subjects.as_deref().map(parse_subjects).transpose()?;
+    let packets = if !args.lines.is_empty() {
+        let lines: Vec<&str> = args.lines.iter().map(String::as_str).collect();
+        let subjects = subjects.context("give the subjects before the lines")?;
+        vec![build(&subjects, args.priority.unwrap_or(0), &lines)?]
+    } else {
         let mut text = String::new();
         std::io::stdin()
             .read_to_string(&mut text)
             .context("cannot read packets from standard input")?;
-        if text.trim_start().starts_with('@') {
-            for (i, chunk) in split_packets(&text).into_iter().enumerate() {
-                Packet::parse(chunk.as_bytes())
-                    .with_context(|| format!("packet {} on standard input", i + 1))?;
-                packets.push(chunk.as_bytes().to_vec());
+        if starts_with_packet(&text) {
+            if args.priority.is_some() {
+                anyhow::bail!(
+                    "standard input holds whole packets, each with its own priority: leave out --priority"
+                );
             }
+            packets_in(&text, subjects.as_deref())?
         } else {
-            packets.push(build(&subjects, args.priority, &[text.as_str()])?);
+            let subjects = subjects.context(
+                "give the subjects (`colony pub radio`), or whole packets on standard input",
+            )?;
+            vec![build(
+                &subjects,
+                args.priority.unwrap_or(0),
+                &[text.as_str()],
+            )?]
         }
-    } else {
-        packets.push(build(&subjects, args.priority, &lines)?);
-    }
+    };
     let mut client = args.hub.connect()?;
     for p in &packets {
         client.publish(p)?;
@@ -102,6 +143,7 @@ pub fn subscribe(args: SubArgs) -> anyhow::Result<()> {
     let stop = super::stop_flag()?;
     let stdout = std::io::stdout();
     let mut seen = 0u64;
+    let mut blocks = BlockWriter::new();
     let mut warned = false;
     'run: while !stop.load(Ordering::Relaxed) {
         let wake = client
@@ -111,7 +153,8 @@ pub fn subscribe(args: SubArgs) -> anyhow::Result<()> {
         client.poll(Instant::now())?;
         let mut out = stdout.lock();
         while let Some(packet) = client.recv()? {
-            write!(out, "{packet}").context("cannot write to standard output")?;
+            out.write_all(blocks.block(&[], Some(&packet), !args.raw).as_bytes())
+                .context("cannot write to standard output")?;
             seen += 1;
             if args.count.is_some_and(|n| seen >= n) {
                 out.flush().context("cannot write to standard output")?;
@@ -144,25 +187,18 @@ pub fn subscribe(args: SubArgs) -> anyhow::Result<()> {
 mod tests {
     use super::*;
 
-    #[test]
-    fn words_with_blanks_start_the_lines() {
-        let words: Vec<String> = ["a", "b", "x y 1", "z"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
-        let (subjects, lines) = split_words(&words).unwrap();
-        assert_eq!(
-            subjects.iter().map(Subject::as_str).collect::<Vec<_>>(),
-            ["a", "b"]
-        );
-        assert_eq!(lines, ["x y 1", "z"]);
+    fn names(subjects: &[Subject]) -> Vec<&str> {
+        subjects.iter().map(Subject::as_str).collect()
     }
 
     #[test]
-    fn a_bad_subject_is_named() {
-        let words = vec!["bad!subject".to_string()];
-        let e = split_words(&words).unwrap_err().to_string();
-        assert!(e.contains("bad!subject"), "{e}");
+    fn a_subject_argument_that_is_no_set_is_refused_with_the_grammar() {
+        assert_eq!(names(&parse_subjects("a,b").unwrap()), ["a", "b"]);
+        let e = parse_subjects("radio stop").unwrap_err().to_string();
+        assert!(
+            e.contains("radio stop") && e.contains("SUBJECTS LINE"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -172,6 +208,23 @@ mod tests {
         assert!(
             text.contains("line 2") && text.contains("duplicate name `x`"),
             "{text}"
+        );
+    }
+
+    #[test]
+    fn packets_on_standard_input_must_go_where_the_subjects_say() {
+        let text = "@ <a> 0\nx y 1\n\n@ <hub> 0\nstatus\n";
+        let a = parse_subjects("a").unwrap();
+        let e = format!("{:#}", packets_in(text, Some(&a)).unwrap_err());
+        assert!(
+            e.contains("packet 2 (line 4)") && e.contains("<hub>"),
+            "{e}"
+        );
+        assert_eq!(packets_in(text, None).unwrap().len(), 2);
+        let ab = parse_subjects("b,a").unwrap();
+        assert_eq!(
+            packets_in("@ <a> <b> 0\n", Some(&ab)).unwrap(),
+            [b"@ <a> <b> 0\n".to_vec()]
         );
     }
 }

@@ -6,6 +6,7 @@ use std::sync::atomic::Ordering;
 
 use anyhow::Context as _;
 use colony_sim::SceneConfig;
+use colony_sort::env::{check_counts, check_robots};
 use colony_sort::experiment::{run_trials, write_csv, Disturbance, StepCounter, TrialSpec};
 use colony_sort::live::launch::{self, Swarm, SwarmSpec};
 use colony_sort::methods::Method;
@@ -56,10 +57,12 @@ impl Setup {
             if n == 0 {
                 anyhow::bail!("--scale-robots must be at least 1");
             }
+            check_robots(n).context("--scale-robots")?;
             let kinds = scene.pucks.kinds;
             scene = SceneConfig::scaled(n);
             scene.pucks.kinds = kinds;
         }
+        check_counts(&scene).context("invalid scene")?;
         let params = match &self.params {
             Some(p) => SortParams::load(p)?,
             None => SortParams::default(),
@@ -251,6 +254,7 @@ fn run_cmd(a: RunArgs) -> anyhow::Result<()> {
     if let Some(p) = a.pucks {
         scene.pucks.count = p;
     }
+    check_counts(&scene).context("invalid scene (--robots, --pucks)")?;
     scene.validate().context("invalid scene")?;
     check_scale(a.trials, a.steps)?;
     if method == Method::Bhd && scene.pucks.kinds > 1 {
@@ -387,6 +391,7 @@ fn setup_args(setup: &Setup) -> Vec<String> {
 }
 
 fn swarm_spec(hub: &HubAddr, setup: &Setup, method: &str, seed: u64) -> anyhow::Result<SwarmSpec> {
+    hub.no_key("a live swarm")?;
     let method = self::method(method)?;
     let (scene, params) = setup.load()?;
     Ok(SwarmSpec {

@@ -9,7 +9,7 @@ use anyhow::Context as _;
 use colony_hub::log::Record;
 use colony_hub::replay::{for_each_timed_in, on_channels, replay_records, ReplayOptions};
 use colony_mcap::{McapEnd, McapLogWriter, TrafficReader};
-use colony_wire::Packet;
+use colony_wire::{BlockWriter, Packet};
 
 use super::HubAddr;
 
@@ -79,8 +79,14 @@ impl Filter {
 #[derive(clap::Args, Debug)]
 pub struct LogArgs {
     /// The traffic log, as written by `colony hub --log` (a `.clog` or an MCAP).
+    /// Each packet is listed after a `#` line of when and whom it came from, a
+    /// blank line between packets (`colony pub` reads them back).
     #[arg(required = true)]
     pub file: Option<PathBuf>,
+    /// List each packet as it came, not with the characters that could act on a
+    /// terminal (C1 controls, marks that reorder text) shown as `\u{9b}`.
+    #[arg(long)]
+    pub raw: bool,
     #[command(flatten)]
     pub filter: Filter,
 }
@@ -116,7 +122,20 @@ pub struct ReplayArgs {
     /// Only packets on these channels.
     #[arg(long = "channel", short, value_name = "SUBJECT")]
     pub channels: Vec<String>,
+    /// The longest wait for the next packet: a longer silence in the log (at
+    /// --speed) is skipped, with a note on standard error.
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 10.0,
+        value_parser = MAX_GAP,
+        allow_negative_numbers = true
+    )]
+    pub max_gap: f64,
 }
+
+/// A wait for a replayed packet: a millisecond to a day.
+const MAX_GAP: super::Bounds = super::Bounds::new(0.001, 86_400.0, "seconds");
 
 /// Opens a log of either format.
 fn open(file: &Path) -> anyhow::Result<TrafficReader> {
@@ -144,23 +163,29 @@ fn list(args: LogArgs) -> anyhow::Result<()> {
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
     let mut log = open(&file)?;
+    let mut blocks = BlockWriter::new();
     for_each_timed_in(
         log.by_ref().map(|r| r.map_err(anyhow::Error::from)),
         |since, record| -> anyhow::Result<bool> {
             let s = since.as_secs_f64();
-            match args.filter.take(since, record) {
+            let block = match args.filter.take(since, record) {
                 Take::Stop => return Ok(false),
-                Take::No => {}
-                Take::Yes(p) => {
-                    writeln!(out, "# +{s:.6} s from {}", record.source)?;
-                    write!(out, "{p}")?;
-                }
-                Take::Unreadable(e) => writeln!(
-                    out,
-                    "# +{s:.6} s from {}: unreadable packet: {e}",
-                    record.source
-                )?,
-            }
+                Take::No => return Ok(true),
+                Take::Yes(p) => blocks.block(
+                    &[&format!("+{s:.6} s from {}", record.source)],
+                    Some(&p),
+                    !args.raw,
+                ),
+                Take::Unreadable(e) => blocks.block(
+                    &[&format!(
+                        "+{s:.6} s from {}: unreadable packet: {e}",
+                        record.source
+                    )],
+                    None,
+                    !args.raw,
+                ),
+            };
+            out.write_all(block.as_bytes())?;
             Ok(true)
         },
     )?;
@@ -306,6 +331,7 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
     let options = ReplayOptions {
         speed: args.speed,
         channels: args.channels.clone(),
+        max_gap: super::seconds("--max-gap", args.max_gap)?,
     };
     let mut log = open(&args.file)?;
     let (sent, _records) = replay_records(
@@ -313,6 +339,15 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
         &options,
         &stop,
         |p| client.publish(p).context("cannot publish a logged packet"),
+        |g| {
+            eprintln!(
+                "colony: skipped {:.3} s of silence in the log before its packet at +{:.3} s (longer than --max-gap {} s at --speed {})",
+                g.gap.as_secs_f64(),
+                g.at.as_secs_f64(),
+                args.max_gap,
+                args.speed
+            )
+        },
     )?;
     report_damage(&log);
     eprintln!("colony: replayed {sent} packets to {}", client.hub_addr());

@@ -17,6 +17,31 @@ pub const MAX_ROBOTS: usize = 65_536;
 /// The most pucks an environment accepts (16 per robot at [`MAX_ROBOTS`]).
 pub const MAX_PUCKS: usize = 1 << 20;
 
+/// Checks a robot count against [`MAX_ROBOTS`]; for a count a scene is about to be
+/// scaled to (`--scale-robots`), this must come first, as scaling multiplies it.
+pub fn check_robots(robots: usize) -> Result<(), EnvError> {
+    if robots > MAX_ROBOTS {
+        return Err(EnvError::Config(format!(
+            "{robots} robots is more than the {MAX_ROBOTS} a sorting world takes"
+        )));
+    }
+    Ok(())
+}
+
+/// Checks a scene's robot and puck counts against [`MAX_ROBOTS`] and
+/// [`MAX_PUCKS`]: every command that builds worlds from a scene calls this
+/// before the layout reserves memory for them.
+pub fn check_counts(scene: &SceneConfig) -> Result<(), EnvError> {
+    check_robots(scene.robots.count)?;
+    if scene.pucks.count > MAX_PUCKS {
+        return Err(EnvError::Config(format!(
+            "{} pucks is more than the {MAX_PUCKS} a sorting world takes",
+            scene.pucks.count
+        )));
+    }
+    Ok(())
+}
+
 /// The widest observation grid, cells per side: 256 cells over a footprint
 /// about 60 cm wide is a quarter of a centimetre, finer than anything sensed.
 pub const MAX_GRID: usize = 256;
@@ -142,18 +167,7 @@ impl EnvConfig {
     pub fn validate(&self) -> Result<(), EnvError> {
         let bad = |what: String| Err(EnvError::Config(what));
         let s = &self.scene;
-        if s.robots.count > MAX_ROBOTS {
-            return bad(format!(
-                "{} robots is more than the {MAX_ROBOTS} an environment takes",
-                s.robots.count
-            ));
-        }
-        if s.pucks.count > MAX_PUCKS {
-            return bad(format!(
-                "{} pucks is more than the {MAX_PUCKS} an environment takes",
-                s.pucks.count
-            ));
-        }
+        check_counts(s)?;
         s.validate()?;
         self.params.validate("environment parameters")?;
         if self.max_steps == 0 {

@@ -66,7 +66,9 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 pub use action::{discrete_command, DISCRETE_ACTIONS};
-pub use config::{ActionKind, EnvConfig, RewardKind, MAX_GRID, MAX_PUCKS, MAX_ROBOTS};
+pub use config::{
+    check_counts, check_robots, ActionKind, EnvConfig, RewardKind, MAX_GRID, MAX_PUCKS, MAX_ROBOTS,
+};
 pub use observation::ObsLayout;
 pub use render::MAX_RENDER_SIDE;
 

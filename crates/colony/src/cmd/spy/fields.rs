@@ -127,20 +127,10 @@ pub fn numbers(packet: &Packet<'_>) -> Vec<(String, f64)> {
         .collect()
 }
 
-/// Text from the network made safe for a terminal: control characters (an escape sequence
-/// could move the cursor, retitle the window or worse) and the marks that reorder text are
-/// shown as `?`.
+/// Text from the network made safe for one line of the screen: the rule
+/// `colony sub` and `colony log` follow too ([`colony_wire::terminal_line`]).
 pub fn printable(text: &str) -> String {
-    text.chars()
-        .map(|c| {
-            if c.is_control() || matches!(c, '\u{200e}' | '\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
-            {
-                '?'
-            } else {
-                c
-            }
-        })
-        .collect()
+    colony_wire::terminal_line(text).into_owned()
 }
 
 #[cfg(test)]
@@ -215,7 +205,7 @@ mod tests {
                 assert!(!text.contains('\u{202e}'), "{r:?}");
             }
         }
-        assert_eq!(printable("a\u{1b}[2Jb\u{9b}c"), "a?[2Jb?c");
+        assert_eq!(printable("a\u{1b}[2Jb\u{9b}c"), "a\\u{1b}[2Jb\\u{9b}c");
     }
 
     #[test]

@@ -459,7 +459,7 @@ mod tests {
             "{lines:#?}"
         );
         assert!(
-            lines[20].starts_with("Network is unreachable?[2J"),
+            lines[20].starts_with("Network is unreachable\\u{1b}[2J"),
             "{lines:#?}"
         );
         // A log that cannot be read further says why, whole.
