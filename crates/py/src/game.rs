@@ -9,7 +9,7 @@ use colony_game::env::{
     SquadOrder, StepInfo,
 };
 use colony_game::protocol;
-use colony_game::rules::{Mode, TeamSetup};
+use colony_game::rules::{KindRules, Mode, TeamSetup};
 use colony_wire::Packet;
 use numpy::{PyArray1, PyArray3, PyArrayMethods, PyReadonlyArrayDyn, PyReadwriteArrayDyn};
 use pyo3::exceptions::PyValueError;
@@ -276,6 +276,29 @@ impl GameCore {
     #[getter]
     fn layout(&self) -> Vec<(&'static str, Vec<usize>)> {
         layout(&self.env.read())
+    }
+
+    /// The largest |velocity| / top speed and |turn rate| / top turn rate `own` can
+    /// hold. They are measured from the pose one control step apart, so a shove or a
+    /// respawn can take a robot past its top speed; but its centre stays on the map,
+    /// inside the walls round it, and a heading change is wrapped to at most a half turn,
+    /// so the map's diagonal and π per control step, over the slowest of the agents'
+    /// types, bound them.
+    #[getter]
+    fn motion_bounds(&self) -> (f64, f64) {
+        let env = self.env.read();
+        let (w, h) = env.config().map.size_cm();
+        let dt = env.game().world().field().config().control_step;
+        let (mut speed, mut turn) = (f64::INFINITY, f64::INFINITY);
+        for a in env.agents() {
+            let s = a.kind.stats();
+            speed = speed.min(s.speed_cm_s);
+            turn = turn.min(s.turn_rad_s);
+        }
+        (
+            w.hypot(h) / (dt * speed),
+            std::f64::consts::PI / (dt * turn),
+        )
     }
 
     /// Whether each agent's robot still stands.

@@ -135,6 +135,12 @@ impl SortCore {
         self.env.layout().kinds
     }
 
+    /// The pucks in the world: no cell of the map can count more of one kind.
+    #[getter]
+    fn pucks(&self) -> usize {
+        self.env.config().scene.pucks.count
+    }
+
     /// (map channels, grid cells per side, gripper length, pose length).
     #[getter]
     fn layout(&self) -> (usize, usize, usize, usize) {

@@ -47,6 +47,9 @@ class SortCore:
     @property
     def kinds(self) -> int: ...
     @property
+    def pucks(self) -> int:
+        """The pucks in the world."""
+    @property
     def layout(self) -> tuple[int, int, int, int]:
         """(map channels, grid cells per side, gripper length, pose length)."""
     def observe(
@@ -141,6 +144,9 @@ class GameCore:
     @property
     def layout(self) -> list[tuple[str, list[int]]]:
         """Each observation part's name and shape per agent: own, nearby, flags, patch."""
+    @property
+    def motion_bounds(self) -> tuple[float, float]:
+        """The largest |velocity| / top speed and |turn rate| / top turn rate in ``own``."""
     def alive(self) -> list[bool]: ...
     def observe(
         self,

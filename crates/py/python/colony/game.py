@@ -39,17 +39,20 @@ SQUAD_ORDERS = tuple(_native.GameCore.squad_orders())
 RecoverFlag, DefendBase, AttackBase."""
 
 # Bounds of the observation's parts. Relative lengths are fractions of the map's
-# longer side, so a distance reaches sqrt(2); `own`'s velocities are fractions of
-# the type's top speed, and a robot shoved by another can exceed them.
-_UNBOUNDED_OWN = (4, 5, 6)
+# longer side, so a distance reaches sqrt(2). `own`'s velocities (ahead, left) and
+# turn rate are fractions of the type's top speed and turn rate, which a shoved or
+# respawned robot exceeds: their bounds are the core's `motion_bounds`, from the
+# map's size and the control step, loose but true.
+_VELOCITIES = [4, 5]
+_TURN_RATE = 6
 
 
-def _own_space(length: int) -> spaces.Box:
-    low = np.full(length, -1.0, np.float32)
+def _own_space(length: int, motion_bounds: tuple[float, float]) -> spaces.Box:
+    speed, turn = motion_bounds
     high = np.full(length, 1.0, np.float32)
-    low[list(_UNBOUNDED_OWN)] = -np.inf
-    high[list(_UNBOUNDED_OWN)] = np.inf
-    return spaces.Box(low, high, (length,), np.float32)
+    high[_VELOCITIES] = speed
+    high[_TURN_RATE] = turn
+    return spaces.Box(-high, high, (length,), np.float32)
 
 
 class GameEnv(ParallelEnv):
@@ -132,7 +135,7 @@ class GameEnv(ParallelEnv):
         self._winner = None
         robot_space = spaces.Dict(
             {
-                "own": _own_space(self._parts["own"][0]),
+                "own": _own_space(self._parts["own"][0], self.core.motion_bounds),
                 "nearby": spaces.Box(-1.5, 1.5, tuple(self._parts["nearby"]), np.float32),
                 "flags": spaces.Box(-1.5, 1.5, tuple(self._parts["flags"]), np.float32),
                 "patch": spaces.Box(0.0, 1.0, tuple(self._parts["patch"]), np.float32),

@@ -109,10 +109,23 @@ class SortingEnv(ParallelEnv):
         self._actions = np.zeros((n, 2), np.float64)
         self._indices = np.zeros(n, np.uint32)
         self.discrete_actions = self.core.discrete_actions()
+        # Each channel's most per cell: every puck of the world (carried ones are
+        # left out, so fewer), every other robot, and 1 for the obstacle flag. A
+        # bound of 0 (a lone robot) is raised to 1, since Gymnasium's checker
+        # warns of a Box whose low equals its high.
+        kinds = self.core.kinds
+        high = np.empty((channels, 1, 1), np.float32)
+        high[:kinds] = max(self.core.pucks, 1)
+        high[kinds] = max(n - 1, 1)
+        high[kinds + 1] = 1.0
         self._obs_space = spaces.Dict(
             {
-                # Counts of pucks and robots per cell (the last channel is 0 or 1).
-                "map": spaces.Box(0.0, np.inf, (channels, grid_cells, grid_cells), np.float32),
+                "map": spaces.Box(
+                    0.0,
+                    np.broadcast_to(high, (channels, grid_cells, grid_cells)),
+                    (channels, grid_cells, grid_cells),
+                    np.float32,
+                ),
                 "gripper": spaces.Box(0.0, 1.0, (gripper,), np.float32),
                 "pose": spaces.Box(-1.0, 1.0, (pose,), np.float32),
             }

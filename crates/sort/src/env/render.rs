@@ -1,8 +1,9 @@
 //! A picture of the arena for `render_mode="rgb_array"`, drawn on
 //! colony-sim's [`Canvas`]: the floor with its rounded corners, robots as
 //! dark bodies with a nose line showing the heading (in the carried puck's
-//! colour while they carry one), pucks in the figures' colours by kind
-//! ([`PALETTE`](crate::plot::PALETTE)). A pure function of the state.
+//! colour while they carry one), pucks in the colours by kind that colony's
+//! monitor draws them in ([`KIND_COLOURS`]), so a frame and the live view of the
+//! same run agree. A pure function of the state.
 
 use colony_sim::canvas::{Canvas, View};
 use colony_sim::{Vec2, World};
@@ -17,9 +18,21 @@ const FLOOR: [u8; 3] = [236, 236, 226];
 const ROBOT: [u8; 3] = [40, 48, 72];
 const NOSE: [u8; 3] = [255, 255, 255];
 
+/// The pucks' colours by kind, those of the monitor's `KIND_COLOURS`
+/// (`crates/monitor/web/app.js`; a test holds them equal).
+const KIND_COLOURS: [[u8; 3]; 8] = [
+    [0xe0, 0x45, 0x2b],
+    [0x2b, 0x6f, 0xe0],
+    [0x23, 0xa4, 0x46],
+    [0xe0, 0xa2, 0x1b],
+    [0x8e, 0x44, 0xd6],
+    [0xe0, 0x70, 0x2b],
+    [0x1f, 0xb5, 0xb5],
+    [0xd6, 0x33, 0x84],
+];
+
 fn kind_colour(kind: u8) -> [u8; 3] {
-    let c = crate::plot::PALETTE[usize::from(kind) % crate::plot::PALETTE.len()];
-    [c.0, c.1, c.2]
+    KIND_COLOURS[usize::from(kind) % KIND_COLOURS.len()]
 }
 
 /// `world` as RGB8, `width` × `height`, row-major, top row first (y up in the picture).
@@ -101,6 +114,29 @@ mod tests {
         assert!(count(FLOOR) > 120 * 90 / 2);
         assert!(count(ROBOT) > 0);
         assert!(count(kind_colour(0)) > 0 && count(kind_colour(1)) > 0);
+    }
+
+    #[test]
+    fn env_render_colours_pucks_as_the_monitor_does() {
+        let app = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../monitor/web/app.js"
+        ))
+        .unwrap();
+        let line = app
+            .lines()
+            .find(|l| l.starts_with("const KIND_COLOURS"))
+            .expect("the monitor's KIND_COLOURS");
+        let monitor: Vec<[u8; 3]> = line
+            .split('\'')
+            .skip(1)
+            .step_by(2)
+            .map(|hex| {
+                let v = u32::from_str_radix(hex.trim_start_matches('#'), 16).unwrap();
+                [(v >> 16) as u8, (v >> 8) as u8, v as u8]
+            })
+            .collect();
+        assert_eq!(monitor, KIND_COLOURS);
     }
 
     #[test]
