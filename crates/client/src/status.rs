@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::io;
 use std::time::{Duration, Instant};
 
-use colony_wire::{Reply, Request, StatusReport};
+use colony_wire::{terminal_line, Reply, Request, StatusReport};
 
 use crate::{ClientError, ConnectError, UdpClient};
 
@@ -36,13 +36,13 @@ pub enum StatusError {
 /// (the hub answers a large reply only to an address that proved it
 /// receives there); the session asks again with it by itself.
 pub fn fetch_status(hub: &str, timeout: Duration) -> Result<StatusReport, StatusError> {
-    fetch_status_with(UdpClient::connect_to(hub)?, timeout)
+    fetch_status_with(&mut UdpClient::connect_to(hub)?, timeout)
 }
 
 /// As [`fetch_status`], through a client of the hub made by the caller (one
 /// that signs with the hub's key, for a hub that asks every packet to be signed).
 pub fn fetch_status_with(
-    mut client: UdpClient,
+    client: &mut UdpClient,
     timeout: Duration,
 ) -> Result<StatusReport, StatusError> {
     // A timeout beyond what the clock can hold waits as long as it can.
@@ -116,19 +116,15 @@ pub fn format_report(r: &StatusReport) -> String {
         let _ = writeln!(
             out,
             "  {:<22} idle {:>6.1} s  {}{batch}{}",
-            c.addr,
+            terminal_line(&c.addr),
             c.idle_ms as f64 / 1000.0,
             if c.tap { "[taps every channel] " } else { "" },
             subs.join(", ")
         );
         if !c.about.is_empty() {
-            // Words any client chose: no control character reaches the terminal.
-            let about: String = c
-                .about
-                .chars()
-                .map(|ch| if ch.is_control() { '?' } else { ch })
-                .collect();
-            let _ = writeln!(out, "  {:<22} {about}", "");
+            // Words any client chose: no control or bidirectional character
+            // reaches the terminal.
+            let _ = writeln!(out, "  {:<22} {}", "", terminal_line(&c.about));
         }
     }
     let _ = writeln!(out, "\ndrops:");
@@ -136,7 +132,8 @@ pub fn format_report(r: &StatusReport) -> String {
         let _ = writeln!(out, "  none");
     }
     for (reason, n) in &r.drops {
-        let _ = writeln!(out, "  {reason:<24} {n:>10}");
+        // A reply forged from the hub's address could name any reason.
+        let _ = writeln!(out, "  {:<24} {n:>10}", terminal_line(reason));
     }
     out
 }
@@ -169,13 +166,13 @@ mod tests {
     }
 
     #[test]
-    fn what_a_client_says_it_is_is_shown_without_control_characters() {
+    fn what_a_client_says_it_is_is_shown_without_control_or_bidi_characters() {
         let r = StatusReport {
             clients: vec![colony_wire::ClientInfo {
                 addr: "127.0.0.1:5000".into(),
                 idle_ms: 0,
                 subscriptions: vec![("a".into(), 900)],
-                about: "bridge site lab\u{1b}[2J".into(),
+                about: "bridge site lab\u{1b}[2J \u{202e}evil\u{9b}".into(),
                 tap: false,
                 batch: 1472,
             }],
@@ -186,8 +183,11 @@ mod tests {
             text.contains("[batches of up to 1472 B] a (0.9 s)"),
             "{text}"
         );
-        assert!(text.contains("bridge site lab?[2J"), "{text}");
-        assert!(!text.contains('\u{1b}'));
+        assert!(
+            text.contains("bridge site lab\\u{1b}[2J \\u{202e}evil\\u{9b}"),
+            "{text}"
+        );
+        assert!(!text.contains(['\u{1b}', '\u{202e}', '\u{9b}']));
     }
 
     #[test]

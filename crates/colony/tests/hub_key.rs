@@ -31,6 +31,16 @@ fn status_pub_and_sub_take_the_key_and_say_why_without_it() {
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(e.contains("--key"), "{e}");
 
+    // `pub` without it says so rather than lose the packet.
+    let o = colony()
+        .args(["pub", "--hub", &h, "radio", "cmd id 3"])
+        .env_remove("COLONY_KEY")
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("--key") && e.contains("not sent"), "{e}");
+
     // With it, by flag and by environment.
     let o = colony()
         .args(["status", "--hub", &h, "--key", &key])

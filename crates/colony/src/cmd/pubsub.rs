@@ -129,11 +129,22 @@ pub fn publish(args: PubArgs) -> anyhow::Result<()> {
         }
     };
     let mut client = args.hub.connect()?;
+    // The hub answers no publisher: asking it first is how `pub` can tell the
+    // user that nobody is there, or that the hub drops what is not signed
+    // with its key, instead of exiting 0 with the packets lost.
+    colony_client::status::fetch_status_with(&mut client, HUB_ANSWER)
+        .context("the packets were not sent")?;
     for p in &packets {
         client.publish(p)?;
     }
     Ok(())
 }
+
+/// How long `pub` waits for the hub to answer before it publishes.
+const HUB_ANSWER: Duration = Duration::from_secs(3);
+
+/// How long `sub` waits for a first answer before it says none came.
+const FIRST_ANSWER: Duration = Duration::from_secs(3);
 
 pub fn subscribe(args: SubArgs) -> anyhow::Result<()> {
     let mut client = args.hub.connect()?;
@@ -145,6 +156,7 @@ pub fn subscribe(args: SubArgs) -> anyhow::Result<()> {
     let mut seen = 0u64;
     let mut blocks = BlockWriter::new();
     let mut warned = false;
+    let started = Instant::now();
     'run: while !stop.load(Ordering::Relaxed) {
         let wake = client
             .next_deadline()
@@ -163,6 +175,13 @@ pub fn subscribe(args: SubArgs) -> anyhow::Result<()> {
         }
         out.flush().context("cannot write to standard output")?;
         match client.hub_state() {
+            HubState::Unknown if !warned && started.elapsed() >= FIRST_ANSWER => {
+                eprintln!(
+                    "colony: no answer from a hub at {} yet; still trying (is `colony hub` running there? a hub run with --auth-all answers only packets signed with its key: --key FILE or COLONY_KEY)",
+                    client.hub_addr()
+                );
+                warned = true;
+            }
             HubState::Unreachable { silent_for } if !warned => {
                 eprintln!(
                     "colony: no answer from a hub at {} for {:.0} s; still trying (is `colony hub` running?)",

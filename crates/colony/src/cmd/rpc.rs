@@ -102,7 +102,9 @@ pub fn call(args: CallArgs) -> anyhow::Result<()> {
         answer.with_context(|| format!("calling `{}` on {}", args.service, args.hub.addr))?;
     let mut out = std::io::stdout().lock();
     for line in &answer.lines {
-        writeln!(out, "{line}").context("cannot write to standard output")?;
+        // A provider's words: no control or bidirectional character reaches the terminal.
+        writeln!(out, "{}", colony_wire::terminal_line(line))
+            .context("cannot write to standard output")?;
     }
     out.flush().context("cannot write to standard output")
 }

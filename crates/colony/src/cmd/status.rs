@@ -20,7 +20,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let timeout = super::seconds("--timeout", args.timeout)?;
-    let report = fetch_status_with(args.hub.connect()?, timeout)?;
+    let report = fetch_status_with(&mut args.hub.connect()?, timeout)?;
     if args.json {
         println!("{}", to_json(&report));
     } else {
