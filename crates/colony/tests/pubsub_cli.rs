@@ -265,3 +265,17 @@ fn log_shows_network_text_escaped_and_its_notes_cannot_start_a_packet() {
     let texts: Vec<&str> = blocks.iter().map(|b| b.text).collect();
     assert_eq!(texts, [NASTY_SHOWN, HELLO]);
 }
+
+#[test]
+fn sub_prints_each_packet_as_a_line_of_json_for_programs() {
+    let hub = HubProcess::start(&[]);
+    let out = sub_output(hub.addr, &["-n", "2", "--json", "chat"], &[NASTY]);
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines.len(), 2, "{out}");
+    for line in lines {
+        // JSON escapes every control character: none reaches the terminal.
+        assert!(!line.contains(['\u{9b}', '\u{202e}', '\u{85}']), "{line}");
+        let v: serde_json::Value = serde_json::from_str(line).unwrap();
+        assert_eq!(v["packet"], NASTY, "{v}");
+    }
+}

@@ -44,6 +44,10 @@ pub struct SubArgs {
     /// a terminal (C1 controls, marks that reorder text) shown as `\u{9b}`.
     #[arg(long)]
     pub raw: bool,
+    /// Print each packet as one line of JSON instead (its exact text, header and
+    /// lines as data: the schema MCAP logs and Foxglove use), for programs.
+    #[arg(long, conflicts_with = "raw")]
+    pub json: bool,
     /// Subjects to subscribe to; each packet to any of them is printed, a blank
     /// line between packets (`colony pub` reads them back).
     #[arg(required = true, value_name = "SUBJECT")]
@@ -140,6 +144,25 @@ pub fn publish(args: PubArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// JSON with every character that could act on a terminal written as a
+/// `\uXXXX` escape: JSON leaves C1 controls and bidirectional marks as they
+/// are, and a program reading the line gets the same text either way.
+fn json_for_terminal(json: &[u8]) -> String {
+    let text = String::from_utf8_lossy(json);
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        if colony_wire::is_unsafe_for_terminal(c) {
+            let mut units = [0u16; 2];
+            for u in c.encode_utf16(&mut units) {
+                out.push_str(&format!("\\u{u:04x}"));
+            }
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
 /// How long `pub` waits for the hub to answer before it publishes.
 const HUB_ANSWER: Duration = Duration::from_secs(3);
 
@@ -165,8 +188,14 @@ pub fn subscribe(args: SubArgs) -> anyhow::Result<()> {
         client.poll(Instant::now())?;
         let mut out = stdout.lock();
         while let Some(packet) = client.recv()? {
-            out.write_all(blocks.block(&[], Some(&packet), !args.raw).as_bytes())
-                .context("cannot write to standard output")?;
+            if args.json {
+                let mut line = json_for_terminal(&colony_schema::to_json(&packet, None));
+                line.push('\n');
+                out.write_all(line.as_bytes())
+            } else {
+                out.write_all(blocks.block(&[], Some(&packet), !args.raw).as_bytes())
+            }
+            .context("cannot write to standard output")?;
             seen += 1;
             if args.count.is_some_and(|n| seen >= n) {
                 out.flush().context("cannot write to standard output")?;
