@@ -37,6 +37,16 @@ describe('the game\'s pre-match screen', { concurrency: false }, () => {
         && document.querySelectorAll('#pm-squads .pm-robot').length === 1;
     }, undefined, 60000, 'no pre-match screen');
     assert.equal(await page.textContent('#pm-budget'), '30');
+    // A match being set up is not a stale one: past the two seconds that would make it so.
+    await new Promise((r) => setTimeout(r, 2500));
+    const chrome = await page.evaluate(() => ({
+      chip: document.getElementById('conn').textContent,
+      cls: document.getElementById('conn').className,
+      banners: document.getElementById('banners').textContent,
+    }));
+    assert.equal(chrome.chip, 'pre-match');
+    assert.ok(!/bad/.test(chrome.cls), `the chip is not an alarm: ${chrome.cls}`);
+    assert.ok(!/stale/i.test(chrome.banners), `no stale banner before the match: ${chrome.banners}`);
 
     // One squad: a tank with 2 health and 1 power points, and a scout with 1 health point.
     const squad = page.locator('#pm-squads .pm-squad').first();

@@ -55,6 +55,55 @@ describe('the game page, playing red against the scripted blue', { concurrency: 
     await screenshot(page, 'g1-game-start');
   });
 
+  test('red\'s page is not sent blue\'s squads, orders, paths or reasons, and is live', async () => {
+    await until(() => {
+      const g = window.colonyGame;
+      return g.state && g.state.robots.some((r) => r.team === 'blue' && r.alive);
+    }, undefined, 30000, 'no blue robots on the page');
+    // Several states, so a plan blue makes meanwhile would show.
+    const seen = await page.evaluate(async () => {
+      const out = { squads: [], robots: [], heard: [], chip: '', select: false };
+      for (let i = 0; i < 10; i++) {
+        const g = window.colonyGame;
+        out.squads.push(...g.state.squads.filter((q) => q.team !== 'red').map((q) => q.name));
+        out.robots.push(...g.state.robots.filter((r) => r.team !== 'red' && (r.squad || r.behaviour || r.reason)).map((r) => r.id));
+        out.heard.push(g.heard);
+        await new Promise((r) => setTimeout(r, 150));
+      }
+      out.chip = document.getElementById('conn').textContent;
+      out.select = document.getElementById('team').disabled;
+      return out;
+    });
+    assert.deepEqual(seen.squads, [], 'blue\'s squads reached red\'s page');
+    assert.deepEqual(seen.robots, [], 'blue robots\' squads, behaviours or reasons reached red\'s page');
+    assert.ok(seen.heard.includes(true), `the game server reads red's orders (heard ${seen.heard})`);
+    assert.equal(seen.chip, 'live');
+    assert.ok(seen.select, 'a page opened for red cannot switch to blue\'s view');
+  });
+
+  test('labels do not overlap, base names are drawn over the robots, and the terrain has a legend', async () => {
+    await until(() => window.colonyGame.labels.length > 2, undefined, 15000, 'no labels drawn');
+    const seen = await page.evaluate(() => ({
+      labels: window.colonyGame.labels,
+      legend: window.colonyGame.legend,
+      shown: !document.getElementById('legend').hidden,
+      water: window.colonyGame.map && (window.colonyGame.state && true),
+    }));
+    const overlaps = [];
+    for (let i = 0; i < seen.labels.length; i++) {
+      for (let j = i + 1; j < seen.labels.length; j++) {
+        const a = seen.labels[i];
+        const b = seen.labels[j];
+        if (a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1) overlaps.push(`${a.text} / ${b.text}`);
+      }
+    }
+    assert.deepEqual(overlaps, [], 'labels drawn over each other');
+    const texts = seen.labels.map((l) => l.text);
+    assert.ok(texts.includes('red base') && texts.includes('blue base'), `base names are drawn: ${texts}`);
+    assert.ok(seen.shown && seen.legend.includes('open ground') && seen.legend.some((n) => /wall/.test(n)),
+      `a legend for the terrain: ${seen.legend}`);
+  });
+
   test('red\'s first squad, in a wedge, attacks a clicked blue robot: it moves, in formation, along a planned path', async () => {
     const name = await page.evaluate(() => window.colonyGame.state.squads.find((q) => q.team === 'red').name);
     await page.locator(`#squads [data-squad="${name}"] .head`).click();

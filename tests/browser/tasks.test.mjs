@@ -33,6 +33,7 @@ describe('the task board', { concurrency: false }, () => {
   let log;
   let browser;
   let page;
+  let monitorUrl;
 
   before(async () => {
     log = path.join(fs.mkdtempSync(path.join(os.tmpdir(), 'colony-tasks-log-')), 'tasks.clog');
@@ -40,6 +41,7 @@ describe('the task board', { concurrency: false }, () => {
     procs.push(hub);
     const monitor = await startMonitor(hub.addr, 'monitor-tasks');
     procs.push(monitor);
+    monitorUrl = monitor.url;
     for (const name of ['ra', 'rb']) {
       const a = new ColonyProcess(`agent-${name}`, ['tasks', 'agent', '--hub', hub.addr, '--name', name, '--resources', 'camera,mobile']);
       await a.waitFor(/joins with/);
@@ -63,6 +65,30 @@ describe('the task board', { concurrency: false }, () => {
     assert.match(text, /camera mobile/);
   });
 
+  test('the system monitor beside a task run shows no world panel and nothing stale', async () => {
+    const other = await browser.context.newPage();
+    try {
+      await other.goto(monitorUrl);
+      await until(other, () => window.colony && window.colony.hubs > 0 && window.colony.worlds > 0,
+        undefined, 20000, 'the monitor page heard nothing');
+      // Past the two seconds after which a silent vision would be called stale.
+      await new Promise((r) => setTimeout(r, 3000));
+      const seen = await other.evaluate(() => ({
+        phase: window.colony.worldPhase,
+        live: document.getElementById('live').hidden,
+        plot: document.getElementById('plot-box').hidden,
+        banners: document.getElementById('banners').textContent,
+        chip: document.getElementById('conn').textContent,
+      }));
+      assert.equal(seen.phase, 'none');
+      assert.ok(seen.live && seen.plot, 'the arena and the progress chart are hidden with no world');
+      assert.ok(!/stale/i.test(seen.banners), `no stale warning: ${seen.banners}`);
+      assert.equal(seen.chip, 'live');
+    } finally {
+      await other.close();
+    }
+  });
+
   test('a task announced from the command line goes from announced to done with its bids and winner', async () => {
     const out = await colony(['tasks', 'announce', '--hub', hub.addr, '--name', 'inspect', '--needs', 'camera', '--length', '1', '--as', 'ops'], 60000);
     assert.match(out, /done by r[ab]/);
@@ -81,6 +107,34 @@ describe('the task board', { concurrency: false }, () => {
     assert.match(timeline, /awarded to r[ab]: .* is the (only bid|lowest of \d bids)/);
     assert.match(timeline, /finished it/);
     await screenshot(page, 't-task-done');
+  });
+
+  test('a task retried after failing is one card with a count, and the filters hide and show', async () => {
+    for (let i = 0; i < 3; i++) {
+      await assert.rejects(colony(['tasks', 'announce', '--hub', hub.addr, '--name', 'zap', '--needs', 'laser', '--deadline', '1'], 30000));
+    }
+    const zap = () => [...document.querySelectorAll('.task')].filter((el) => /zap/.test(el.querySelector('h3').textContent))
+      .map((el) => ({ state: el.dataset.state, retries: el.querySelector('[data-retries]')?.dataset.retries ?? null }));
+    await until(page, () => {
+      const cards = [...document.querySelectorAll('.task')].filter((el) => /zap/.test(el.querySelector('h3').textContent));
+      // Each announce may itself try more than once before its deadline.
+      return cards.length === 1 && Number(cards[0].querySelector('[data-retries]')?.dataset.retries) >= 2;
+    }, undefined, 30000, 'the three failures of zap are not one card tried three times').catch(async (e) => {
+      throw new Error(`${e.message}: ${JSON.stringify(await page.evaluate(zap))}`);
+    });
+    const [one] = await page.evaluate(zap);
+    assert.equal(one.state, 'unachievable');
+    await page.check('#show-retries');
+    assert.equal((await page.evaluate(zap)).length, Number(one.retries) + 1, 'every try on its own card when asked');
+    await page.uncheck('#show-retries');
+    await page.uncheck('#show-unachievable');
+    assert.deepEqual(await page.evaluate(zap), [], 'unachievable tasks hidden');
+    assert.match(await page.textContent('#hidden-note'), /hidden/);
+    await page.uncheck('#show-finished');
+    assert.ok(!(await page.$('.task[data-state="done"]')), 'finished tasks hidden');
+    await page.check('#show-unachievable');
+    await page.check('#show-finished');
+    assert.ok(await page.$('.task[data-state="done"]'));
   });
 
   test('killing the winner mid-task shows the task re-allocated to the other robot', async () => {

@@ -30,7 +30,7 @@ use colony_wire::{Packet, Reply, Request, HUB_SUBJECT};
 use tokio::sync::{oneshot, watch};
 
 use crate::foxglove::{self, Feed};
-use crate::game::{Chats, GameView, GAME_CHANNELS};
+use crate::game::{Chats, GameFrame, GameView, Listeners, GAME_CHANNELS};
 use crate::state::{Command, CommandError, MonitorState, PageId, CORE_CHANNELS};
 use crate::tasks::TaskBoard;
 
@@ -77,7 +77,7 @@ pub struct Bridge {
     subscribed: BTreeSet<String>,
     world_tx: watch::Sender<Arc<str>>,
     hub_tx: watch::Sender<Arc<str>>,
-    game_tx: watch::Sender<Arc<str>>,
+    game_tx: watch::Sender<Arc<GameFrame>>,
     chat_tx: watch::Sender<Arc<Chats>>,
     map_tx: watch::Sender<Arc<str>>,
     tasks_tx: watch::Sender<Arc<str>>,
@@ -89,7 +89,8 @@ pub struct Bridge {
 pub struct Handles {
     pub world: watch::Receiver<Arc<str>>,
     pub hub: watch::Receiver<Arc<str>>,
-    pub game: watch::Receiver<Arc<str>>,
+    /// The game, cut for each page by the page's session (what a team's player may see).
+    pub game: watch::Receiver<Arc<GameFrame>>,
     /// Each team's chat, as JSON for the pages playing it.
     pub chat: watch::Receiver<Arc<Chats>>,
     pub map: watch::Receiver<Arc<str>>,
@@ -119,7 +120,7 @@ impl Bridge {
         let game = GameView::new(now, wall);
         let (world_tx, world) = watch::channel(Arc::from(state.world_json(now)));
         let (hub_tx, hub) = watch::channel(Arc::from(state.hub_json(now)));
-        let (game_tx, game_rx) = watch::channel(Arc::from(game.game_json(now)));
+        let (game_tx, game_rx) = watch::channel(Arc::new(game.frame(now)));
         let (map_tx, map) = watch::channel(Arc::from(game.map_json()));
         let (chat_tx, chat) = watch::channel(Arc::new(game.chats()));
         let tasks = TaskBoard::new(now);
@@ -221,6 +222,12 @@ impl Bridge {
             loop {
                 match self.control.recv_reply() {
                     Ok(Some(Reply::Status(report))) => {
+                        let ours: Vec<_> = [&self.data, &self.control]
+                            .iter()
+                            .filter_map(|c| c.local_addr().ok())
+                            .collect();
+                        self.game
+                            .set_listeners(Listeners::from_status(&report, &ours));
                         self.state.on_status(now, report);
                         new_status = true;
                     }
@@ -322,8 +329,7 @@ impl Bridge {
                 }
                 game_version = self.game.version();
                 last_game = now;
-                self.game_tx
-                    .send_replace(Arc::from(self.game.game_json(now)));
+                self.game_tx.send_replace(Arc::new(self.game.frame(now)));
             }
             if self.game.chat_version() != chat_version {
                 chat_version = self.game.chat_version();

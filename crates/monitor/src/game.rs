@@ -13,7 +13,7 @@
 //! To the page:
 //!
 //! ```text
-//! {"t":"game","now":MS,"age":S|null,"stale":B,"state":{mode,status,time,winner,reason,
+//! {"t":"game","now":MS,"age":S|null,"stale":B,"prematch":B,"heard":B|null,"state":{mode,status,time,winner,reason,
 //!   teams:[{name,score,kills}], flags:[{team,x,y,home,carrier}],
 //!   robots:[{id,team,squad,kind,x,y,theta,health,max_health,power,alive,behaviour,reason}],
 //!   squads:[{team,name,formation,order,behaviour,path:[[x,y],..]}]}|null,
@@ -25,16 +25,31 @@
 //!   sites:[{team,base:[x,y],flag:[x,y]}]}|null}
 //! {"t":"chat","team":T,"lines":[{seq,from,text}]}     only to the pages playing team T
 //! ```
+//!
+//! A page playing a team (`team=` in its socket's address) is sent a [`GameFrame`] cut for
+//! that team ([`GameFrame::json`]): another team's squads (names, orders, paths), its robots'
+//! squads, behaviours and reasons, its refusals (which quote its orders) and its pre-match
+//! setup are left out on the server, so a competitive player cannot read them in the page's
+//! data. A page with no team (a spectator, the operator) is sent everything.
+//!
+//! `heard` says whether the game is listening to the page's orders: whether the hub's newest
+//! status shows a client other than this monitor subscribed to `game.player.<team>` (for a
+//! page with no team, to any team's). A replayed log (`colony replay`) publishes the game's
+//! state but nothing on the wire marks it as a replay, and no game server is there to read
+//! orders: `false` is how the page tells it from a live match. `null`: not known (no status
+//! yet, or a status cut short before naming a listener).
 
 pub mod map;
 pub mod orders;
 
-use std::collections::{BTreeMap, VecDeque};
+use std::borrow::Cow;
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use colony_proto::game::{valid_name, ChatLine, Event, GameState, LobbyState};
-use colony_wire::Packet;
+use colony_proto::game::{valid_name, ChatLine, Event, GameState, LobbyState, LobbyStatus};
+use colony_wire::{Packet, StatusReport};
 use serde::Serialize;
 
 use self::map::MapView;
@@ -49,6 +64,8 @@ pub const MAX_EVENTS: usize = 50;
 pub const MAX_CHAT_LINES: usize = 50;
 /// The prefix of a team's chat channel.
 const CHAT_PREFIX: &str = "game.chat.";
+/// The prefix of a team's order channel.
+const PLAYER_PREFIX: &str = "game.player.";
 /// With no state for this long the page shows the game as stale.
 pub const GAME_STALE_AFTER: Duration = Duration::from_secs(2);
 /// The longest behaviour, reason, order or event text kept (characters).
@@ -218,7 +235,7 @@ pub struct GameView {
     state: Option<GameStateView>,
     state_at: Option<Instant>,
     map: MapView,
-    events: VecDeque<EventView>,
+    events: VecDeque<(EventView, Option<String>)>,
     next_seq: u64,
     refusal: Option<EventView>,
     bad_lines: u64,
@@ -227,6 +244,159 @@ pub struct GameView {
     chat_version: u64,
     chat_dropped: u64,
     lobby: Option<LobbyState>,
+    lobby_at: Option<Instant>,
+    listeners: Listeners,
+    /// The newest refusal of each team (by [`owner`]), and of no team under `None`.
+    refusals: BTreeMap<Option<String>, EventView>,
+}
+
+/// Which teams' orders a game is listening to, from the hub's status.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Listeners {
+    /// Teams with a listener on `game.player.<team>`.
+    pub teams: BTreeSet<String>,
+    /// The status listed every client, so a team not in `teams` has none.
+    pub complete: bool,
+}
+
+impl Listeners {
+    /// Reads a status report: `ours` are the monitor's own clients, which subscribe to every
+    /// channel they see and so would otherwise count as the game.
+    pub fn from_status(report: &StatusReport, ours: &[SocketAddr]) -> Listeners {
+        let mine = |addr: &str| {
+            addr.parse::<SocketAddr>().is_ok_and(|a| {
+                ours.iter()
+                    .any(|o| o.port() == a.port() && (o.ip().is_unspecified() || o.ip() == a.ip()))
+            })
+        };
+        let mut teams = BTreeSet::new();
+        for c in &report.clients {
+            // A tap is another monitor or a spy: it reads orders but never obeys them.
+            if c.tap || mine(&c.addr) {
+                continue;
+            }
+            for (sub, _) in &c.subscriptions {
+                if let Some(team) = sub.strip_prefix(PLAYER_PREFIX) {
+                    if valid_name(team) && teams.len() < MAX_TEAMS {
+                        teams.insert(team.to_owned());
+                    }
+                }
+            }
+        }
+        Listeners {
+            teams,
+            complete: !report.truncated && report.clients.len() as u64 >= report.client_count,
+        }
+    }
+
+    fn heard(&self, team: Option<&str>) -> Option<bool> {
+        let found = match team {
+            Some(t) => self.teams.contains(t),
+            None => !self.teams.is_empty(),
+        };
+        (found || self.complete).then_some(found)
+    }
+}
+
+/// The team whose order a refusal answers, when its text says: the game words a player's
+/// refusal `<team> ...` or `<team>: ...` (`a bad command from <team>: ...`), and a robot's
+/// `robot <id> ...`. Only `refused` events have owners; the rest are what everyone sees on
+/// the battlefield.
+fn owner(kind: &str, text: &str, teams: &[&str], robots: &[RobotView]) -> Option<String> {
+    if kind != "refused" {
+        return None;
+    }
+    let text = text.strip_prefix("a bad command from ").unwrap_or(text);
+    let first = text.split([' ', ':']).next().unwrap_or("");
+    if first == "robot" {
+        let id: u32 = text.split([' ', ':']).nth(1)?.parse().ok()?;
+        return robots
+            .binary_search_by_key(&id, |r| r.id)
+            .ok()
+            .map(|i| robots[i].team.clone());
+    }
+    teams.contains(&first).then(|| first.to_owned())
+}
+
+/// What a game page is sent, before it is cut for its viewer ([`GameFrame::json`]).
+#[derive(Debug, Clone)]
+pub struct GameFrame {
+    now: u64,
+    age: Option<f64>,
+    stale: bool,
+    prematch: bool,
+    state: Option<GameStateView>,
+    events: Vec<(EventView, Option<String>)>,
+    refusals: BTreeMap<Option<String>, EventView>,
+    map_version: u64,
+    bad_lines: u64,
+    chat_dropped: u64,
+    lobby: Option<LobbyState>,
+    listeners: Listeners,
+}
+
+impl GameFrame {
+    /// The JSON for a page playing `viewer` (None: a spectator, sent everything).
+    pub fn json(&self, viewer: Option<&str>) -> String {
+        let mine = |owner: &Option<String>| {
+            viewer.is_none() || owner.is_none() || owner.as_deref() == viewer
+        };
+        let state = match (viewer, &self.state) {
+            (Some(team), Some(s)) => Some(Cow::Owned(for_team(s, team))),
+            (_, s) => s.as_ref().map(Cow::Borrowed),
+        };
+        let lobby = match (viewer, &self.lobby) {
+            (Some(team), Some(l)) => {
+                let mut l = l.clone();
+                for t in l.teams.iter_mut().filter(|t| t.name != team) {
+                    t.setup.clear();
+                }
+                Some(Cow::Owned(l))
+            }
+            (_, l) => l.as_ref().map(Cow::Borrowed),
+        };
+        let events: Vec<&EventView> = self
+            .events
+            .iter()
+            .filter(|(_, o)| mine(o))
+            .map(|(e, _)| e)
+            .collect();
+        let refusal = self
+            .refusals
+            .iter()
+            .filter(|(o, _)| mine(o))
+            .map(|(_, e)| e)
+            .max_by_key(|e| e.seq);
+        let j = GameJson {
+            t: "game",
+            now: self.now,
+            age: self.age,
+            stale: self.stale,
+            prematch: self.prematch,
+            heard: self.listeners.heard(viewer),
+            state: state.as_deref(),
+            events,
+            refusal,
+            map_version: self.map_version,
+            bad_lines: self.bad_lines,
+            chat_dropped: self.chat_dropped,
+            lobby: lobby.as_deref(),
+        };
+        serde_json::to_string(&j).unwrap_or_else(|_| "{}".into())
+    }
+}
+
+/// A state as `team`'s player may see it: where every robot is and how it fares (the
+/// battlefield shows that), but only its own team's squads, orders, paths and reasons.
+fn for_team(s: &GameStateView, team: &str) -> GameStateView {
+    let mut s = s.clone();
+    s.squads.retain(|q| q.team == team);
+    for r in s.robots.iter_mut().filter(|r| r.team != team) {
+        r.squad.clear();
+        r.behaviour.clear();
+        r.reason.clear();
+    }
+    s
 }
 
 #[derive(Serialize)]
@@ -235,8 +405,10 @@ struct GameJson<'a> {
     now: u64,
     age: Option<f64>,
     stale: bool,
+    prematch: bool,
+    heard: Option<bool>,
     state: Option<&'a GameStateView>,
-    events: &'a VecDeque<EventView>,
+    events: Vec<&'a EventView>,
     refusal: Option<&'a EventView>,
     map_version: u64,
     bad_lines: u64,
@@ -346,6 +518,17 @@ impl GameView {
             chat_version: 0,
             chat_dropped: 0,
             lobby: None,
+            lobby_at: None,
+            listeners: Listeners::default(),
+            refusals: BTreeMap::new(),
+        }
+    }
+
+    /// Takes in who listens to the teams' orders, from the hub's newest status.
+    pub fn set_listeners(&mut self, listeners: Listeners) {
+        if self.listeners != listeners {
+            self.listeners = listeners;
+            self.version += 1;
         }
     }
 
@@ -412,7 +595,19 @@ impl GameView {
 
     /// The last [`MAX_EVENTS`] events, oldest first.
     pub fn events(&self) -> impl Iterator<Item = &EventView> {
-        self.events.iter()
+        self.events.iter().map(|(e, _)| e)
+    }
+
+    fn owner_of(&self, e: &EventView) -> Option<String> {
+        let mut teams: Vec<&str> = Vec::new();
+        if let Some(s) = &self.state {
+            teams.extend(s.teams.iter().map(|t| t.name.as_str()));
+        }
+        if let Some(l) = &self.lobby {
+            teams.extend(l.teams.iter().map(|t| t.name.as_str()));
+        }
+        let robots = self.state.as_ref().map_or(&[][..], |s| &s.robots[..]);
+        owner(&e.kind, &e.text, &teams, robots)
     }
 
     /// The newest `refused` event: the game said no to a player.
@@ -445,6 +640,7 @@ impl GameView {
             match LobbyState::decode(packet) {
                 Ok(l) => {
                     self.lobby = Some(lobby_view(l));
+                    self.lobby_at = Some(now);
                     self.version += 1;
                 }
                 Err(_) => self.bad_lines += 1,
@@ -470,6 +666,7 @@ impl GameView {
         {
             self.events.clear();
             self.refusal = None;
+            self.refusals.clear();
         }
         self.state = Some(s);
         self.state_at = Some(now);
@@ -488,13 +685,18 @@ impl GameView {
             };
             e.seq = self.next_seq;
             self.next_seq += 1;
+            let who = self.owner_of(&e);
             if e.kind == "refused" {
                 self.refusal = Some(e.clone());
+                // Owners are teams of the game, so this holds at most one more than there are.
+                if self.refusals.contains_key(&who) || self.refusals.len() <= MAX_TEAMS {
+                    self.refusals.insert(who.clone(), e.clone());
+                }
             }
             if self.events.len() >= MAX_EVENTS {
                 self.events.pop_front();
             }
-            self.events.push_back(e);
+            self.events.push_back((e, who));
             self.version += 1;
         }
     }
@@ -509,25 +711,44 @@ impl GameView {
             .map(|t| (now.saturating_duration_since(t).as_secs_f64() * 10.0).round() / 10.0)
     }
 
-    /// State, events and the map's version as JSON for the game page.
-    pub fn game_json(&self, now: Instant) -> String {
-        let stale = self
-            .state_at
-            .is_none_or(|t| now.saturating_duration_since(t) > GAME_STALE_AFTER);
-        let j = GameJson {
-            t: "game",
+    /// The match is being set up: a lobby is drafting and no state has come.
+    pub fn prematch(&self) -> bool {
+        self.state.is_none()
+            && self
+                .lobby
+                .as_ref()
+                .is_some_and(|l| l.status == LobbyStatus::Drafting)
+    }
+
+    /// What game pages are sent now, before it is cut for each ([`GameFrame::json`]).
+    pub fn frame(&self, now: Instant) -> GameFrame {
+        let prematch = self.prematch();
+        // Before the match the lobby is what comes (ten times a second), not states.
+        let heard_at = if prematch {
+            self.lobby_at
+        } else {
+            self.state_at
+        };
+        let stale = heard_at.is_none_or(|t| now.saturating_duration_since(t) > GAME_STALE_AFTER);
+        GameFrame {
             now: self.wall(now),
             age: self.age(now),
             stale,
-            state: self.state.as_ref(),
-            events: &self.events,
-            refusal: self.refusal.as_ref(),
+            prematch,
+            state: self.state.clone(),
+            events: self.events.iter().cloned().collect(),
+            refusals: self.refusals.clone(),
             map_version: self.map.version(),
             bad_lines: self.bad_lines(),
             chat_dropped: self.chat_dropped,
-            lobby: self.lobby.as_ref(),
-        };
-        serde_json::to_string(&j).unwrap_or_else(|_| "{}".into())
+            lobby: self.lobby.clone(),
+            listeners: self.listeners.clone(),
+        }
+    }
+
+    /// State, events and the map's version as JSON for a page with no team (a spectator).
+    pub fn game_json(&self, now: Instant) -> String {
+        self.frame(now).json(None)
     }
 
     /// The map as JSON for the game page (sent only when it changes).
@@ -688,6 +909,199 @@ ufo x 1\n";
         assert!(
             game.get("map").is_none(),
             "the map is not in every game message"
+        );
+    }
+
+    const BLUE_PLANS: &str = "squad team blue name bravo formation line order \"capture the red flag\" behaviour goto path \"700,800 300,200 100,90\"\n";
+    const LOBBY_PACKET: &str =
+        "@ <game.lobby> 0\nlobby status drafting budget 100 squads 4 upgrade 0.2 max_upgrade 5\n\
+kind name amphibian cost 12 health 60 power 8 speed 30 range 120 amphibious 1\n\
+team name red ready 0 bot 0 cost 24 setup \"alpha:tank,scout\"\n\
+team name blue ready 1 bot 1 cost 36 setup \"raiders:amphibian,amphibian,amphibian\"\n";
+
+    fn json(text: &str) -> serde_json::Value {
+        serde_json::from_str(text).unwrap()
+    }
+
+    #[test]
+    fn a_team_page_is_never_sent_another_teams_plans_orders_or_refusals() {
+        let (mut g, t0) = view();
+        g.on_packet(t0, &parse(LOBBY_PACKET));
+        g.on_packet(t0, &parse(&format!("{STATE_PACKET}{BLUE_PLANS}")));
+        g.on_packet(
+            t0,
+            &parse(
+                "@ <game.event> 0\n\
+event kind refused time 12 text \"blue robot 4: it is not being driven\"\n\
+event kind refused time 12 text \"a bad command from blue: squad bravo: capture needs a flag\"\n\
+event kind refused time 12 text \"robot 4 fires at robot 3: the target is 900 cm away\"\n\
+event kind refused time 12 text \"red split of alpha: too few robots\"\n\
+event kind hit time 12 text \"robot 4 hit robot 3\"\n",
+            ),
+        );
+        let frame = g.frame(t0);
+
+        let red = json(&frame.json(Some("red")));
+        let squads = red["state"]["squads"].as_array().unwrap();
+        assert!(
+            squads.iter().all(|q| q["team"] == "red") && squads.len() == 1,
+            "red's page got blue's squads: {squads:?}"
+        );
+        let text = red.to_string();
+        for secret in [
+            "bravo",
+            "capture",
+            "300,200",
+            "300.0,200.0",
+            "raiders",
+            "goto",
+            "following the path",
+            "900 cm",
+        ] {
+            assert!(
+                !text.contains(secret),
+                "red's page was sent {secret:?}: {text}"
+            );
+        }
+        let blue_robot = &red["state"]["robots"][1];
+        assert_eq!(
+            (blue_robot["id"].as_u64(), blue_robot["x"].as_f64()),
+            (Some(4), Some(700.0)),
+            "where it stands is on the battlefield"
+        );
+        assert_eq!(red["refusal"]["text"], "red split of alpha: too few robots");
+        let events: Vec<_> = red["events"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|e| e["text"].as_str().unwrap().to_owned())
+            .collect();
+        assert_eq!(
+            events,
+            ["red split of alpha: too few robots", "robot 4 hit robot 3"]
+        );
+        assert_eq!(
+            red["lobby"]["teams"][0]["setup"], "alpha:tank,scout",
+            "its own setup stays"
+        );
+        assert_eq!(red["lobby"]["teams"][1]["cost"], 36);
+
+        let blue = json(&frame.json(Some("blue")));
+        assert!(blue["state"]["squads"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|q| q["team"] == "blue"));
+        assert_eq!(
+            blue["state"]["robots"][0]["reason"], "",
+            "red's reasons name its target"
+        );
+        assert_eq!(
+            blue["refusal"]["text"],
+            "robot 4 fires at robot 3: the target is 900 cm away"
+        );
+
+        // A team not in the game sees no one's plans.
+        let green = json(&frame.json(Some("green")));
+        assert_eq!(green["state"]["squads"], serde_json::json!([]));
+
+        let all = json(&frame.json(None));
+        assert_eq!(
+            all["state"]["squads"].as_array().unwrap().len(),
+            2,
+            "a spectator sees both"
+        );
+        assert_eq!(all["events"].as_array().unwrap().len(), 5);
+        assert_eq!(
+            all["lobby"]["teams"][1]["setup"],
+            "raiders:amphibian,amphibian,amphibian"
+        );
+        assert_eq!(all, json(&g.game_json(t0)));
+    }
+
+    #[test]
+    fn the_lobby_is_not_stale_and_a_match_goes_stale_without_state() {
+        let (mut g, t0) = view();
+        g.on_packet(t0, &parse(LOBBY_PACKET));
+        let j = json(&g.game_json(t0 + Duration::from_millis(500)));
+        assert_eq!(
+            (j["prematch"].as_bool(), j["stale"].as_bool()),
+            (Some(true), Some(false))
+        );
+        // A lobby that stopped being published is stale all the same.
+        let j = json(&g.game_json(t0 + Duration::from_secs(3)));
+        assert_eq!(j["stale"], true);
+        g.on_packet(t0 + Duration::from_secs(3), &parse(STATE_PACKET));
+        let j = json(&g.game_json(t0 + Duration::from_secs(3)));
+        assert_eq!(
+            (j["prematch"].as_bool(), j["stale"].as_bool()),
+            (Some(false), Some(false))
+        );
+    }
+
+    #[test]
+    fn orders_are_heard_only_when_a_client_other_than_a_monitor_reads_them() {
+        use colony_wire::{ClientInfo, Priority};
+        let client = |addr: &str, subs: &[&str], tap: bool| ClientInfo {
+            addr: addr.into(),
+            idle_ms: 0,
+            subscriptions: subs.iter().map(|s| (s.to_string(), 5000)).collect(),
+            about: String::new(),
+            tap,
+            batch: 0,
+        };
+        let report = |clients: Vec<ClientInfo>, count: u64| StatusReport {
+            uptime_ms: 1,
+            lease_ms: 10_000,
+            min_priority: Priority(0),
+            client_count: count,
+            clients,
+            channels: vec![],
+            drops: vec![],
+            truncated: false,
+        };
+        let ours: [SocketAddr; 2] = [
+            "0.0.0.0:4000".parse().unwrap(),
+            "0.0.0.0:4001".parse().unwrap(),
+        ];
+        // A replay: the monitor's own clients and another monitor's tap read game.player.red.
+        let replay = report(
+            vec![
+                client("127.0.0.1:4000", &["vision", "game.player.red"], false),
+                client("127.0.0.1:4001", &["game.player.blue"], false),
+                client("127.0.0.1:5000", &["game.player.red"], true),
+                client("127.0.0.1:5001", &[], false),
+            ],
+            4,
+        );
+        let (mut g, t0) = view();
+        g.on_packet(t0, &parse(STATE_PACKET));
+        assert_eq!(
+            json(&g.frame(t0).json(Some("red")))["heard"],
+            serde_json::Value::Null,
+            "no status yet"
+        );
+        g.set_listeners(Listeners::from_status(&replay, &ours));
+        assert_eq!(json(&g.frame(t0).json(Some("red")))["heard"], false);
+        assert_eq!(json(&g.frame(t0).json(None))["heard"], false);
+        // The live game server reads both teams' orders.
+        let live = report(
+            vec![client(
+                "127.0.0.1:6000",
+                &["game.player.red", "game.player.blue", "game.action"],
+                false,
+            )],
+            1,
+        );
+        g.set_listeners(Listeners::from_status(&live, &ours));
+        assert_eq!(json(&g.frame(t0).json(Some("red")))["heard"], true);
+        assert_eq!(json(&g.frame(t0).json(Some("green")))["heard"], false);
+        // A status cut short may have left the game server out: not known.
+        let cut = report(vec![client("127.0.0.1:5001", &[], false)], 40);
+        g.set_listeners(Listeners::from_status(&cut, &ours));
+        assert_eq!(
+            json(&g.frame(t0).json(Some("red")))["heard"],
+            serde_json::Value::Null
         );
     }
 

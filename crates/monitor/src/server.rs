@@ -126,7 +126,7 @@ struct App {
     pages: Arc<AtomicU64>,
     world: watch::Receiver<Arc<str>>,
     hub: watch::Receiver<Arc<str>>,
-    game: watch::Receiver<Arc<str>>,
+    game: watch::Receiver<Arc<crate::game::GameFrame>>,
     chat: watch::Receiver<Arc<crate::game::Chats>>,
     map: watch::Receiver<Arc<str>>,
     tasks: watch::Receiver<Arc<str>>,
@@ -838,8 +838,10 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
                 if changed.is_err() {
                     break;
                 }
-                let snapshot = game.borrow_and_update().clone();
-                if let Err(e) = send_text(&mut socket, &snapshot, within).await {
+                let frame = game.borrow_and_update().clone();
+                // Cut here, per page: a team's player is never sent another team's plans.
+                let text = frame.json(team.as_deref());
+                if let Err(e) = send_text(&mut socket, &text, within).await {
                     end = Some(e);
                     break;
                 }

@@ -45,6 +45,24 @@ pub const CORE_CHANNELS: [&str; 4] = [VISION, DEBUG, METRICS, RADIO];
 
 /// With nothing heard for this long, the hub or the vision is shown as stale.
 pub const STALE_AFTER: Duration = Duration::from_secs(2);
+/// A world silent this long has ended (a finished run, a stopped simulator) rather than
+/// stalled: the page says so and dims it instead of raising an alarm for ever.
+pub const ENDED_AFTER: Duration = Duration::from_secs(10);
+
+/// Where the world on `vision` stands, for the page.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum WorldPhase {
+    /// Nothing was ever seen on `vision`: there is no world (a task board, a game), so no
+    /// world panel and nothing to call stale.
+    None,
+    /// Vision is arriving.
+    Live,
+    /// Vision stopped for longer than [`STALE_AFTER`].
+    Stale,
+    /// Vision stopped for longer than [`ENDED_AFTER`].
+    Ended,
+}
 
 /// Everything the monitor knows. Feed it with [`on_packet`](Self::on_packet),
 /// [`on_status`](Self::on_status) and [`apply`](Self::apply); read it with
@@ -71,6 +89,7 @@ struct WorldJson<'a> {
     operator: operator::OverrideJson,
     hub_stale_since: Option<u64>,
     vision_stale_since: Option<u64>,
+    world_phase: WorldPhase,
 }
 
 impl MonitorState {
@@ -147,9 +166,28 @@ impl MonitorState {
         self.stale_since(self.hub.last_heard(), now)
     }
 
-    /// Since when (wall-clock ms) no vision has arrived, if for longer than [`STALE_AFTER`].
+    /// Since when (wall-clock ms) no vision has arrived, if for longer than [`STALE_AFTER`]
+    /// after some had (a monitor that never saw a world has none to be stale).
     pub fn vision_stale_since(&self, now: Instant) -> Option<u64> {
+        self.world.vision_at()?;
         self.stale_since(self.world.vision_at(), now)
+    }
+
+    /// Whether a world was ever seen, and how long ago it was last heard from.
+    pub fn world_phase(&self, now: Instant) -> WorldPhase {
+        match self.world.vision_at() {
+            None => WorldPhase::None,
+            Some(t) => {
+                let idle = now.saturating_duration_since(t);
+                if idle > ENDED_AFTER {
+                    WorldPhase::Ended
+                } else if idle > STALE_AFTER {
+                    WorldPhase::Stale
+                } else {
+                    WorldPhase::Live
+                }
+            }
+        }
     }
 
     /// Takes in a packet received at `now` on a subscribed channel.
@@ -255,6 +293,7 @@ impl MonitorState {
             operator: self.operator.json(),
             hub_stale_since: self.hub_stale_since(now),
             vision_stale_since: self.vision_stale_since(now),
+            world_phase: self.world_phase(now),
         };
         serde_json::to_string(&w).unwrap_or_else(|_| "{}".into())
     }
@@ -428,6 +467,37 @@ mod tests {
         assert!(kept.len() <= hub::LAST_TEXT_LIMIT && kept.starts_with("@ <big> 0"));
         s.on_packet(t0, &parse("@ <a> <b> 0\nx v 1\n"));
         assert!(s.last_packet("a b").is_some());
+    }
+
+    #[test]
+    fn with_no_world_ever_seen_nothing_is_stale_and_a_silent_world_ends() {
+        let (mut s, t0) = state();
+        s.on_status(ms(t0, 0), report(1, 0, 0));
+        assert_eq!(
+            s.vision_stale_since(ms(t0, 9000)),
+            None,
+            "no world: nothing to be stale"
+        );
+        assert_eq!(s.world_phase(ms(t0, 9000)), WorldPhase::None);
+        let json: serde_json::Value = serde_json::from_str(&s.world_json(ms(t0, 9000))).unwrap();
+        assert_eq!(json["world_phase"], "none");
+        assert_eq!(json["vision_stale_since"], serde_json::Value::Null);
+        s.on_packet(ms(t0, 10_000), &parse(ONE_PART));
+        assert_eq!(s.world_phase(ms(t0, 11_000)), WorldPhase::Live);
+        assert_eq!(s.world_phase(ms(t0, 13_000)), WorldPhase::Stale);
+        assert_eq!(s.world_phase(ms(t0, 20_500)), WorldPhase::Ended);
+        let json: serde_json::Value = serde_json::from_str(&s.world_json(ms(t0, 20_500))).unwrap();
+        assert_eq!(json["world_phase"], "ended");
+        assert_eq!(
+            json["vision_stale_since"], 1_010_000,
+            "ended says since when"
+        );
+        s.on_packet(ms(t0, 21_000), &parse(ONE_PART));
+        assert_eq!(
+            s.world_phase(ms(t0, 21_000)),
+            WorldPhase::Live,
+            "a new run is live again"
+        );
     }
 
     #[test]
@@ -728,7 +798,7 @@ mod tests {
             .map(String::as_str)
             .collect();
         assert!(text.starts_with(r#"{"t":"world","now":"#), "{text}");
-        assert_eq!(keys.len(), 18, "{keys:?}");
+        assert_eq!(keys.len(), 19, "{keys:?}");
         // No box and no goal in a sorting arena.
         assert_eq!(json["boxes"], serde_json::json!([]));
         assert_eq!(json["goal"], serde_json::Value::Null);

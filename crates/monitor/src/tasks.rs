@@ -193,11 +193,54 @@ pub struct TaskBoard {
 struct BoardJson<'a> {
     t: &'static str,
     now: u64,
-    tasks: Vec<&'a TaskView>,
+    tasks: Vec<CardJson<'a>>,
     robots: Vec<RobotView>,
     forgotten: u64,
     robots_forgotten: u64,
     bad: u64,
+}
+
+/// A task as the board sends it, with what it has to do with the tasks announced before it
+/// under the same name: an announcer that retries a task nobody can do
+/// makes one unachievable task after another, and a board of dozens of the same failure hides
+/// the tasks that matter.
+#[derive(Serialize)]
+struct CardJson<'a> {
+    #[serde(flatten)]
+    task: &'a TaskView,
+    /// Earlier unachievable tries of this task, folded into this card (the newest try).
+    retries: u32,
+    /// The newest try's number, when this is an earlier unachievable one folded into it.
+    retry_of: Option<u64>,
+}
+
+/// Each task (newest first) with its retries: an unachievable task announced again under the
+/// same name is folded into the newest one. By name alone, not announcer too: each
+/// `colony tasks announce` is a new announcer (`user-XXXX`), and a retry from the command line
+/// is as much a duplicate as one from a program.
+fn cards<'a>(newest_first: &[&'a TaskView]) -> Vec<CardJson<'a>> {
+    let mut newest: BTreeMap<&str, usize> = BTreeMap::new();
+    let mut out: Vec<CardJson<'a>> = Vec::with_capacity(newest_first.len());
+    for &task in newest_first {
+        let key = task.name.as_str();
+        let head = newest.get(&key).copied();
+        let retry_of = match head {
+            Some(i) if !task.name.is_empty() && task.state == TaskState::Unachievable => {
+                out[i].retries += 1;
+                Some(out[i].task.id)
+            }
+            _ => None,
+        };
+        if head.is_none() {
+            newest.insert(key, out.len());
+        }
+        out.push(CardJson {
+            task,
+            retries: 0,
+            retry_of,
+        });
+    }
+    out
 }
 
 /// The announcer, task number and round a negotiation subject names
@@ -535,7 +578,7 @@ impl TaskBoard {
         let json = BoardJson {
             t: "tasks",
             now: ms,
-            tasks,
+            tasks: cards(&tasks),
             robots,
             forgotten: self.forgotten + (self.tasks.len().saturating_sub(MAX_SHOWN) as u64),
             robots_forgotten: self.robots_forgotten,
@@ -710,6 +753,63 @@ mod tests {
         assert_eq!(json["tasks"][0]["state"], "done");
         assert_eq!(json["tasks"][0]["bids"][1]["score"], 90.0);
         assert_eq!(json["tasks"][0]["first"], 10);
+    }
+
+    #[test]
+    fn unachievable_retries_of_a_task_are_folded_into_its_newest_card() {
+        let t0 = Instant::now();
+        let ms = |n| t0 + Duration::from_millis(n);
+        let mut b = TaskBoard::new(t0);
+        let fail = |b: &mut TaskBoard, at: Instant, id: u64, name: &str| {
+            let a = Announcement {
+                spec: TaskSpec::new(name, "laser".parse().unwrap()).length(1.0),
+                id,
+                negotiation: negotiation_subject(&token("user"), id, 1),
+                deadline: Duration::from_millis(200),
+                announcer: token("user"),
+            };
+            feed(b, at, &a.encode().unwrap());
+            let m = Negotiation::Unachievable {
+                task: id,
+                name: name.into(),
+                reason: "no robot has {laser}".into(),
+            };
+            feed(
+                b,
+                at,
+                &m.encode(&negotiation_subject(&token("user"), id, 1))
+                    .unwrap(),
+            );
+        };
+        for id in 1..=4 {
+            fail(&mut b, ms(id * 100), id, "zap");
+        }
+        fail(&mut b, ms(500), 5, "other");
+        let json: serde_json::Value = serde_json::from_str(&b.json(ms(600))).unwrap();
+        let cards: Vec<_> = json["tasks"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|t| {
+                (
+                    t["id"].as_u64().unwrap(),
+                    t["retries"].as_u64().unwrap(),
+                    t["retry_of"].as_u64(),
+                )
+            })
+            .collect();
+        assert_eq!(
+            cards,
+            [
+                (5, 0, None),
+                (4, 3, None),
+                (3, 0, Some(4)),
+                (2, 0, Some(4)),
+                (1, 0, Some(4))
+            ],
+            "zap's three earlier failures are retries of its newest try; other's is its own"
+        );
+        assert_eq!(json["tasks"][1]["state"], "unachievable");
     }
 
     #[test]

@@ -88,6 +88,7 @@ function onWorld(w) {
   api.all = w.all;
   api.hubStaleSince = w.hub_stale_since;
   api.visionStaleSince = w.vision_stale_since;
+  api.worldPhase = w.world_phase ?? 'live';
   const poses = {};
   for (const r of w.robots) poses[r[0]] = [r[1], r[2], r[3]];
   api.poses = poses;
@@ -164,15 +165,29 @@ function updateBanners() {
     note('server', `monitor server lost since ${clock(serverLostSince || Date.now())}: reconnecting…`);
   }
   const w = world;
+  const phase = w ? (w.world_phase ?? 'live') : 'none';
   api.hubStale = !connected || !w || w.hub_stale_since !== null;
   api.visionStale = !connected || !w || w.vision_stale_since !== null;
+  // No world was ever seen on vision (beside a task board or a game): nothing to draw or to
+  // call stale, so the world's panels stay hidden rather than alarming.
+  const noWorld = connected && phase === 'none';
+  $('live').hidden = noWorld;
+  $('plot-box').hidden = noWorld;
+  $('override').hidden = noWorld;
   if (connected && w) {
     if (w.hub_stale_since !== null) note('hub', `hub stale since ${clock(w.hub_stale_since)}: no word from the hub; the monitor keeps asking`);
-    if (w.vision_stale_since !== null) note('vision', `vision stale since ${clock(w.vision_stale_since)}: no world state on <vision>`);
+    if (phase === 'stale') note('vision', `vision stale since ${clock(w.vision_stale_since)}: no world state on <vision>`);
+    if (phase === 'ended') {
+      notes.push({ cls: 'info-banner', id: 'banner-ended', text: `the world ended: nothing on <vision> since ${clock(w.vision_stale_since)} (its last frame is dimmed)` });
+    }
+    if (noWorld) notes.push({ cls: 'info-banner', id: 'banner-no-world', text: 'no world on <vision>: the hub view is below; the arena appears when a world is published' });
   }
   if (showBanners($('banners'), notes)) dirty = true;
-  const stale = api.hubStale || api.visionStale;
-  showChip($('conn'), !connected ? 'server lost' : stale ? 'stale' : 'live', connected && !stale);
+  const alarm = api.hubStale || (api.visionStale && phase === 'stale');
+  if (!connected) showChip($('conn'), 'server lost', false);
+  else if (alarm) showChip($('conn'), 'stale', false);
+  else if (phase === 'ended') showChip($('conn'), 'ended', null);
+  else showChip($('conn'), 'live', true);
 }
 setInterval(updateBanners, 500);
 
@@ -449,7 +464,13 @@ function draw() {
     }
   }
   scaleBar(t);
-  if (api.hubStale || api.visionStale) {
+  const ended = connected && world && world.world_phase === 'ended' && !api.hubStale;
+  if (ended) {
+    // A finished run: history, not an alarm.
+    ctx.fillStyle = 'rgba(215, 219, 224, 0.6)';
+    ctx.fillRect(0, 0, canvas.width, canvas.height);
+    label(`ended at ${clock(world.vision_stale_since)}`, canvas.width / 2, 40 * dpr, '#4a5563', 20 * dpr, 'center');
+  } else if (api.hubStale || api.visionStale) {
     ctx.fillStyle = 'rgba(110, 110, 110, 0.35)';
     ctx.fillRect(0, 0, canvas.width, canvas.height);
     const since = !connected ? serverLostSince : (world && (world.hub_stale_since || world.vision_stale_since));

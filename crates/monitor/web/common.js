@@ -219,7 +219,8 @@ export function showBanners(box, notes) {
 /** The header's connection chip: `text`, green when `ok`, red otherwise. */
 export function showChip(chip, text, ok) {
   chip.textContent = text;
-  chip.className = `chip ${ok ? 'ok' : 'bad'}`;
+  // null: neither good nor bad news (a pre-match, a run that ended), so not red.
+  chip.className = ok === null ? 'chip' : `chip ${ok ? 'ok' : 'bad'}`;
 }
 
 /** A one-line answer under a control: green when `ok`, red otherwise. */

@@ -20,6 +20,11 @@ const TERRAIN = {
   '.': [238, 240, 230], G: [238, 240, 230], S: [150, 150, 72], T: [46, 94, 46],
   '@': [59, 63, 69], O: [59, 63, 69], W: [74, 134, 200],
 };
+// The legend's words for the map's characters, one entry a colour.
+const TERRAIN_NAMES = [
+  [['.', 'G'], 'open ground'], [['S'], 'swamp (slow)'], [['T'], 'trees (blocks sight)'],
+  [['W'], 'water (amphibians only)'], [['@', 'O'], 'wall or out of bounds'],
+];
 const ROBOT_RADIUS_CM = 7; // the game's robots are 6 to 7.5 cm in radius
 const KIND_LETTER = { scout: 'S', tank: 'T', infantry: 'I', amphibian: 'A' };
 
@@ -37,6 +42,7 @@ let driving = null; // the robot driven with the keys
 const keys = new Set(); // the driving keys held
 let stroke = null; // a path being drawn: world points
 let press = null; // where a press on the battlefield began
+let hover = null; // the id of the robot under the pointer
 let suppressClick = false;
 let chatLines = [];
 let lastChatSeq = -1;
@@ -53,12 +59,15 @@ const maxHealth = new Map(); // robot id -> the most health it has had
 
 const api = {
   connected: false, state: null, map: null, mapVersion: 0, events: [], refusal: null,
-  stale: true, team: null, selected: null, picked: null, driving: null, lastReply: null, lastCommand: null,
-  frames: 0, chat: [], sounds: [],
+  stale: true, heard: null, prematch: false, commandable: true, team: null, selected: null, picked: null, driving: null, lastReply: null, lastCommand: null,
+  frames: 0, chat: [], sounds: [], labels: [], legend: [],
   worldToCanvas, worldToClient, clientToWorld, select, pick, send, order,
   get formation() { return $('formation').value; },
 };
 window.colonyGame = api;
+
+// A page opened for a team stays that team's: switching would only ask for another's view.
+$('team').disabled = teamFromUrl;
 
 // The system monitor's page needs the token too.
 $('monitor-link').href = withToken('/');
@@ -93,7 +102,23 @@ function onMap(m) {
   map = m.map;
   api.map = map && { width: map.width, height: map.height, cell: map.cell, sites: map.sites, version: m.version };
   terrain = map ? paintTerrain(map) : null;
+  legend(map);
   dirty = true;
+}
+
+/** The terrain's legend: only the kinds this map has, in the colours it is drawn in. */
+function legend(m) {
+  const present = new Set(m ? m.rows.join('') : '');
+  const items = TERRAIN_NAMES.filter(([chars]) => chars.some((c) => present.has(c)));
+  api.legend = items.map(([, name]) => name);
+  $('legend').replaceChildren(...items.map(([chars, name]) => {
+    const li = document.createElement('li');
+    const sw = document.createElement('i');
+    sw.style.background = `rgb(${TERRAIN[chars[0]].join(',')})`;
+    li.append(sw, name);
+    return li;
+  }));
+  $('legend').hidden = !items.length;
 }
 
 function paintTerrain(m) {
@@ -120,6 +145,8 @@ function onGame(g) {
   const s = g.state;
   api.state = s;
   api.stale = g.stale;
+  api.prematch = !!g.prematch;
+  api.heard = g.heard === undefined ? null : g.heard;
   api.events = g.events;
   api.refusal = g.refusal;
   if (s) {
@@ -417,18 +444,33 @@ function header(g) {
   }
 }
 
+// Nothing on the wire marks a replayed log (`colony replay`) as one, but a replay has no game
+// server reading the teams' orders: the monitor says so (`heard`, from the hub's status), and
+// this page then says "replay" rather than "live" and hides the commands nobody would obey.
+function unheard() {
+  return !!(game && game.heard === false);
+}
+
 function banners() {
   api.connected = connected;
   const notes = [];
+  const prematch = !!(game && game.prematch);
   if (!connected) notes.push({ cls: 'stale-banner server', text: 'monitor server lost: reconnecting…' });
-  else if (game && game.lobby && game.lobby.status === 'drafting' && !game.state) {
-    notes.push({ cls: 'stale-banner', text: 'pre-match: set up your team and press Ready; the match starts when every team is ready' });
+  else if (prematch && !game.stale) {
+    notes.push({ cls: 'info-banner', text: 'pre-match: set up your team and press Ready; the match starts when every team is ready' });
   } else if (game && game.stale) {
     notes.push({
       cls: 'stale-banner',
       text: game.state
         ? `game stale: no state on <game.state> for ${game.age} s`
-        : 'no game yet: start one with `colony game ctf --player red`',
+        : prematch ? 'pre-match stale: no word from the lobby on <game.lobby>'
+          : 'no game yet: start one with `colony game ctf --player red`',
+    });
+  }
+  if (connected && game && !game.stale && unheard()) {
+    notes.push({
+      cls: 'info-banner',
+      text: `no game is reading ${team === null ? 'any team\'s' : `${team}'s`} orders: a replayed log (colony replay) or a match whose game server has gone; commands are hidden`,
     });
   }
   const s = game && game.state;
@@ -436,8 +478,14 @@ function banners() {
     notes.push({ cls: 'over-banner', text: `game over: ${s.winner ? `${s.winner} wins` : 'a draw'}${s.reason ? ` (${s.reason})` : ''}` });
   }
   showBanners($('banners'), notes);
-  const live = !!(connected && game && !game.stale);
-  showChip($('conn'), !connected ? 'server lost' : live ? 'live' : 'stale', live);
+  const fresh = !!(connected && game && !game.stale);
+  api.commandable = !unheard();
+  $('commands').hidden = unheard();
+  if (!connected) showChip($('conn'), 'server lost', false);
+  else if (fresh && prematch) showChip($('conn'), 'pre-match', null);
+  else if (fresh && unheard()) showChip($('conn'), 'replay: orders unheard', null);
+  else if (fresh) showChip($('conn'), 'live', true);
+  else showChip($('conn'), 'stale', false);
 }
 
 // ---- the side panel ------------------------------------------------------------
@@ -583,6 +631,7 @@ function order(fields) {
 }
 
 function sendCommand(cmd) {
+  if (unheard()) { message('no game is reading these orders (a replay?): nothing was sent', false); return false; }
   api.lastCommand = cmd;
   return send(cmd);
 }
@@ -743,17 +792,22 @@ function draw() {
     if (c * k >= 12 * dpr) grid(X, Y, k);
     for (const site of map.sites) drawSite(site, X, Y, k, dpr);
   }
+  const labels = new Labels(dpr);
   if (!s) {
-    text(map ? 'waiting for the game state…' : 'waiting for the battlefield on <game.map>…',
-      canvas.width / 2, canvas.height / 2, '#f2f4f7', 16 * dpr, 'center');
+    siteLabels(labels, X, Y, k, dpr);
+    text(map ? (game && game.prematch ? 'the battlefield: the match starts when every team is ready'
+      : 'waiting for the game state…') : 'waiting for the battlefield on <game.map>…',
+    canvas.width / 2, map ? 24 * dpr : canvas.height / 2, '#f2f4f7', 16 * dpr, 'center', true);
     return;
   }
   const r = Math.max(ROBOT_RADIUS_CM * k, 6 * dpr);
-  // Planned paths: each squad's turn points as the game planned them; the
-  // enemy's faint, since the player has no business following them.
+  // Planned paths: each squad's turn points as the game planned them. A team's page is not
+  // even sent another team's (the server cuts them); a page that picked a team by itself
+  // still shows only that team's, faint enemy plans being a spectator's view alone.
   for (const q of s.squads) {
     if (q.path.length < 2) continue;
     const mine = q.team === team;
+    if (!mine && team !== null) continue;
     ctx.beginPath();
     q.path.forEach(([px, py], i) => (i ? ctx.lineTo(X(px), Y(py)) : ctx.moveTo(X(px), Y(py))));
     ctx.strokeStyle = colour(q.team);
@@ -794,6 +848,12 @@ function draw() {
       text('dropped', fx + h * 0.75, fy - h * 0.6, '#fff', 11 * dpr, 'left', true);
     }
   }
+  // Labels are placed where they hide neither a robot nor another label: base names first (they
+  // are drawn last, over the robots), then robot ids; an id with no free place is shown only
+  // for the robot under the pointer or selected.
+  for (const b of s.robots) if (b.alive) labels.block(X(b.x) - r, Y(b.y) - r - 8 * dpr, 2 * r, 2 * r + 8 * dpr);
+  const bases = siteBoxes(labels, X, Y, k, dpr);
+  const ids = [];
   // Robots: a disc in the team's colour, a heading tick, a health bar.
   for (const b of s.robots) {
     const bx = X(b.x);
@@ -834,9 +894,56 @@ function draw() {
     ctx.fillStyle = f < 0.25 ? '#d63a2f' : f < 0.5 ? '#e0a21b' : '#3bd16f';
     ctx.fillRect(bx - bw / 2, top, bw * f, 4 * dpr);
     if (r >= 7 * dpr) text(KIND_LETTER[b.kind] || '?', bx, by + 4 * dpr, '#fff', 10 * dpr, 'center');
-    text(`${b.id}`, bx + r + 2 * dpr, by + r + 8 * dpr, '#fff', 10 * dpr, 'left', true);
+    ids.push(b);
   }
+  // The pointed and selected robots' labels first, so theirs get a place.
+  const wanted = (b) => b.id === hover || b.id === picked || (b.squad === selected && b.team === team);
+  ids.sort((a, b) => wanted(b) - wanted(a));
+  for (const b of ids) {
+    const bx = X(b.x);
+    const by = Y(b.y);
+    const at = labels.place(`${b.id}`, 10 * dpr, [
+      [bx + r + 2 * dpr, by + r + 8 * dpr], [bx + r + 2 * dpr, by - r - 2 * dpr],
+      [bx - r - 2 * dpr, by + r + 8 * dpr, 'right'], [bx - r - 2 * dpr, by - r - 2 * dpr, 'right'],
+    ], wanted(b));
+    if (at) text(`${b.id}`, at[0], at[1], '#fff', 10 * dpr, at[2] || 'left', true);
+  }
+  for (const l of bases) text(l.text, l.x, l.y, l.fill, l.px, 'center', true);
+  api.labels = labels.shown;
   drawStroke(X, Y, dpr);
+}
+
+/** Where labels went, so that none hides another or a robot. */
+class Labels {
+  constructor(dpr) {
+    this.dpr = dpr;
+    this.taken = []; // [x0, y0, x1, y1], device pixels
+    this.shown = []; // {text, x0, y0, x1, y1}
+  }
+
+  block(x, y, w, h) {
+    this.taken.push([x, y, x + w, y + h]);
+  }
+
+  free(b) {
+    return !this.taken.some((t) => b[0] < t[2] && t[0] < b[2] && b[1] < t[3] && t[1] < b[3]);
+  }
+
+  /** The first candidate [x, y(baseline), align] where `label` fits; `force`: the first anyway. */
+  place(label, px, candidates, force) {
+    ctx.font = `600 ${px}px system-ui, sans-serif`;
+    const w = ctx.measureText(label).width + 2 * this.dpr;
+    const box = ([x, y, align]) => {
+      const x0 = align === 'right' ? x - w : align === 'center' ? x - w / 2 : x;
+      return [x0, y - px, x0 + w, y + 0.25 * px];
+    };
+    const at = candidates.find((c) => this.free(box(c))) || (force ? candidates[0] : null);
+    if (!at) return null;
+    const b = box(at);
+    this.taken.push(b);
+    this.shown.push({ text: label, x0: b[0], y0: b[1], x1: b[2], y1: b[3] });
+    return at;
+  }
 }
 
 function drawStroke(X, Y, dpr) {
@@ -868,7 +975,6 @@ function drawSite(site, X, Y, k, dpr) {
   ctx.strokeStyle = colour(site.team);
   ctx.lineWidth = 2 * dpr;
   ctx.strokeRect(X(bx) - half, Y(by) - half, 2 * half, 2 * half);
-  text(`${site.team} base`, X(bx), Y(by) + half + 12 * dpr, colour(site.team), 11 * dpr, 'center', true);
   // The flag's stand, where a returned flag goes.
   const [fx, fy] = site.flag;
   ctx.beginPath();
@@ -876,6 +982,27 @@ function drawSite(site, X, Y, k, dpr) {
   ctx.setLineDash([3 * dpr, 3 * dpr]);
   ctx.stroke();
   ctx.setLineDash([]);
+}
+
+/** Each base's name, placed below its square or else above it, for drawing over the robots. */
+function siteBoxes(labels, X, Y, k, dpr) {
+  if (!map) return [];
+  const out = [];
+  for (const site of map.sites) {
+    const half = Math.max(map.cell * 1.5, 20) * k;
+    const [bx, by] = site.base;
+    const label = `${site.team} base`;
+    const at = labels.place(label, 11 * dpr, [
+      [X(bx), Y(by) + half + 12 * dpr, 'center'], [X(bx), Y(by) - half - 4 * dpr, 'center'],
+    ], true);
+    out.push({ text: label, x: at[0], y: at[1], fill: colour(site.team), px: 11 * dpr });
+  }
+  return out;
+}
+
+function siteLabels(labels, X, Y, k, dpr) {
+  for (const l of siteBoxes(labels, X, Y, k, dpr)) text(l.text, l.x, l.y, l.fill, l.px, 'center', true);
+  api.labels = labels.shown;
 }
 
 function text(s, x, y, fill, px, align, halo) {
@@ -945,6 +1072,12 @@ function click(e) {
 }
 
 canvas.addEventListener('click', click);
+canvas.addEventListener('pointermove', (e) => {
+  const h = hit(clientToWorld(e.clientX, e.clientY));
+  const id = h && h.robot ? h.robot.id : null;
+  if (id !== hover) { hover = id; dirty = true; }
+});
+canvas.addEventListener('pointerleave', () => { if (hover !== null) { hover = null; dirty = true; } });
 
 // ---- drawing a path: press, drag, release -----------------------------------------------------
 const DRAW_START_PX = 8; // a press that moves less is a click

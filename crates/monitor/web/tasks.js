@@ -39,6 +39,8 @@ function bidRows(t) {
 
 function taskCard(t, now) {
   const name = t.name ? esc(t.name) : '<span class="muted">(announcement not heard)</span>';
+  const retries = t.retries > 0
+    ? `<span class="retries" data-retries="${esc(t.retries)}" title="announced again after failing">tried ×${esc(t.retries + 1)}</span>` : '';
   const realloc = t.reallocations > 0
     ? `<span class="realloc" data-reallocations="${esc(t.reallocations)}">re-allocated ×${esc(t.reallocations)}</span>` : '';
   const why = t.winner
@@ -51,7 +53,7 @@ function taskCard(t, now) {
   const timeline = t.timeline.map((m) => `<li>+${secs(m.at - t.first)} ${esc(m.text)}</li>`).join('');
   return `<div class="task" data-task="${esc(t.announcer)}/${esc(t.id)}" data-state="${esc(t.state)}">`
     + `<h3>${name} <span class="muted">#${esc(t.id)} from ${esc(t.announcer)}</span>`
-    + `<span class="state ${esc(t.state)}">${esc(t.state)}</span>${realloc}`
+    + `<span class="state ${esc(t.state)}">${esc(t.state)}</span>${retries}${realloc}`
     + `<span class="muted">needs ${esc(t.resources.join(' ') || '?')} · ${esc(t.length_s)} s · round ${esc(t.round)} · ${secs(now - t.first)} ago</span></h3>`
     + why + progress + reason + bidRows(t)
     + `<details><summary>timeline (${t.timeline.length})</summary><ol class="timeline">${timeline}</ol></details></div>`;
@@ -59,8 +61,29 @@ function taskCard(t, now) {
 
 /** Which timelines the operator opened, so a redraw keeps them open. */
 const open = new Set();
+let lastBoard = null;
+
+// Retries are folded by the server (`retry_of`): a task announced again and again after
+// failing is one card with a count, so the board shows the tasks that differ.
+function shown(t) {
+  if (t.retry_of != null && !$('show-retries').checked) return false;
+  if (t.state === 'unachievable' && !$('show-unachievable').checked) return false;
+  if (t.state === 'done' && !$('show-finished').checked) return false;
+  return true;
+}
+
+// The operator's choice outlives a reload.
+for (const id of ['show-unachievable', 'show-finished', 'show-retries']) {
+  const saved = localStorage.getItem(`colony-tasks-${id}`);
+  if (saved !== null) $(id).checked = saved === 'on';
+  $(id).addEventListener('change', () => {
+    localStorage.setItem(`colony-tasks-${id}`, $(id).checked ? 'on' : 'off');
+    if (lastBoard) draw(lastBoard);
+  });
+}
 
 function draw(board) {
+  lastBoard = board;
   for (const d of document.querySelectorAll('.task details[open]')) {
     open.add(d.closest('.task').dataset.task);
   }
@@ -70,7 +93,11 @@ function draw(board) {
   $('counts').textContent = text || 'no tasks yet';
   if (board.robots.length > 0) $('robots').innerHTML = board.robots.map(robotRow).join('');
   if (board.tasks.length > 0) {
-    $('tasks').innerHTML = board.tasks.map((t) => taskCard(t, board.now)).join('');
+    const cards = board.tasks.filter(shown);
+    const hidden = board.tasks.length - cards.length;
+    $('hidden-note').textContent = hidden > 0 ? `${hidden} of ${board.tasks.length} hidden` : '';
+    $('tasks').innerHTML = cards.map((t) => taskCard(t, board.now)).join('')
+      || '<p class="muted">every task is hidden by the filters above</p>';
     for (const el of document.querySelectorAll('.task')) {
       if (open.has(el.dataset.task)) el.querySelector('details').open = true;
     }
