@@ -232,3 +232,39 @@ fn log_max_rotates_the_hubs_log_and_keeps_as_many_as_asked() {
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
 }
+
+#[test]
+fn log_info_summarises_channels_and_span_instead_of_listing_packets() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("run.clog");
+    write_log(&path, 10);
+    let (mut w, _) = LogWriter::open(&path).unwrap();
+    let src: SocketAddr = "127.0.0.1:5001".parse().unwrap();
+    // A subject set, and two records that are no packets (a subject may hold no
+    // right-to-left override).
+    for (i, p) in [
+        &b"@ <radio> <mobile> 0\nstop\n"[..],
+        "@ <x\u{202e}y> 0\nz\n".as_bytes(),
+        b"not a packet",
+    ]
+    .iter()
+    .enumerate()
+    {
+        w.append(UNIX_EPOCH + Duration::from_millis(2_000 + i as u64), src, p)
+            .unwrap();
+    }
+    w.flush().unwrap();
+    let (code, out, err) = run_bounded(&["log", "info", path.to_str().unwrap()]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(out.contains("records:  13"), "{out}");
+    assert!(out.contains("2 not packets"), "{out}");
+    assert!(out.contains("duration: 1.002 s"), "{out}");
+    assert!(
+        out.lines()
+            .any(|l| l.trim_start().starts_with("vision") && l.contains(" 10 packets")),
+        "{out}"
+    );
+    assert!(out.contains("radio mobile"), "{out}");
+    assert!(!out.contains("ball seq"), "it summarises: {out}");
+    assert!(!out.contains('\u{202e}'), "{out}");
+}

@@ -31,6 +31,15 @@ pub enum LogAction {
     /// Rewrite an MCAP log that a crash cut short (or that has a damaged chunk)
     /// as a valid MCAP holding every whole chunk.
     Recover(RecoverArgs),
+    /// Summarise a log: its records, time span, and packets and bytes per
+    /// channel (as `mcap info` does), instead of listing every packet.
+    Info(InfoArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct InfoArgs {
+    /// The traffic log (a `.clog` or an MCAP).
+    pub file: PathBuf,
 }
 
 /// Which records of a log to take.
@@ -153,6 +162,7 @@ pub fn run(args: LogCommand) -> anyhow::Result<()> {
     match args.action {
         Some(LogAction::Export(a)) => export(a),
         Some(LogAction::Recover(a)) => recover(a),
+        Some(LogAction::Info(a)) => info(a),
         None => list(args.list),
     }
 }
@@ -191,6 +201,111 @@ fn list(args: LogArgs) -> anyhow::Result<()> {
     )?;
     report_damage(&log);
     out.flush()?;
+    Ok(())
+}
+
+/// What `colony log info` counts: a log's channels and its time span, in
+/// memory bounded by the channels, at most [`MAX_INFO_CHANNELS`] (a forged
+/// flood of new subjects is counted under one line).
+#[derive(Debug, Default)]
+struct Summary {
+    records: u64,
+    bytes: u64,
+    unreadable: u64,
+    first_us: Option<u64>,
+    last_us: Option<u64>,
+    channels: std::collections::BTreeMap<String, (u64, u64)>,
+    other: (u64, u64),
+}
+
+/// Channels `colony log info` lists one by one; the rest share one line.
+const MAX_INFO_CHANNELS: usize = 1024;
+
+impl Summary {
+    fn add(&mut self, record: &Record) {
+        self.records += 1;
+        let len = record.payload.len() as u64;
+        self.bytes += len;
+        self.first_us = Some(
+            self.first_us
+                .map_or(record.time_us, |t| t.min(record.time_us)),
+        );
+        self.last_us = Some(
+            self.last_us
+                .map_or(record.time_us, |t| t.max(record.time_us)),
+        );
+        let Ok(p) = Packet::parse(&record.payload) else {
+            self.unreadable += 1;
+            return;
+        };
+        let topic =
+            colony_wire::terminal_line(&p.subjects().collect::<Vec<_>>().join(" ")).into_owned();
+        let full = self.channels.len() >= MAX_INFO_CHANNELS && !self.channels.contains_key(&topic);
+        let slot = if full {
+            &mut self.other
+        } else {
+            self.channels.entry(topic).or_default()
+        };
+        slot.0 += 1;
+        slot.1 += len;
+    }
+
+    fn text(&self, file: &Path) -> String {
+        use std::fmt::Write as _;
+        let mut out = String::new();
+        let span = match (self.first_us, self.last_us) {
+            (Some(a), Some(b)) => (b - a) as f64 / 1e6,
+            _ => 0.0,
+        };
+        let when = |us: Option<u64>| {
+            us.map_or_else(
+                || "-".to_owned(),
+                |us| format!("{:.6} s after the Unix epoch", us as f64 / 1e6),
+            )
+        };
+        let _ = writeln!(out, "file:     {}", file.display());
+        let _ = writeln!(
+            out,
+            "records:  {} ({} bytes, {} not packets)",
+            self.records, self.bytes, self.unreadable
+        );
+        let _ = writeln!(out, "start:    {}", when(self.first_us));
+        let _ = writeln!(out, "end:      {}", when(self.last_us));
+        let _ = writeln!(out, "duration: {span:.3} s");
+        let _ = writeln!(
+            out,
+            "channels: {}",
+            self.channels.len() + usize::from(self.other.0 > 0)
+        );
+        let mut rows: Vec<(&str, &(u64, u64))> =
+            self.channels.iter().map(|(k, v)| (k.as_str(), v)).collect();
+        rows.sort_by(|a, b| b.1 .0.cmp(&a.1 .0).then_with(|| a.0.cmp(b.0)));
+        if self.other.0 > 0 {
+            rows.push(("(other channels)", &self.other));
+        }
+        for (topic, (packets, bytes)) in rows {
+            let rate = if span > 0.0 {
+                *packets as f64 / span
+            } else {
+                0.0
+            };
+            let _ = writeln!(
+                out,
+                "  {topic:<32} {packets:>10} packets {bytes:>12} bytes {rate:>10.1}/s"
+            );
+        }
+        out
+    }
+}
+
+fn info(args: InfoArgs) -> anyhow::Result<()> {
+    let mut log = open(&args.file)?;
+    let mut summary = Summary::default();
+    for record in log.by_ref() {
+        summary.add(&record?);
+    }
+    report_damage(&log);
+    print!("{}", summary.text(&args.file));
     Ok(())
 }
 
