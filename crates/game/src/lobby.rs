@@ -19,6 +19,10 @@ use crate::rules::{KindRules, RobotKind, Rules, TeamSetup, MAX_UPGRADE, UPGRADE_
 
 /// The lobby is published this often, for pages that open late.
 const PUBLISH_EVERY: Duration = Duration::from_millis(500);
+/// The map goes out with every this many lobby states, so a page opened
+/// during the pre-match draws the battlefield while its player picks units
+/// (the river decides who needs amphibians) within a few seconds.
+const MAP_EVERY: u64 = 6;
 /// A change is published within this, and no sooner after the last: a flood of packets (forged
 /// or not) makes ten lobby packets a second, not one each.
 const CHANGE_GAP: Duration = Duration::from_millis(100);
@@ -37,6 +41,8 @@ pub struct Lobby {
     subs: BTreeSet<Subject>,
     outbox: VecDeque<Vec<u8>>,
     next_publish: Time,
+    /// Lobby states published so far.
+    published: u64,
 }
 
 impl Lobby {
@@ -67,6 +73,7 @@ impl Lobby {
             subs,
             outbox: VecDeque::new(),
             next_publish: Time::ZERO,
+            published: 0,
         }
     }
 
@@ -172,6 +179,13 @@ impl Lobby {
     }
 
     fn publish(&mut self, now: Time) {
+        if self.published % MAP_EVERY == 0 {
+            match protocol::map_message(&self.field).encode() {
+                Ok(parts) => self.outbox.extend(parts),
+                Err(e) => tracing::warn!(error = %e, "cannot send the map"),
+            }
+        }
+        self.published += 1;
         match self.state().encode() {
             Ok(p) => self.outbox.push_back(p),
             Err(e) => tracing::warn!(error = %e, "the lobby is too large to send"),
@@ -314,6 +328,19 @@ mod tests {
         assert_eq!(s.teams[0].setup, "front:tank+h2+p1,scout+h1 back:amphibian");
         assert_eq!(s.teams[0].cost, 5 + 3 + 2 + 1 + 4);
         assert_eq!(s.kinds.len(), 4);
+    }
+
+    #[test]
+    fn the_map_goes_out_during_the_pre_match_so_a_player_sees_it_while_choosing() {
+        let mut l = lobby();
+        let mut maps = 0;
+        for k in 0..(2 * MAP_EVERY) {
+            l.handle_timeout(Time::from_micros(k * 500_000));
+            while let Some(p) = l.poll_transmit() {
+                maps += usize::from(Packet::parse(&p).unwrap().has_subject(protocol::MAP));
+            }
+        }
+        assert!(maps >= 2, "{maps} map packets in {} s", MAP_EVERY);
     }
 
     #[test]
