@@ -22,6 +22,14 @@
 //! from the winner the announcer already replaced) goes on the timeline and
 //! changes nothing else; `ack` and `done` count only from the round's winner.
 //!
+//! Seals: the board shows only sealed messages, each from the key its task
+//! bound, as agents and announcers take them (`colony_proto::murdoch`'s
+//! "Who may say what"): the announcer's from the key that sealed the
+//! announcement (or the first announcer's message heard, for a board that came
+//! in later), a bidder's from the key of its first message in the round.
+//! Anything else is counted (`forged`) and left off, so a forged `done` never
+//! shows a task finished.
+//!
 //! To the page:
 //!
 //! ```text
@@ -29,14 +37,18 @@
 //!   bids:[{round,bidder,score,withdrawn}],bids_missed:N,winner:{bidder,score,bids}|null,
 //!   progress,renewals,reallocations,reason,timeline:[{at:MS,text}],first:MS,last:MS}],
 //!  "robots":[{name,mode,battery,resources:[..],task,task_name,last:MS,silent}],
-//!  "forgotten":N,"robots_forgotten":N,"bad":N}
+//!  "forgotten":N,"robots_forgotten":N,"bad":N,"forged":N}
 //! ```
 //! Times are milliseconds since the monitor started.
 
 use std::collections::{BTreeMap, VecDeque};
 use std::time::{Duration, Instant};
 
-use colony_proto::murdoch::{Announcement, Message, Negotiation, RobotReport, NEGOTIATION_PREFIX};
+use colony_proto::murdoch::{
+    Announcement, Message, Negotiation, RobotReport, Signed, NEGOTIATION_PREFIX,
+};
+use colony_proto::DecodeError;
+use colony_wire::seal::PublicKey;
 use colony_wire::Packet;
 use serde::Serialize;
 
@@ -154,6 +166,15 @@ pub struct TaskView {
     pub first: u64,
     /// When it was last heard of, ms.
     pub last: u64,
+    /// The key that sealed its announcement (or, when the board came in
+    /// later, the first announcer's message it heard): only it speaks for the
+    /// announcer.
+    #[serde(skip)]
+    announcer_key: Option<PublicKey>,
+    /// The key that sealed each bidder's first message this round: only it
+    /// speaks for that bidder.
+    #[serde(skip)]
+    bidder_keys: BTreeMap<String, PublicKey>,
 }
 
 /// A robot, from its reports.
@@ -186,6 +207,7 @@ pub struct TaskBoard {
     forgotten: u64,
     robots_forgotten: u64,
     bad: u64,
+    forged: u64,
     version: u64,
 }
 
@@ -198,6 +220,7 @@ struct BoardJson<'a> {
     forgotten: u64,
     robots_forgotten: u64,
     bad: u64,
+    forged: u64,
 }
 
 /// A task as the board sends it, with what it has to do with the tasks announced before it
@@ -270,6 +293,7 @@ impl TaskBoard {
             forgotten: 0,
             robots_forgotten: 0,
             bad: 0,
+            forged: 0,
             version: 0,
         }
     }
@@ -299,6 +323,12 @@ impl TaskBoard {
         self.bad
     }
 
+    /// Messages left off the board: not sealed, or sealed by a key other than
+    /// the one the task's announcer or the bidder they name spoke with.
+    pub fn forged(&self) -> u64 {
+        self.forged
+    }
+
     fn ms(&self, now: Instant) -> u64 {
         now.saturating_duration_since(self.started).as_millis() as u64
     }
@@ -308,19 +338,29 @@ impl TaskBoard {
         if !is_murdoch(packet) {
             return;
         }
-        match Message::decode(packet) {
-            Ok(Message::Announce(a)) => self.on_announce(now, a),
-            Ok(Message::Negotiation { subject, message }) => {
-                if let Some((announcer, id, round)) = read_subject(subject.as_str()) {
-                    let announcer = announcer.to_owned();
-                    self.on_negotiation(now, announcer, id, round, message);
-                }
+        // The board shows what agents and announcers act on: sealed messages,
+        // each from the key its task bound (see `seals`).
+        let (message, key) = match Message::open(packet) {
+            Ok(Signed { message, key, .. }) => (message, key),
+            Err(DecodeError::Seal(_)) => {
+                self.forged += 1;
+                self.version += 1;
+                return;
             }
-            Ok(Message::Robot(r)) => self.on_robot(now, r),
             Err(_) => {
                 self.bad += 1;
                 return;
             }
+        };
+        match message {
+            Message::Announce(a) => self.on_announce(now, a, key),
+            Message::Negotiation { subject, message } => {
+                if let Some((announcer, id, round)) = read_subject(subject.as_str()) {
+                    let announcer = announcer.to_owned();
+                    self.on_negotiation(now, announcer, id, round, message, key);
+                }
+            }
+            Message::Robot(r) => self.on_robot(now, r),
         }
         self.version += 1;
     }
@@ -360,15 +400,21 @@ impl TaskBoard {
             timeline: VecDeque::new(),
             first: ms,
             last: ms,
+            announcer_key: None,
+            bidder_keys: BTreeMap::new(),
         });
         task.last = ms;
         task
     }
 
-    fn on_announce(&mut self, now: Instant, a: Announcement) {
+    fn on_announce(&mut self, now: Instant, a: Announcement, key: PublicKey) {
         let round = read_subject(a.negotiation.as_str()).map_or(1, |(_, _, r)| r);
         let ms = self.ms(now);
         let task = self.entry(now, a.announcer.to_string(), a.id);
+        if !speaks(&mut task.announcer_key, key) {
+            self.forged += 1;
+            return;
+        }
         task.name = a.spec.name.clone();
         task.resources = a.spec.resources.iter().map(|s| s.to_string()).collect();
         task.length_s = a.spec.length_s;
@@ -400,12 +446,14 @@ impl TaskBoard {
         id: u64,
         round: u32,
         m: Negotiation,
+        key: PublicKey,
     ) {
         if m.task() != id {
             self.bad += 1;
             return;
         }
         let ms = self.ms(now);
+        let announcer_token = announcer.clone();
         let task = self.entry(now, announcer, id);
         if round < task.round {
             note(task, ms, format!("(round {round}) {}", describe(&m)));
@@ -415,6 +463,33 @@ impl TaskBoard {
             // A new round whose announcement this board did not hear.
             new_round(task, round);
             task.state = TaskState::Bidding;
+        }
+        // Who the message claims to come from: a bidder it names, or the announcer.
+        let bidder = match &m {
+            Negotiation::Bid(b) => Some(b.bidder.as_str()),
+            Negotiation::Ack { bidder, .. }
+            | Negotiation::Decline { bidder, .. }
+            | Negotiation::Done { bidder, .. }
+            | Negotiation::Abandon { bidder, .. } => Some(bidder.as_str()),
+            Negotiation::Renew { by, .. } if by.as_str() != announcer_token => Some(by.as_str()),
+            _ => None,
+        };
+        let genuine = match bidder {
+            Some(b) => match task.bidder_keys.get(b) {
+                Some(k) => *k == key,
+                // Bounded, with room for the bidders past MAX_BIDS that are
+                // only counted as missed.
+                None if task.bidder_keys.len() < 2 * MAX_BIDS => {
+                    task.bidder_keys.insert(b.to_owned(), key);
+                    true
+                }
+                None => false,
+            },
+            None => speaks(&mut task.announcer_key, key),
+        };
+        if !genuine {
+            self.forged += 1;
+            return;
         }
         let from_winner =
             |task: &TaskView, who: &str| task.winner.as_ref().is_none_or(|w| w.bidder == who);
@@ -583,6 +658,7 @@ impl TaskBoard {
             forgotten: self.forgotten + (self.tasks.len().saturating_sub(MAX_SHOWN) as u64),
             robots_forgotten: self.robots_forgotten,
             bad: self.bad,
+            forged: self.forged,
         };
         serde_json::to_string(&json).unwrap_or_else(|_| "{}".into())
     }
@@ -614,6 +690,13 @@ fn new_round(task: &mut TaskView, round: u32) {
     task.reallocations = round.saturating_sub(1);
     task.winner = None;
     task.progress = None;
+    task.bidder_keys.clear();
+}
+
+/// Whether `key` is the task's announcer's: the one bound to it, or the first
+/// heard, which is then bound.
+fn speaks(bound: &mut Option<PublicKey>, key: PublicKey) -> bool {
+    *bound.get_or_insert(key) == key
 }
 
 /// A message of an earlier round, as its timeline entry says it.
@@ -637,6 +720,7 @@ fn describe(m: &Negotiation) -> String {
 mod tests {
     use super::*;
     use colony_proto::murdoch::{negotiation_subject, Bid, RobotMode, TaskSpec, Token};
+    use colony_wire::seal::Identity;
 
     fn token(s: &str) -> Token {
         Token::new(s).unwrap()
@@ -652,13 +736,78 @@ mod tests {
         }
     }
 
+    thread_local! {
+        static KEYS: std::cell::RefCell<BTreeMap<String, Identity>> =
+            const { std::cell::RefCell::new(BTreeMap::new()) };
+    }
+
+    /// `bytes` sealed by the process called `name` (one key per name per test).
+    fn sealed_by(name: &str, bytes: Vec<u8>) -> Vec<u8> {
+        KEYS.with(|k| {
+            k.borrow_mut()
+                .entry(name.to_owned())
+                .or_insert_with(Identity::generate)
+                .sealed(bytes)
+        })
+    }
+
+    /// Sealed by whoever a MURDOCH packet says it comes from.
     fn feed(board: &mut TaskBoard, at: Instant, bytes: &[u8]) {
-        board.on_packet(at, &Packet::parse(bytes).unwrap());
+        let p = Packet::parse(bytes).unwrap();
+        let who = match Message::decode(&p) {
+            Ok(Message::Negotiation { message, .. }) => match message {
+                Negotiation::Bid(b) => b.bidder.to_string(),
+                Negotiation::Ack { bidder, .. }
+                | Negotiation::Decline { bidder, .. }
+                | Negotiation::Done { bidder, .. }
+                | Negotiation::Abandon { bidder, .. } => bidder.to_string(),
+                Negotiation::Renew { by, .. } => by.to_string(),
+                _ => "user".to_owned(),
+            },
+            Ok(Message::Robot(r)) => r.name.to_string(),
+            _ => "user".to_owned(),
+        };
+        feed_as(board, at, &who, bytes);
+    }
+
+    fn feed_as(board: &mut TaskBoard, at: Instant, who: &str, bytes: &[u8]) {
+        let sealed = sealed_by(who, bytes.to_vec());
+        board.on_packet(at, &Packet::parse(&sealed).unwrap());
     }
 
     fn say(board: &mut TaskBoard, at: Instant, round: u32, m: Negotiation) {
         let subject = negotiation_subject(&token("user"), 17, round);
         feed(board, at, &m.encode(&subject).unwrap());
+    }
+
+    #[test]
+    fn a_forged_or_unsealed_done_never_shows_a_task_finished() {
+        let t0 = Instant::now();
+        let ms = |n| t0 + Duration::from_millis(n);
+        let mut b = TaskBoard::new(t0);
+        feed(&mut b, ms(10), &announcement(1).encode().unwrap());
+        say(&mut b, ms(20), 1, bid("r1", 3.0));
+        say(&mut b, ms(200), 1, award("r1", 3.0, 1));
+        let subject = negotiation_subject(&token("user"), 17, 1);
+        let done = Negotiation::Done {
+            task: 17,
+            bidder: token("r1"),
+        }
+        .encode(&subject)
+        .unwrap();
+        feed_as(&mut b, ms(300), "mallory", &done);
+        b.on_packet(ms(310), &Packet::parse(&done).unwrap());
+        let cancel = Negotiation::Cancel {
+            task: 17,
+            reason: "forged".into(),
+        }
+        .encode(&subject)
+        .unwrap();
+        feed_as(&mut b, ms(320), "mallory", &cancel);
+        assert_eq!(state(&b), TaskState::Awarded);
+        assert_eq!(b.forged(), 3);
+        feed(&mut b, ms(400), &done);
+        assert_eq!(state(&b), TaskState::Done);
     }
 
     fn bid(bidder: &str, score: f64) -> Negotiation {

@@ -106,6 +106,7 @@ function draw(board) {
   if (board.forgotten > 0) notes.push({ cls: 'stale-banner', text: `${board.forgotten} older tasks are not shown` });
   if (board.robots_forgotten > 0) notes.push({ cls: 'stale-banner', text: `${board.robots_forgotten} robots silent longest are no longer shown` });
   if (board.bad > 0) notes.push({ cls: 'stale-banner', text: `${board.bad} MURDOCH packets did not read and were ignored` });
+  if (board.forged > 0) notes.push({ cls: 'stale-banner', text: `${board.forged} MURDOCH messages were not sealed by whom they speak for and were left off` });
   showBanners($('banners'), notes);
 }
 
