@@ -317,7 +317,8 @@ fn the_spy_plays_a_log_the_hub_wrote() {
         "{row}"
     );
 
-    spy.keys(&["Home", "Down", "Down", "Enter"]);
+    // (`g`: the first channel; Home would play the log again.)
+    spy.keys(&["g", "Down", "Down", "Enter"]);
     let screen = spy.wait_for(Duration::from_secs(10), "the pose channel", |s| {
         s.lines().nth(1).is_some_and(|l| l.starts_with(" pose"))
     });
@@ -373,6 +374,104 @@ fn the_spy_plays_an_mcap_the_hub_wrote_and_says_what_a_kill_cut_short() {
     // The note is wrapped at word boundaries.
     let words = screen.split_whitespace().collect::<Vec<_>>().join(" ");
     assert!(words.contains("before its writer finished it"), "{screen}");
+    spy.keys(&["C-c"]);
+    spy.wait_for(Duration::from_secs(10), "its exit", |s| {
+        s.contains("[colony exited: 0]")
+    });
+}
+
+/// The log's time on the status line (`log +12.3 s`), in tenths of a second.
+fn log_time(screen: &str) -> Option<u64> {
+    let text = screen.split("log +").nth(1)?.split_whitespace().next()?;
+    let (whole, tenth) = text.split_once('.')?;
+    Some(whole.parse::<u64>().ok()? * 10 + tenth.parse::<u64>().ok()?)
+}
+
+#[test]
+fn a_paused_log_stands_still_seeks_and_filters() {
+    // A minute of log: `tick` every 100 ms, `slow` every second, the last record at 59.9 s.
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("minute.clog");
+    let log_text = log.to_str().unwrap().to_string();
+    let (mut w, _) = colony_hub::log::LogWriter::open(&log).unwrap();
+    let base = std::time::SystemTime::now() - Duration::from_secs(3600);
+    let from = "127.0.0.1:5".parse().unwrap();
+    for i in 0..600u64 {
+        let at = base + Duration::from_millis(i * 100);
+        w.append(at, from, format!("@ <tick> 0\nt n {i}\n").as_bytes())
+            .unwrap();
+        if i % 10 == 0 {
+            w.append(at, from, format!("@ <slow> 0\ns n {i}\n").as_bytes())
+                .unwrap();
+        }
+    }
+    w.flush().unwrap();
+    drop(w);
+
+    let spy = Tmux::start("pause", &["spy", "--log", &log_text]);
+    spy.wait_for(Duration::from_secs(20), "the log playing", |s| {
+        s.contains("playing") && log_time(s).is_some_and(|t| t >= 10)
+    });
+    spy.keys(&["Space"]);
+    let paused = spy.wait_for(Duration::from_secs(10), "PAUSED", |s| s.contains("PAUSED"));
+    let at = log_time(&paused).expect("the log's time");
+    // However long it stays paused, the log's time and what was taken stand.
+    std::thread::sleep(Duration::from_secs(3));
+    let still = spy.screen();
+    assert!(still.contains("PAUSED"), "{still}");
+    assert_eq!(
+        log_time(&still),
+        Some(at),
+        "the time moved while paused:\n{still}"
+    );
+    assert_eq!(seen(&still), seen(&paused), "{still}");
+
+    // Paused, a seek lands on its target and stays there: 10 s on, 10 s back, the start.
+    spy.keys(&["Right"]);
+    spy.wait_for(Duration::from_secs(20), "10 s on", |s| {
+        log_time(s) == Some(at + 100) && s.contains("PAUSED") && !s.contains("seeking")
+    });
+    spy.keys(&["Left"]);
+    spy.wait_for(Duration::from_secs(20), "10 s back", |s| {
+        log_time(s) == Some(at) && s.contains("PAUSED") && !s.contains("seeking")
+    });
+    spy.keys(&["Home"]);
+    let start = spy.wait_for(Duration::from_secs(20), "the start", |s| {
+        log_time(s) == Some(0) && s.contains("PAUSED") && !s.contains("seeking")
+    });
+    assert_eq!(seen(&start), 2, "{start}");
+    // Past the end: the last record.
+    spy.keys(&[
+        "Right", "Right", "Right", "Right", "Right", "Right", "Right",
+    ]);
+    let end = spy.wait_for(Duration::from_secs(20), "the end", |s| {
+        s.contains("ended") && log_time(s) == Some(599)
+    });
+    assert_eq!(seen(&end), 660, "{end}");
+
+    // A filter: only `slow` is listed, and the status line says so.
+    spy.keys(&["/", "slow", "Enter"]);
+    let filtered = spy.wait_for(Duration::from_secs(10), "the filter", |s| {
+        s.contains("/slow: 1 of 2")
+    });
+    assert!(
+        filtered.lines().any(|l| l.starts_with("slow ")),
+        "{filtered}"
+    );
+    assert!(
+        !filtered.lines().any(|l| l.starts_with("tick ")),
+        "{filtered}"
+    );
+    spy.keys(&["Escape"]);
+    spy.wait_for(Duration::from_secs(10), "every channel again", |s| {
+        s.lines().any(|l| l.starts_with("tick ")) && !s.contains("/slow")
+    });
+
+    // Going on from 10 s before the end, paused no more: the time moves again.
+    spy.keys(&["Left", "Space"]);
+    spy.wait_for(Duration::from_secs(20), "the log playing on", |s| {
+        !s.contains("PAUSED") && log_time(s).is_some_and(|t| t > 499)
+    });
     spy.keys(&["C-c"]);
     spy.wait_for(Duration::from_secs(10), "its exit", |s| {
         s.contains("[colony exited: 0]")

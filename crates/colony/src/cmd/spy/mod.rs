@@ -1,16 +1,19 @@
 //! `colony spy`: a terminal view of a live hub (or of a traffic log), in the manner of
 //! lcm-spy. Every channel with its rate, bandwidth, priority mix and last packet, updated in
-//! place; Enter opens a channel, decoded field by field, with a plot of any numeric field.
+//! place; Enter opens a channel, decoded field by field, with a plot of any numeric field;
+//! `/` filters the channels; space pauses a log (or freezes a hub's view), and the arrows move
+//! a log 10 s either way.
 //!
 //! The spy taps the hub (the `tap` request, as the monitor does: every packet the hub forwards,
 //! whatever its subjects) and asks for the hub's status once a second, to tell whether the hub
 //! lets it tap and how many packets it missed. What it knows is a sans-IO [`model::Spy`] fed
-//! packets and time; [`view`] draws it with ratatui; this module owns the loop, the socket
-//! (or the log) and the terminal.
+//! packets and time, and a log's playing is a sans-IO [`playback::Player`]; [`view`] draws
+//! it with ratatui; this module owns the loop, the socket (or the log) and the terminal.
 
 mod fields;
 mod missed;
 mod model;
+mod playback;
 mod rate;
 mod view;
 
@@ -22,14 +25,13 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use colony_client::{Delivery, HubState};
-use colony_hub::log::Record;
-use colony_hub::replay::Pacer;
 use colony_mcap::TrafficReader;
-use colony_wire::{Packet, Reply, Request, HUB_SUBJECT};
+use colony_wire::{Reply, Request};
 use ratatui::crossterm::event::{self, Event, KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
 use ratatui::DefaultTerminal;
 
 use model::{Action, Feed, HubLink, Key, LogState, Spy};
+use playback::{set_log_state, Played, Player};
 
 use super::{Bounds, HubAddr};
 
@@ -53,7 +55,13 @@ const BATCH: usize = 20_000;
 #[derive(clap::Args, Debug)]
 #[command(after_help = "\
 Keys: arrows or j/k select a channel, Enter opens it; Tab, Shift-Tab or the arrows pick a \
-numeric field to plot; Esc or q goes back, and quits from the table; Ctrl-C quits.
+numeric field to plot; Esc or q goes back, and quits from the table; Ctrl-C quits. \
+/ types a filter: only the channels whose name or last packet holds it are listed (Enter \
+keeps it, Esc clears it). Space freezes the view of a hub (the spy goes on counting) or \
+pauses a log; space again goes on.
+
+With --log, Left and Right move the log 10 s back or on, and Home starts it again (pick \
+fields with Tab or Up and Down); a seek back reads the log again from its start.
 
 The status line counts packets seen, packets the hub's status says it published that never \
 reached the spy (missed), and datagrams that were no packet (unparsed).
@@ -87,7 +95,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Everything that can fail for want of a hub or a file fails here, before the screen
     // changes, so the error reads as any other command's.
     let source = match &args.log {
-        Some(file) => Source::Log(Box::new(TrafficReader::open(file)?)),
+        Some(file) => Source::Log(Box::new(TrafficReader::open(file)?), file.clone()),
         None => {
             // With the hub's key it taps as a console, which a hub never
             // refuses for too many taps.
@@ -102,20 +110,31 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let _restore = Restore;
     match source {
         Source::Hub(client) => run_live(&mut terminal, *client, window, &stop),
-        Source::Log(reader) => {
-            let file = args.log.as_ref().expect("a log source has a file");
+        Source::Log(reader, file) => {
             let name = file.file_name().map_or_else(
                 || file.display().to_string(),
                 |n| n.to_string_lossy().into(),
             );
-            run_log(&mut terminal, *reader, name, args.speed, window, &stop)
+            let log = Log {
+                reader: *reader,
+                file,
+                name,
+            };
+            run_log(&mut terminal, log, args.speed, window, &stop)
         }
     }
 }
 
 enum Source {
     Hub(Box<colony_client::UdpClient>),
-    Log(Box<TrafficReader>),
+    Log(Box<TrafficReader>, PathBuf),
+}
+
+/// A log being played: its reader, opened again to seek back, and its name for the title.
+struct Log {
+    reader: TrafficReader,
+    file: PathBuf,
+    name: String,
 }
 
 /// Puts the terminal back as it was when dropped.
@@ -196,9 +215,9 @@ fn run_live(
             };
         }
         spy.set_now(start.elapsed());
-        match keys(&mut spy, &input)? {
+        match keys(&mut spy, &input, |_, _| {})? {
             Some(Action::Quit) => break Ok(()),
-            Some(Action::Continue) => next_draw = Instant::now(),
+            Some(_) => next_draw = Instant::now(),
             None => {}
         }
         if Instant::now() >= next_draw {
@@ -232,89 +251,52 @@ fn enlarge_receive_buffer(client: &colony_client::UdpClient, bytes: usize) {
 
 fn run_log(
     terminal: &mut DefaultTerminal,
-    mut reader: TrafficReader,
-    file: String,
+    mut log: Log,
     speed: f64,
     window: Duration,
     stop: &AtomicBool,
 ) -> anyhow::Result<()> {
     let input = terminal_events()?;
     let start = Instant::now();
-    let mut pacer = Pacer::new(start, speed);
+    let mut player = Player::new(speed);
     let mut spy = Spy::new(
         Feed::Log {
-            file,
+            file: log.name.clone(),
             speed,
             state: LogState::Playing,
         },
         window,
     );
-    let mut first: Option<u64> = None;
-    let mut pending: Option<(Duration, Record)> = None;
     let mut next_draw = start;
     loop {
         if stop.load(Ordering::Relaxed) {
             return Ok(());
         }
-        let playing = matches!(
-            spy.feed,
-            Feed::Log {
-                state: LogState::Playing,
-                ..
+        let next_due = match player.play(&mut spy, &mut log.reader, start.elapsed(), BATCH) {
+            Played::Wait(due) => due.map(|d| start + d),
+            Played::Ended => {
+                set_log_state(&mut spy, LogState::Ended(log.reader.damage()));
+                None
             }
-        );
-        let mut next_due = None;
-        if playing {
-            for _ in 0..BATCH {
-                if pending.is_none() {
-                    match reader.next() {
-                        Some(Ok(r)) => {
-                            let t0 = *first.get_or_insert(r.time_us);
-                            pending =
-                                Some((Duration::from_micros(r.time_us.saturating_sub(t0)), r));
-                        }
-                        Some(Err(e)) => {
-                            set_log_state(&mut spy, LogState::Failed(e.to_string()));
-                            break;
-                        }
-                        None => {
-                            set_log_state(&mut spy, LogState::Ended(reader.damage()));
-                            break;
-                        }
-                    }
+        };
+        let action = keys(&mut spy, &input, |spy, action| {
+            if player.on_action(spy, action, start.elapsed()) {
+                // A log is read forward only: a seek back reads it again from its start.
+                match TrafficReader::open(&log.file) {
+                    Ok(reader) => log.reader = reader,
+                    Err(e) => player.fail(spy, e.to_string()),
                 }
-                let Some((since, _)) = &pending else { break };
-                let due = pacer.due(*since);
-                if due > Instant::now() {
-                    next_due = Some(due);
-                    break;
-                }
-                let (since, record) = pending.take().expect("a pending record");
-                take_record(&mut spy, since, &record);
             }
-            // While playing, the log's clock runs at its pace; once done it stops at the last
-            // record, so the rates at the end stay on the screen.
-            if matches!(
-                spy.feed,
-                Feed::Log {
-                    state: LogState::Playing,
-                    ..
-                }
-            ) {
-                let elapsed = start.elapsed().as_secs_f64() * speed;
-                let mut log_now = Duration::try_from_secs_f64(elapsed).unwrap_or(Duration::MAX);
-                if let Some((since, _)) = &pending {
-                    log_now = log_now.min(*since);
-                }
-                spy.set_now(log_now);
-            }
-        }
-        match keys(&mut spy, &input)? {
+        })?;
+        match action {
             Some(Action::Quit) => return Ok(()),
-            Some(Action::Continue) => next_draw = Instant::now(),
+            Some(_) => next_draw = Instant::now(),
             None => {}
         }
-        if Instant::now() >= next_draw {
+        // While a seek takes the records before its target, the screen shows where it goes
+        // (drawn after its key) and nothing on the way.
+        let pressed = action.is_some();
+        if pressed || (Instant::now() >= next_draw && !player.seeking()) {
             terminal.draw(|f| view::draw(f, &spy))?;
             next_draw = Instant::now() + DRAW_EVERY;
         }
@@ -323,22 +305,6 @@ fn run_log(
             .flatten()
             .fold(Instant::now() + TICK, Instant::min);
         std::thread::sleep(wake.saturating_duration_since(Instant::now()));
-    }
-}
-
-fn set_log_state(spy: &mut Spy, new: LogState) {
-    if let Feed::Log { state, .. } = &mut spy.feed {
-        *state = new;
-    }
-}
-
-/// A logged datagram, as a tap would have received it: control requests belonged to their
-/// senders and never reached a tap, so they are left out, as a replay leaves them out.
-fn take_record(spy: &mut Spy, since: Duration, record: &Record) {
-    match Packet::parse(&record.payload) {
-        Ok(p) if p.has_subject(HUB_SUBJECT) => spy.set_now(since),
-        Ok(p) => spy.on_packet(since, &p),
-        Err(_) => spy.on_datagram(since, &record.payload),
     }
 }
 
@@ -361,8 +327,13 @@ fn terminal_events() -> anyhow::Result<Receiver<std::io::Result<Event>>> {
     Ok(rx)
 }
 
-/// Takes every key waiting; `None` when there was none.
-fn keys(spy: &mut Spy, input: &Receiver<std::io::Result<Event>>) -> anyhow::Result<Option<Action>> {
+/// Takes every key waiting, each action but quitting passed to `then` as it comes; `None`
+/// when there was none.
+fn keys(
+    spy: &mut Spy,
+    input: &Receiver<std::io::Result<Event>>,
+    mut then: impl FnMut(&mut Spy, Action),
+) -> anyhow::Result<Option<Action>> {
     let mut any = None;
     loop {
         let event = match input.try_recv() {
@@ -372,10 +343,14 @@ fn keys(spy: &mut Spy, input: &Receiver<std::io::Result<Event>>) -> anyhow::Resu
         };
         match event {
             Event::Key(k) if k.kind != KeyEventKind::Release => {
-                let Some(key) = key_of(k) else { continue };
-                if spy.on_key(key) == Action::Quit {
+                let Some(key) = key_of(k, spy.typing()) else {
+                    continue;
+                };
+                let action = spy.on_key(key);
+                if action == Action::Quit {
                     return Ok(Some(Action::Quit));
                 }
+                then(spy, action);
                 any = Some(Action::Continue);
             }
             Event::Resize(..) => any = Some(Action::Continue),
@@ -384,20 +359,40 @@ fn keys(spy: &mut Spy, input: &Receiver<std::io::Result<Event>>) -> anyhow::Resu
     }
 }
 
-fn key_of(k: KeyEvent) -> Option<Key> {
+/// The spy's key for a terminal's; while a filter is typed (`typing`), characters are
+/// typed.
+fn key_of(k: KeyEvent, typing: bool) -> Option<Key> {
     if k.modifiers.contains(KeyModifiers::CONTROL) {
         return matches!(k.code, KeyCode::Char('c' | 'd')).then_some(Key::Quit);
+    }
+    if typing {
+        return Some(match k.code {
+            KeyCode::Char(c) => Key::Char(c),
+            KeyCode::Backspace => Key::Erase,
+            KeyCode::Enter => Key::Open,
+            KeyCode::Esc => Key::Back,
+            KeyCode::Up => Key::Up,
+            KeyCode::Down => Key::Down,
+            KeyCode::PageUp => Key::PageUp,
+            KeyCode::PageDown => Key::PageDown,
+            _ => return None,
+        });
     }
     Some(match k.code {
         KeyCode::Up | KeyCode::Char('k') => Key::Up,
         KeyCode::Down | KeyCode::Char('j') => Key::Down,
         KeyCode::PageUp => Key::PageUp,
-        KeyCode::PageDown | KeyCode::Char(' ') => Key::PageDown,
-        KeyCode::Home | KeyCode::Char('g') => Key::Home,
+        KeyCode::PageDown => Key::PageDown,
+        KeyCode::Home => Key::Home,
+        KeyCode::Char('g') => Key::Top,
         KeyCode::End | KeyCode::Char('G') => Key::End,
         KeyCode::Enter => Key::Open,
-        KeyCode::Tab | KeyCode::Right | KeyCode::Char('l') => Key::Next,
-        KeyCode::BackTab | KeyCode::Left | KeyCode::Char('h') => Key::Previous,
+        KeyCode::Tab | KeyCode::Char('l') => Key::Next,
+        KeyCode::BackTab | KeyCode::Char('h') => Key::Previous,
+        KeyCode::Right => Key::Right,
+        KeyCode::Left => Key::Left,
+        KeyCode::Char('/') => Key::Search,
+        KeyCode::Char(' ') => Key::Pause,
         KeyCode::Esc | KeyCode::Backspace | KeyCode::Char('q') => Key::Back,
         _ => return None,
     })
@@ -409,7 +404,7 @@ mod tests {
 
     #[test]
     fn keys_map_as_the_help_says() {
-        let k = |code| key_of(KeyEvent::new(code, KeyModifiers::NONE));
+        let k = |code| key_of(KeyEvent::new(code, KeyModifiers::NONE), false);
         assert_eq!(k(KeyCode::Char('j')), Some(Key::Down));
         assert_eq!(k(KeyCode::Up), Some(Key::Up));
         assert_eq!(k(KeyCode::Enter), Some(Key::Open));
@@ -418,7 +413,22 @@ mod tests {
         assert_eq!(k(KeyCode::Esc), Some(Key::Back));
         assert_eq!(k(KeyCode::Char('q')), Some(Key::Back));
         assert_eq!(k(KeyCode::Char('x')), None);
+        assert_eq!(k(KeyCode::Char('/')), Some(Key::Search));
+        assert_eq!(k(KeyCode::Char(' ')), Some(Key::Pause));
+        assert_eq!(k(KeyCode::Left), Some(Key::Left));
+        assert_eq!(k(KeyCode::Home), Some(Key::Home));
+        assert_eq!(k(KeyCode::Char('g')), Some(Key::Top));
         let ctrl_c = KeyEvent::new(KeyCode::Char('c'), KeyModifiers::CONTROL);
-        assert_eq!(key_of(ctrl_c), Some(Key::Quit));
+        assert_eq!(key_of(ctrl_c, false), Some(Key::Quit));
+        // Typing a filter, every character is typed, and Ctrl-C still quits.
+        let t = |code| key_of(KeyEvent::new(code, KeyModifiers::NONE), true);
+        for c in ['q', 'j', ' ', '/', 'g', 'é'] {
+            assert_eq!(t(KeyCode::Char(c)), Some(Key::Char(c)));
+        }
+        assert_eq!(t(KeyCode::Backspace), Some(Key::Erase));
+        assert_eq!(t(KeyCode::Enter), Some(Key::Open));
+        assert_eq!(t(KeyCode::Esc), Some(Key::Back));
+        assert_eq!(t(KeyCode::Left), None);
+        assert_eq!(key_of(ctrl_c, true), Some(Key::Quit));
     }
 }

@@ -29,6 +29,9 @@ pub const MAX_SERIES: usize = 256;
 /// ...and points kept per field.
 pub const MAX_POINTS: usize = 600;
 
+/// The longest filter typed after `/`, in characters.
+pub const MAX_FILTER: usize = 64;
+
 /// A key, as the spy understands it (the terminal's keys are mapped onto these).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Key {
@@ -36,15 +39,31 @@ pub enum Key {
     Down,
     PageUp,
     PageDown,
+    /// Home: the first channel or field; with a log, back to its start.
     Home,
+    /// `g`: the first channel or field.
+    Top,
     End,
-    /// Enter: open the selected channel.
+    /// Enter: open the selected channel (keep the filter, while typing one).
     Open,
-    /// Tab or Right: the next numeric field.
+    /// Tab: the next numeric field.
     Next,
-    /// Shift-Tab or Left: the previous numeric field.
+    /// Shift-Tab: the previous numeric field.
     Previous,
-    /// Esc, `q` or Backspace: back to the table, or quit from it.
+    /// Left: with a log, 10 s back; else the previous numeric field.
+    Left,
+    /// Right: with a log, 10 s on; else the next numeric field.
+    Right,
+    /// `/`: type a filter of the channels.
+    Search,
+    /// A character typed into the filter.
+    Char(char),
+    /// Backspace while typing the filter.
+    Erase,
+    /// Space: pause a log, or freeze the view of a hub; again, go on.
+    Pause,
+    /// Esc, `q` or Backspace: clear the filter (Esc while typing one), back to the table, or
+    /// quit from it.
     Back,
     /// Ctrl-C: quit from anywhere.
     Quit,
@@ -55,6 +74,19 @@ pub enum Key {
 pub enum Action {
     Continue,
     Quit,
+    /// Move a log's clock (only a log's spy asks this).
+    Seek(Seek),
+}
+
+/// Where a seek moves a log's clock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Seek {
+    /// 10 s on, or to the end.
+    Forward,
+    /// 10 s back, or to the start.
+    Back,
+    /// To the log's start.
+    Start,
 }
 
 /// How many packets of each priority a channel carried.
@@ -243,6 +275,17 @@ pub struct Spy {
     tap: Tap,
     pub feed: Feed,
     now: Duration,
+    /// Only channels whose name or last packet holds this are listed (all, when empty).
+    filter: String,
+    /// Keys type into the filter.
+    typing: bool,
+    /// A log's clock stands; a hub's view is frozen.
+    paused: bool,
+    /// A hub's view as it was when frozen: drawn, and moved about in, while this one goes on
+    /// counting.
+    frozen: Option<Box<Spy>>,
+    /// Where a log's clock is being moved to, while the records before it are taken.
+    seeking: Option<Duration>,
 }
 
 impl Spy {
@@ -260,7 +303,57 @@ impl Spy {
             tap: Tap::Unknown,
             feed,
             now: Duration::ZERO,
+            filter: String::new(),
+            typing: false,
+            paused: false,
+            frozen: None,
+            seeking: None,
         }
+    }
+
+    /// Forgets every packet, to play a log again from its start: the channels, the counts and
+    /// the clock go; the selection, the open channel (its history emptied), the filter and the
+    /// pause stay.
+    pub fn restart(&mut self) {
+        self.channels.clear();
+        self.seen = 0;
+        self.over_cap = 0;
+        self.unparsed = 0;
+        self.missed = Missed::default();
+        self.now = Duration::ZERO;
+        self.seeking = None;
+        if let Some(o) = &mut self.open {
+            o.series.clear();
+        }
+    }
+
+    /// What the screen shows: the view frozen, if it is, else this.
+    pub fn shown(&self) -> &Spy {
+        self.frozen.as_deref().unwrap_or(self)
+    }
+
+    /// Whether a log's clock stands, or a hub's view is frozen.
+    pub fn paused(&self) -> bool {
+        self.paused
+    }
+
+    /// Where a log's clock is being moved to, if it is.
+    pub fn seeking(&self) -> Option<Duration> {
+        self.seeking
+    }
+
+    pub fn set_seeking(&mut self, to: Option<Duration>) {
+        self.seeking = to;
+    }
+
+    /// The filter, and whether keys type into it.
+    pub fn filter(&self) -> (&str, bool) {
+        (&self.filter, self.typing)
+    }
+
+    /// Whether keys type into the filter (the terminal's keys map onto [`Key::Char`] then).
+    pub fn typing(&self) -> bool {
+        self.shown().typing
     }
 
     /// The rates' window.
@@ -350,22 +443,70 @@ impl Spy {
         if key == Key::Quit {
             return Action::Quit;
         }
-        if self.open.is_some() {
-            self.on_key_open(key);
+        if let Some(frozen) = self.frozen.as_deref_mut() {
+            if key == Key::Pause && !frozen.typing {
+                self.thaw();
+                return Action::Continue;
+            }
+            // Frozen, the keys move about the view as it was.
+            return frozen.on_key(key);
+        }
+        if self.typing {
+            self.on_key_typing(key);
             return Action::Continue;
         }
+        let log = matches!(self.feed, Feed::Log { .. });
+        let key = match key {
+            Key::Left if log => return Action::Seek(Seek::Back),
+            Key::Right if log => return Action::Seek(Seek::Forward),
+            Key::Home if log => return Action::Seek(Seek::Start),
+            Key::Left => Key::Previous,
+            Key::Right => Key::Next,
+            Key::Home => Key::Top,
+            k => k,
+        };
         match key {
-            Key::Back => return Action::Quit,
+            Key::Pause if log => self.paused = !self.paused,
+            Key::Pause => self.freeze(),
+            Key::Search => {
+                self.open = None;
+                self.typing = true;
+                self.filter.clear();
+            }
+            _ if self.open.is_some() => self.on_key_open(key),
+            Key::Back if self.filter.is_empty() => return Action::Quit,
+            Key::Back => self.filter.clear(),
             Key::Up => self.move_selection(-1),
             Key::Down => self.move_selection(1),
             Key::PageUp => self.move_selection(-20),
             Key::PageDown => self.move_selection(20),
-            Key::Home => self.selected = self.channels.keys().next().cloned(),
-            Key::End => self.selected = self.channels.keys().next_back().cloned(),
+            Key::Top => self.move_selection(isize::MIN),
+            Key::End => self.move_selection(isize::MAX),
             Key::Open | Key::Next => self.open_selected(),
-            Key::Previous | Key::Quit => {}
+            _ => {}
         }
         Action::Continue
+    }
+
+    fn on_key_typing(&mut self, key: Key) {
+        match key {
+            Key::Char(c) if !c.is_control() && self.filter.chars().count() < MAX_FILTER => {
+                self.filter.push(c);
+            }
+            Key::Erase => {
+                self.filter.pop();
+            }
+            Key::Open => self.typing = false,
+            Key::Back => {
+                self.filter.clear();
+                self.typing = false;
+            }
+            Key::Up => self.move_selection(-1),
+            Key::Down => self.move_selection(1),
+            Key::PageUp => self.move_selection(-20),
+            Key::PageDown => self.move_selection(20),
+            _ => {}
+        }
     }
 
     fn on_key_open(&mut self, key: Key) {
@@ -375,40 +516,80 @@ impl Spy {
             Key::Down | Key::Next => self.move_field(1),
             Key::PageUp => self.move_field(-10),
             Key::PageDown => self.move_field(10),
-            Key::Home => self.move_field(isize::MIN),
+            Key::Top => self.move_field(isize::MIN),
             Key::End => self.move_field(isize::MAX),
-            Key::Open | Key::Quit => {}
+            _ => {}
         }
     }
 
-    fn move_selection(&mut self, by: isize) {
-        let Some(current) = self.selected.clone() else {
-            self.selected = self.channels.keys().next().cloned();
+    /// Freezes a hub's view: a copy of it is drawn from now on, and the keys move about in it,
+    /// while this one goes on counting.
+    fn freeze(&mut self) {
+        let mut frozen = self.clone();
+        frozen.paused = true;
+        self.frozen = Some(Box::new(frozen));
+        self.paused = true;
+    }
+
+    /// Back to the live view, where the frozen one was looking: its selection, filter and
+    /// open channel and field.
+    fn thaw(&mut self) {
+        let Some(frozen) = self.frozen.take() else {
             return;
         };
-        let mut name = current;
-        for _ in 0..by.unsigned_abs() {
-            let next = if by > 0 {
-                self.channels
-                    .range::<str, _>((Bound::Excluded(name.as_str()), Bound::Unbounded))
-                    .next()
-            } else {
-                self.channels
-                    .range::<str, _>((Bound::Unbounded, Bound::Excluded(name.as_str())))
-                    .next_back()
-            };
-            match next {
-                Some((k, _)) => name = k.clone(),
-                None => break,
+        let frozen = *frozen;
+        self.paused = false;
+        self.selected = frozen.selected;
+        self.filter = frozen.filter;
+        self.typing = frozen.typing;
+        self.open = match (frozen.open, self.open.take()) {
+            (Some(was), Some(mut open)) if open.name == was.name => {
+                open.field = was.field;
+                Some(open)
             }
+            (Some(was), _) => {
+                let mut open = self.open_named(was.name);
+                open.field = was.field.or(open.field);
+                Some(open)
+            }
+            (None, _) => None,
+        };
+    }
+
+    /// Whether a channel is listed: its name or its last packet (as much as was kept) holds
+    /// the filter.
+    fn listed_channel(&self, name: &str, c: &Channel) -> bool {
+        self.filter.is_empty() || name.contains(&self.filter) || c.last.contains(&self.filter)
+    }
+
+    /// The channels the filter lets through, by name.
+    pub fn listed(&self) -> impl Iterator<Item = (&String, &Channel)> {
+        self.channels
+            .iter()
+            .filter(|(n, c)| self.listed_channel(n, c))
+    }
+
+    /// Moves the selection `by` rows of the listed channels, stopping at either end.
+    fn move_selection(&mut self, by: isize) {
+        let names: Vec<&String> = self.listed().map(|(n, _)| n).collect();
+        if names.is_empty() {
+            return;
         }
-        self.selected = Some(name);
+        let at = self.selected().map_or(0, |(i, _)| i);
+        let to = at.saturating_add_signed(by).min(names.len() - 1);
+        self.selected = Some(names[to].clone());
     }
 
     fn open_selected(&mut self) {
-        let Some(name) = self.selected.clone() else {
+        let Some(name) = self.selected().map(|(_, n)| n.to_string()) else {
             return;
         };
+        self.selected = Some(name.clone());
+        self.open = Some(self.open_named(name));
+    }
+
+    /// The channel view of `name`, starting from its last packet.
+    fn open_named(&self, name: String) -> OpenChannel {
         let mut open = OpenChannel {
             name,
             field: None,
@@ -421,7 +602,7 @@ impl Spy {
                 open.field = fields::numbers(&p).into_iter().next().map(|(k, _)| k);
             }
         }
-        self.open = Some(open);
+        open
     }
 
     /// The numeric fields of the open channel's last packet, by key, in order.
@@ -466,6 +647,7 @@ impl Spy {
     }
 
     /// Every channel, by name.
+    #[cfg(test)]
     pub fn channels(&self) -> impl ExactSizeIterator<Item = (&String, &Channel)> {
         self.channels.iter()
     }
@@ -479,14 +661,36 @@ impl Spy {
         self.channels.len()
     }
 
-    /// The selected channel's name and its place in the table.
+    /// The selected channel's name and its place among the listed channels: the first
+    /// listed when the one selected is not (or none is).
     pub fn selected(&self) -> Option<(usize, &str)> {
-        let name = self.selected.as_deref()?;
-        let i = self
-            .channels
-            .range::<str, _>((Bound::Unbounded, Bound::Excluded(name)))
-            .count();
-        Some((i, name))
+        let chosen = self.selected.as_deref();
+        if self.filter.is_empty() {
+            if let Some(name) = chosen.filter(|n| self.channels.contains_key(*n)) {
+                let i = self
+                    .channels
+                    .range::<str, _>((Bound::Unbounded, Bound::Excluded(name)))
+                    .count();
+                return Some((i, name));
+            }
+        }
+        let mut first = None;
+        for (i, (name, _)) in self.listed().enumerate() {
+            if Some(name.as_str()) == chosen {
+                return Some((i, name));
+            }
+            first.get_or_insert((0, name.as_str()));
+        }
+        first
+    }
+
+    /// How many channels the filter lets through.
+    pub fn listed_count(&self) -> usize {
+        if self.filter.is_empty() {
+            self.channels.len()
+        } else {
+            self.listed().count()
+        }
     }
 
     pub fn seen(&self) -> u64 {
@@ -747,5 +951,233 @@ mod tests {
         s.on_status(secs(2.0), &report(2000, 50, false), me);
         assert_eq!(s.tap(), Tap::Refused);
         assert_eq!(s.missed(), 0);
+    }
+
+    fn log_spy() -> Spy {
+        Spy::new(
+            Feed::Log {
+                file: "t.clog".into(),
+                speed: 1.0,
+                state: LogState::Playing,
+            },
+            Duration::from_secs(1),
+        )
+    }
+
+    fn three(s: &mut Spy) {
+        s.on_datagram(secs(0.0), b"@ <vision> 0\nrobot id 0 x 1\n");
+        s.on_datagram(secs(0.0), b"@ <radio> 0\ncmd id 3 forward 0.5\n");
+        s.on_datagram(secs(0.0), b"@ <camera.0> 0\nblob x 1 robot 2\n");
+    }
+
+    fn listed(s: &Spy) -> Vec<String> {
+        s.listed().map(|(n, _)| n.clone()).collect()
+    }
+
+    fn type_in(s: &mut Spy, text: &str) {
+        for c in text.chars() {
+            s.on_key(Key::Char(c));
+        }
+    }
+
+    #[test]
+    fn a_filter_lists_the_channels_whose_name_or_last_packet_holds_it() {
+        let mut s = spy();
+        three(&mut s);
+        assert_eq!(s.selected(), Some((2, "vision")));
+        s.on_key(Key::Search);
+        assert!(s.typing());
+        // Typed keys are the filter's, whatever they mean otherwise.
+        type_in(&mut s, "q");
+        assert_eq!(s.filter(), ("q", true));
+        assert_eq!(listed(&s), Vec::<String>::new());
+        s.on_key(Key::Erase);
+        type_in(&mut s, "robot");
+        // vision by its packet, camera.0 by its packet; radio not.
+        assert_eq!(listed(&s), ["camera.0", "vision"]);
+        assert_eq!(s.listed_count(), 2);
+        assert_eq!(s.selected(), Some((1, "vision")));
+        s.on_key(Key::Up);
+        assert_eq!(s.selected(), Some((0, "camera.0")));
+        // Enter keeps it; the keys move about the listed channels only.
+        s.on_key(Key::Open);
+        assert_eq!(s.filter(), ("robot", false));
+        s.on_key(Key::End);
+        assert_eq!(s.selected(), Some((1, "vision")));
+        s.on_key(Key::Up);
+        s.on_key(Key::Up);
+        assert_eq!(s.selected(), Some((0, "camera.0")));
+        s.on_key(Key::Open);
+        assert_eq!(s.open().unwrap().name, "camera.0");
+        s.on_key(Key::Back);
+        // Esc clears a kept filter before it quits.
+        assert_eq!(s.on_key(Key::Back), Action::Continue);
+        assert_eq!(listed(&s).len(), 3);
+        assert_eq!(s.selected(), Some((0, "camera.0")));
+        assert_eq!(s.on_key(Key::Back), Action::Quit);
+        // By name, and Esc while typing clears it.
+        s.on_key(Key::Search);
+        type_in(&mut s, "cam");
+        assert_eq!(listed(&s), ["camera.0"]);
+        s.on_key(Key::Back);
+        assert_eq!(s.filter(), ("", false));
+        assert_eq!(listed(&s).len(), 3);
+        // The selected channel, filtered out, selects the first listed; back, it is again.
+        s.on_key(Key::End);
+        s.on_key(Key::Search);
+        type_in(&mut s, "cmd");
+        assert_eq!(s.selected(), Some((0, "radio")));
+        s.on_key(Key::Back);
+        assert_eq!(s.selected(), Some((2, "vision")));
+    }
+
+    #[test]
+    fn a_filter_is_bounded_and_any_key_sequence_is_safe() {
+        let mut s = spy();
+        three(&mut s);
+        s.on_key(Key::Search);
+        type_in(&mut s, &"é".repeat(500));
+        assert_eq!(s.filter().0.chars().count(), MAX_FILTER);
+        // Control characters are not typed.
+        s.on_key(Key::Back);
+        s.on_key(Key::Search);
+        type_in(&mut s, "a\u{1b}\n\u{9b}b");
+        assert_eq!(s.filter().0, "ab");
+        let keys = [
+            Key::Up,
+            Key::Down,
+            Key::PageUp,
+            Key::PageDown,
+            Key::Home,
+            Key::Top,
+            Key::End,
+            Key::Open,
+            Key::Next,
+            Key::Previous,
+            Key::Left,
+            Key::Right,
+            Key::Search,
+            Key::Char('o'),
+            Key::Char('x'),
+            Key::Char(' '),
+            Key::Erase,
+            Key::Pause,
+            Key::Back,
+        ];
+        let mut x: u64 = 0x2545_f491_4f6c_dd1d;
+        for feed in [spy(), log_spy()] {
+            let mut s = feed;
+            for i in 0..20_000u64 {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                let _ = s.on_key(keys[(x % keys.len() as u64) as usize]);
+                if i % 7 == 0 {
+                    let text = format!("@ <c{}> 0\nrobot x {i}\n", x % 5);
+                    s.on_datagram(secs(i as f64 * 0.01), text.as_bytes());
+                }
+                assert!(s.filter().0.chars().count() <= MAX_FILTER);
+                if let Some((i, name)) = s.shown().selected() {
+                    assert!(i < s.shown().listed_count());
+                    assert!(s.shown().channel(name).is_some());
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_frozen_hub_view_stays_as_it_was_while_the_spy_counts_on() {
+        let mut s = spy();
+        three(&mut s);
+        s.on_key(Key::Pause);
+        assert!(s.paused() && s.shown().paused());
+        for i in 0..10 {
+            s.on_datagram(secs(1.0 + i as f64 * 0.1), b"@ <new> 0\nx n 1\n");
+        }
+        assert_eq!((s.seen(), s.shown().seen()), (13, 3));
+        assert!(s.shown().channel("new").is_none());
+        // The keys move about the frozen view: its channels, its last packets.
+        s.on_key(Key::Home);
+        assert_eq!(s.shown().selected(), Some((0, "camera.0")));
+        s.on_key(Key::Open);
+        assert_eq!(s.shown().open().unwrap().name, "camera.0");
+        assert!(s.open().is_none());
+        s.on_datagram(secs(3.0), b"@ <camera.0> 0\nblob x 9\n");
+        assert_eq!(
+            s.shown().open_packet_text().unwrap().1,
+            "@ <camera.0> 0\nblob x 1 robot 2\n"
+        );
+        // Going on, the live view is where the frozen one was.
+        assert_eq!(s.on_key(Key::Pause), Action::Continue);
+        assert!(!s.paused());
+        assert_eq!(s.shown().seen(), 14);
+        let open = s.open().unwrap();
+        assert_eq!(
+            (open.name.as_str(), open.field.as_deref()),
+            ("camera.0", Some("blob[0].x"))
+        );
+        assert_eq!(
+            s.open_packet_text().unwrap().1,
+            "@ <camera.0> 0\nblob x 9\n"
+        );
+        // Space types into a filter, frozen or not.
+        s.on_key(Key::Pause);
+        s.on_key(Key::Search);
+        s.on_key(Key::Char(' '));
+        assert!(s.paused() && s.typing());
+        assert_eq!(s.shown().filter(), (" ", true));
+    }
+
+    #[test]
+    fn with_a_log_space_pauses_and_left_right_and_home_seek() {
+        let mut s = log_spy();
+        three(&mut s);
+        assert_eq!(s.on_key(Key::Pause), Action::Continue);
+        assert!(s.paused() && s.frozen.is_none());
+        assert_eq!(s.on_key(Key::Right), Action::Seek(Seek::Forward));
+        assert_eq!(s.on_key(Key::Left), Action::Seek(Seek::Back));
+        assert_eq!(s.on_key(Key::Home), Action::Seek(Seek::Start));
+        s.on_key(Key::Pause);
+        assert!(!s.paused());
+        // In a channel too; Tab picks fields, and `g` goes to the first.
+        s.on_key(Key::Top);
+        assert_eq!(s.selected(), Some((0, "camera.0")));
+        s.on_key(Key::Open);
+        assert_eq!(s.on_key(Key::Right), Action::Seek(Seek::Forward));
+        s.on_key(Key::Next);
+        assert_eq!(s.open().unwrap().field.as_deref(), Some("blob[0].robot"));
+        s.on_key(Key::Top);
+        assert_eq!(s.open().unwrap().field.as_deref(), Some("blob[0].x"));
+        // A hub's Left and Right pick fields, and Home the first.
+        let mut h = spy();
+        three(&mut h);
+        h.on_key(Key::Top);
+        h.on_key(Key::Right);
+        assert_eq!(h.open().unwrap().name, "camera.0");
+        h.on_key(Key::Right);
+        assert_eq!(h.open().unwrap().field.as_deref(), Some("blob[0].robot"));
+        h.on_key(Key::Home);
+        assert_eq!(h.open().unwrap().field.as_deref(), Some("blob[0].x"));
+    }
+
+    #[test]
+    fn a_restart_forgets_the_packets_and_keeps_where_the_person_looks() {
+        let mut s = log_spy();
+        three(&mut s);
+        s.on_key(Key::Top);
+        s.on_key(Key::Open);
+        s.on_datagram(secs(5.0), b"@ <camera.0> 0\nblob x 2 robot 2\n");
+        s.on_key(Key::Pause);
+        s.restart();
+        assert_eq!(
+            (s.seen(), s.channel_count(), s.now()),
+            (0, 0, Duration::ZERO)
+        );
+        let open = s.open().unwrap();
+        assert_eq!(open.name, "camera.0");
+        assert!(open.series().is_none_or(VecDeque::is_empty));
+        assert!(s.paused());
+        s.on_datagram(secs(0.0), b"@ <camera.0> 0\nblob x 1 robot 2\n");
+        assert_eq!(s.open().unwrap().series().unwrap().len(), 1);
     }
 }

@@ -1,7 +1,7 @@
 //! Drawing the spy with ratatui: the channel table, or one channel decoded field by field with
-//! a plot of the chosen field, between a title line and a status line. Everything fits 80
-//! columns and 24 lines (more rows show on a taller terminal), uses only reverse video and bold
-//! for emphasis, so it reads the same over SSH on any terminal.
+//! a plot of the chosen field, between a title line and a status line and the keys' help.
+//! Everything fits 80 columns and 24 lines (more rows show on a taller terminal), uses only
+//! reverse video and bold for emphasis, so it reads the same over SSH on any terminal.
 
 use std::time::Duration;
 
@@ -20,8 +20,9 @@ use super::model::{Feed, HubLink, LogState, Spy, Tap};
 
 /// Lines the plot takes, its frame included.
 const PLOT_HEIGHT: u16 = 9;
+/// Characters of the filter the status line shows at most.
+const FILTER_SHOWN: usize = 24;
 
-/// Draws the whole screen.
 /// Lines for an alert of `text` on a screen of `area`: enough for it wrapped at words (a
 /// word-wrapped line loses at most a word's width, so a line's worth of slack per five), at
 /// least 3, and at most half the screen.
@@ -34,7 +35,9 @@ fn alert_height(text: &str, area: Rect) -> u16 {
         .min((area.height / 2).max(3))
 }
 
+/// Draws the whole screen: the view as frozen, if it is.
 pub fn draw(frame: &mut Frame<'_>, spy: &Spy) {
+    let spy = spy.shown();
     // What went wrong is shown whole, wrapped, above the status line.
     let alert = match &spy.feed {
         Feed::Hub {
@@ -47,7 +50,7 @@ pub fn draw(frame: &mut Frame<'_>, spy: &Spy) {
         } => Some(printable(why)),
         _ => None,
     };
-    let [title, body, alert_area, status] = Layout::vertical([
+    let [title, body, alert_area, status, help] = Layout::vertical([
         Constraint::Length(1),
         Constraint::Min(3),
         Constraint::Length(
@@ -55,6 +58,7 @@ pub fn draw(frame: &mut Frame<'_>, spy: &Spy) {
                 .as_deref()
                 .map_or(0, |why| alert_height(why, frame.area())),
         ),
+        Constraint::Length(1),
         Constraint::Length(1),
     ])
     .areas(frame.area());
@@ -76,6 +80,10 @@ pub fn draw(frame: &mut Frame<'_>, spy: &Spy) {
         draw_table(frame, body, spy);
     }
     frame.render_widget(Paragraph::new(status_line(spy)), status);
+    frame.render_widget(
+        Paragraph::new(help_line(spy)).style(Style::new().add_modifier(Modifier::DIM)),
+        help,
+    );
 }
 
 fn title_line(spy: &Spy) -> Line<'static> {
@@ -95,25 +103,58 @@ fn title_line(spy: &Spy) -> Line<'static> {
                 Tap::Tapping => " tapping",
                 Tap::Refused => " TAP REFUSED (too many taps; try --key)",
             };
-            format!(" colony spy  hub {addr} {state}{tap}  {window}")
+            let frozen = if spy.paused() {
+                "  FROZEN (still counting)"
+            } else {
+                ""
+            };
+            format!(" colony spy  hub {addr} {state}{tap}{frozen}  {window}")
         }
         Feed::Log { file, speed, state } => {
-            let state = match state {
-                LogState::Playing => "playing".to_string(),
-                LogState::Ended(_) => "ended".to_string(),
-                LogState::Failed(_) => "STOPPED (below)".to_string(),
+            let state = match (state, spy.seeking()) {
+                (LogState::Playing, Some(to)) => format!("seeking +{:.1} s", to.as_secs_f64()),
+                (LogState::Playing, None) if spy.paused() => String::new(),
+                (LogState::Playing, None) => "playing".to_string(),
+                (LogState::Ended(_), _) => "ended".to_string(),
+                (LogState::Failed(_), _) => "STOPPED (below)".to_string(),
             };
-            format!(
-                " colony spy  log {file} x{speed} +{:.1} s {state}  {window}",
-                spy.now().as_secs_f64()
-            )
+            let paused = match (spy.paused(), state.is_empty()) {
+                (true, true) => "PAUSED",
+                (true, false) => " PAUSED",
+                (false, _) => "",
+            };
+            format!(" colony spy  log {file} x{speed} {state}{paused}  {window}")
         }
     };
     Line::from(text)
 }
 
+/// The log's time, the counts, and the filter with how many channels it lets through; while
+/// a filter is typed, that alone.
 fn status_line(spy: &Spy) -> Line<'static> {
-    let mut text = format!(" seen {}", spy.seen());
+    let (filter, typing) = spy.filter();
+    let matching = format!("{} of {}", spy.listed_count(), spy.channel_count());
+    if typing {
+        // The end of a long filter, where the typing is.
+        let chars = filter.chars().count();
+        let tail: String = filter
+            .chars()
+            .skip(chars.saturating_sub(FILTER_SHOWN))
+            .collect();
+        return Line::from(vec![
+            Span::raw(" /"),
+            Span::styled(
+                format!("{}_", printable(&tail)),
+                Style::new().add_modifier(Modifier::BOLD),
+            ),
+            Span::raw(format!("  {matching} channels match")),
+        ]);
+    }
+    let mut text = String::new();
+    if matches!(spy.feed, Feed::Log { .. }) {
+        text.push_str(&format!(" log +{:.1} s ", spy.now().as_secs_f64()));
+    }
+    text.push_str(&format!(" seen {}", spy.seen()));
     if matches!(spy.feed, Feed::Hub { .. }) {
         text.push_str(&format!("  missed {}", spy.missed()));
     }
@@ -121,22 +162,59 @@ fn status_line(spy: &Spy) -> Line<'static> {
     if spy.over_cap() > 0 {
         text.push_str(&format!("  {} past the channel cap", spy.over_cap()));
     }
-    let help = if spy.open().is_some() {
-        "  Tab/arrows field  Esc back"
-    } else {
-        "  arrows select  Enter open  q quit"
+    let mut line = vec![Span::raw(text)];
+    if !filter.is_empty() {
+        let mut shown: String = filter.chars().take(FILTER_SHOWN).collect();
+        if shown.len() < filter.len() {
+            shown.push_str("...");
+        }
+        line.push(Span::styled(
+            format!("  /{}: {matching}", printable(&shown)),
+            Style::new().add_modifier(Modifier::BOLD),
+        ));
+    }
+    Line::from(line)
+}
+
+/// The keys that do something here.
+fn help_line(spy: &Spy) -> String {
+    let log = matches!(spy.feed, Feed::Log { .. });
+    let (filter, typing) = spy.filter();
+    if typing {
+        return " type a filter of the channels  Enter keep  Esc clear  Backspace erase".into();
+    }
+    let space = match (log, spy.paused()) {
+        (_, true) => "space resume",
+        (true, false) => "space pause",
+        (false, false) => "space freeze",
     };
-    Line::from(vec![
-        Span::raw(text),
-        Span::styled(help, Style::new().add_modifier(Modifier::DIM)),
-    ])
+    let seek = if log {
+        "  ←→ 10 s  Home restart"
+    } else {
+        ""
+    };
+    if spy.open().is_some() {
+        let field = if log {
+            "Tab/↑↓ field"
+        } else {
+            "Tab/arrows field"
+        };
+        format!(" {field}  / filter  {space}{seek}  Esc back")
+    } else {
+        let back = if filter.is_empty() {
+            "q quit"
+        } else {
+            "Esc clear"
+        };
+        format!(" ↑↓ select  Enter open  / filter  {space}{seek}  {back}")
+    }
 }
 
 fn draw_table(frame: &mut Frame<'_>, area: Rect, spy: &Spy) {
     let now = spy.now();
     let header = Row::new(["channel", "rate/s", "B/s", "priority", "age", "last packet"])
         .style(Style::new().add_modifier(Modifier::BOLD));
-    let rows = spy.channels().map(|(name, c)| {
+    let rows = spy.listed().map(|(name, c)| {
         let (rate, bandwidth) = match c.rates(now) {
             Some((r, b)) => (rate_text(r), bytes_text(b)),
             None => ("-".into(), "-".into()),
@@ -165,8 +243,9 @@ fn draw_table(frame: &mut Frame<'_>, area: Rect, spy: &Spy) {
         .header(header)
         .row_highlight_style(Style::new().add_modifier(Modifier::REVERSED));
     let mut state = TableState::default().with_selected(spy.selected().map(|(i, _)| i));
-    if spy.channel_count() == 0 {
+    if spy.listed_count() == 0 {
         let waiting = match &spy.feed {
+            _ if spy.channel_count() > 0 => "no channel matches the filter (Esc clears it)",
             Feed::Hub { .. } => "no packets yet: waiting for traffic on the hub",
             Feed::Log { .. } => "no packets yet",
         };
@@ -444,9 +523,10 @@ mod tests {
         assert!(metrics.contains("4.00"), "{metrics}");
         assert!(metrics.contains(" 10 "), "{metrics}");
         assert!(
-            lines[23].starts_with(" seen 120  missed 0  unparsed 0"),
+            lines[22].starts_with(" seen 120  missed 0  unparsed 0"),
             "{lines:#?}"
         );
+        assert!(lines[23].contains("/ filter  space freeze"), "{lines:#?}");
         // A failing socket says why, with what it said made safe to print.
         let mut s = s;
         s.feed = Feed::Hub {
@@ -459,7 +539,7 @@ mod tests {
             "{lines:#?}"
         );
         assert!(
-            lines[20].starts_with("Network is unreachable\\u{1b}[2J"),
+            lines[19].starts_with("Network is unreachable\\u{1b}[2J"),
             "{lines:#?}"
         );
         // A log that cannot be read further says why, whole.
@@ -474,7 +554,7 @@ mod tests {
         };
         let lines = screen(&s);
         assert!(lines[0].contains("STOPPED (below)"), "{lines:#?}");
-        let text: String = lines[20..23].join(" ");
+        let text: String = lines[19..22].join(" ");
         assert!(text.contains("is corrupt (checksum)"), "{lines:#?}");
         // A log played to its end says what a crash cut short of it.
         s.feed = Feed::Log {
@@ -484,7 +564,7 @@ mod tests {
         };
         let lines = screen(&s);
         assert!(lines[0].contains("ended"), "{lines:#?}");
-        let text: String = lines[20..23].join(" ");
+        let text: String = lines[19..22].join(" ");
         assert!(text.contains("before its writer finished it"), "{lines:#?}");
         // A long note is shown whole, to its last word.
         let note = format!(
@@ -526,6 +606,93 @@ mod tests {
         assert!(text.contains("robot[0].x  now 9  min 0  max 9"), "{text}");
         assert!(lines[23].contains("Esc back"), "{text}");
         assert!(lines.iter().all(|l| l.chars().count() == 80));
+    }
+
+    #[test]
+    fn a_filter_lists_only_the_channels_it_matches_and_says_how_many() {
+        let mut s = demo();
+        s.on_datagram(Duration::from_secs(5), b"@ <camera.0> 0\nblob x 1\n");
+        s.on_key(Key::Search);
+        for c in "pro".chars() {
+            s.on_key(Key::Char(c));
+        }
+        // While typed: the filter with a cursor, and what it matches (metrics, by its last
+        // packet's `progress`).
+        let lines = screen(&s);
+        assert!(
+            lines[22].starts_with(" /pro_  1 of 3 channels match"),
+            "{lines:#?}"
+        );
+        assert!(lines[23].contains("Enter keep  Esc clear"), "{lines:#?}");
+        let listed: Vec<&String> = lines[2..21]
+            .iter()
+            .filter(|l| !l.trim().is_empty())
+            .collect();
+        assert_eq!(listed.len(), 1, "{lines:#?}");
+        assert!(listed[0].starts_with("metrics"), "{lines:#?}");
+        // Kept: on the status line after the counts.
+        s.on_key(Key::Erase);
+        s.on_key(Key::Erase);
+        s.on_key(Key::Open);
+        let lines = screen(&s);
+        // (`p` is in vision's `pose` too.)
+        assert!(
+            lines[22].starts_with(" seen 121  missed 0  unparsed 0  /p: 2 of 3"),
+            "{lines:#?}"
+        );
+        assert!(lines[3].starts_with("vision"), "{lines:#?}");
+        assert!(lines[23].trim_end().ends_with("Esc clear"), "{lines:#?}");
+        // A filter nothing matches says so.
+        s.on_key(Key::Search);
+        s.on_key(Key::Char('#'));
+        let text = screen(&s).join("\n");
+        assert!(text.contains("no channel matches the filter"), "{text}");
+    }
+
+    #[test]
+    fn a_paused_log_and_a_frozen_hub_say_so() {
+        let mut s = demo();
+        s.feed = Feed::Log {
+            file: "t.clog".into(),
+            speed: 2.0,
+            state: LogState::Playing,
+        };
+        let lines = screen(&s);
+        assert!(lines[0].contains("log t.clog x2 playing"), "{lines:#?}");
+        assert!(lines[22].starts_with(" log +5.0 s  seen 120"), "{lines:#?}");
+        assert!(
+            lines[23].contains("space pause  ←→ 10 s  Home restart"),
+            "{lines:#?}"
+        );
+        assert!(lines.iter().all(|l| l.chars().count() == 80));
+        s.on_key(Key::Pause);
+        let lines = screen(&s);
+        assert!(lines[0].contains("log t.clog x2 PAUSED"), "{lines:#?}");
+        assert!(lines[23].contains("space resume"), "{lines:#?}");
+        s.set_seeking(Some(Duration::from_secs(15)));
+        assert!(screen(&s)[0].contains("x2 seeking +15.0 s PAUSED"));
+
+        // A frozen hub: the screen stays as it was while the spy counts on.
+        let mut s = demo();
+        s.on_key(Key::Pause);
+        let before = screen(&s);
+        assert!(
+            before[0].contains("alive  FROZEN (still counting)"),
+            "{before:#?}"
+        );
+        for i in 0..50u64 {
+            s.on_datagram(Duration::from_millis(5000 + i * 10), b"@ <new> 0\nx n 1\n");
+        }
+        s.set_now(Duration::from_secs(9));
+        assert_eq!(screen(&s), before);
+        assert_eq!(s.seen(), 170);
+        s.on_key(Key::Pause);
+        let after = screen(&s).join("\n");
+        assert!(
+            after.contains("seen 170") && after.contains("new "),
+            "{after}"
+        );
+        assert!(!after.contains("FROZEN"), "{after}");
     }
 
     #[test]
