@@ -176,6 +176,7 @@ const RULES: &[Rule] = &[
     prefix("colony monitor --hub 127.0.0.1:7400", Server(Page)).hub(),
     prefix("colony demo --log run.mcap", Server(Page)),
     prefix("colony log export traffic.clog ", Run("")),
+    prefix("colony log info run.mcap", Run("vision")),
     exact(
         "colony spy --hub 127.0.0.1:7400",
         Terminal("hub 127.0.0.1:7400 alive"),
@@ -190,7 +191,8 @@ const RULES: &[Rule] = &[
     prefix("cc ", NotRun("compiles the reader's own app.c")),
     exact(
         "colony hub & colony sort live --controllers external &",
-        Background(Prints("live cachecons")),
+        // (Not a printed line: two processes share the pipe, and their writes interleave.)
+        Background(Status("camera.0")),
     ),
     prefix(
         "clients/c/build/sort_robot ",
