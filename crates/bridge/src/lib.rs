@@ -27,6 +27,7 @@ pub mod interest;
 pub mod keys;
 mod run;
 pub mod track;
+pub mod wants;
 
 pub use config::{BridgeConfig, ConfigError, Mode, Pattern};
 pub use keys::Site;

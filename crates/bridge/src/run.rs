@@ -37,6 +37,7 @@ use crate::config::{any_matches, BridgeConfig};
 use crate::interest::LocalInterest;
 use crate::keys::{self, Site};
 use crate::track::{Stamp, Tracker, Verdict};
+use crate::wants::{Offer, Wants};
 
 const HUB: Token = Token(0);
 const WAKE: Token = Token(1);
@@ -48,11 +49,19 @@ const QUEUE: usize = 16_384;
 const WANT_QUEUE: usize = 65_536;
 /// The most distinct keys numbered at once (a new stamp run starts afresh).
 const MAX_KEYS: usize = 65_536;
-/// The most (channel, site) wants held; more are refused and counted.
-const MAX_REMOTE_WANTS: usize = 4_096;
 /// The most channels kept subscribed on the hub for other sites: the hub
 /// grants a client 256 subscriptions, and one is the bridge's own.
 const MAX_EXPORTS: usize = 255;
+/// Hub subscriptions brought in line with other sites' wants at most this
+/// often, and at most [`EXPORT_CHANGES`] changed each time: a stranger
+/// toggling want tokens must not make the bridge spend its hub's control
+/// rate (200 requests a second by default) and be refused.
+const EXPORT_EVERY: Duration = Duration::from_millis(100);
+/// Subscribes and unsubscribes sent to the hub per [`EXPORT_EVERY`].
+const EXPORT_CHANGES: usize = 10;
+/// Zenoh asked again for the live want tokens at most this often, when a
+/// want was refused and room has freed since.
+const RELOOK_EVERY: Duration = Duration::from_secs(1);
 /// Datagrams taken from the hub per step, so the Zenoh side and the timers
 /// are served under any flood.
 const HUB_BATCH: usize = 1_024;
@@ -102,8 +111,14 @@ pub struct Stats {
     pub overflow: AtomicU64,
     /// Puts Zenoh refused.
     pub put_failed: AtomicU64,
-    /// Wants of other sites refused beyond [`MAX_REMOTE_WANTS`], or channels
-    /// not exported beyond [`MAX_EXPORTS`].
+    /// Packets whose number was far from their stream's, or taken already
+    /// by other bytes (forged, or the real one after a forgery): passed on,
+    /// and counted here rather than in `lost`.
+    pub suspect: AtomicU64,
+    /// Wants of other sites refused (beyond a site's share of the table, see
+    /// [`crate::wants`]) or let go for another site's, and channels left
+    /// out of the exports beyond [`MAX_EXPORTS`]: each counted once when it
+    /// happens.
     pub refused_wants: AtomicU64,
     /// Errors talking to the hub (it may be down, or unreachable for a while).
     pub hub_errors: AtomicU64,
@@ -130,6 +145,9 @@ struct Data {
 struct Want {
     key: String,
     alive: bool,
+    /// From a fresh listing of the live tokens: refused again, it is not
+    /// counted again.
+    again: bool,
 }
 
 /// Passes Zenoh's callbacks to the bridge's thread and wakes it.
@@ -199,12 +217,16 @@ pub struct Bridge {
     stamp_run: u64,
     seqs: HashMap<(String, u8), u64>,
     tracker: Tracker,
-    /// Other sites' wants: channel -> the sites that want it.
-    remote: HashMap<Subject, BTreeSet<Site>>,
+    /// Other sites' wants.
+    remote: Wants,
     /// Channels kept subscribed on the hub for other sites.
     exported: BTreeSet<Subject>,
+    /// Channels other sites want that are not exported (counted once each).
+    left_out: BTreeSet<Subject>,
     /// Other sites' wants changed since the hub subscriptions were brought in line.
     wants_changed: bool,
+    next_export: Instant,
+    next_relook: Instant,
     /// The bridge's own channel, held so the hub shows it.
     own: Subject,
     interest: LocalInterest,
@@ -253,6 +275,7 @@ impl Bridge {
                     inbox.want(Want {
                         key: sample.key_expr().as_str().to_owned(),
                         alive: sample.kind() == SampleKind::Put,
+                        again: false,
                     })
                 })
                 .wait()
@@ -273,9 +296,12 @@ impl Bridge {
             stamp_run: rand::random(),
             seqs: HashMap::new(),
             tracker: Tracker::default(),
-            remote: HashMap::new(),
+            remote: Wants::default(),
             exported: BTreeSet::new(),
+            left_out: BTreeSet::new(),
             wants_changed: false,
+            next_export: now,
+            next_relook: now,
             own,
             interest: LocalInterest::default(),
             subscribers: HashMap::new(),
@@ -318,6 +344,12 @@ impl Bridge {
             if let Some(d) = self.client.next_deadline() {
                 deadline = deadline.min(d);
             }
+            if self.wants_changed {
+                deadline = deadline.min(self.next_export);
+            }
+            if self.remote.relook_pending() {
+                deadline = deadline.min(self.next_relook);
+            }
             let wait = deadline
                 .saturating_duration_since(now)
                 .min(Duration::from_millis(100));
@@ -350,13 +382,19 @@ impl Bridge {
         if self.inbox.wants_lost.swap(false, Ordering::Relaxed) {
             self.resync_wants();
         }
-        if std::mem::take(&mut self.wants_changed) {
+        if now >= self.next_relook && self.remote.relook_due() {
+            self.next_relook = now + RELOOK_EVERY;
+            self.relook();
+        }
+        if self.wants_changed && now >= self.next_export {
+            self.next_export = now + EXPORT_EVERY;
+            self.wants_changed = false;
             self.sync_exports();
         }
         // Bounded, so the hub's side is never starved by a busy link.
         for _ in 0..QUEUE {
             match self.data.try_recv() {
-                Ok(data) => self.import(data),
+                Ok(data) => self.import(data, now),
                 Err(_) => break,
             }
         }
@@ -433,21 +471,47 @@ impl Bridge {
         if site == self.config.site || subject == self.own {
             return;
         }
-        if want.alive {
-            let held: usize = self.remote.values().map(BTreeSet::len).sum();
-            let known = self.remote.get(&subject).is_some_and(|s| s.contains(&site));
-            if !known && held >= MAX_REMOTE_WANTS {
-                Stats::add(&self.stats.refused_wants, 1);
-                return;
+        if !want.alive {
+            if self.remote.withdraw(&site, &subject) {
+                self.wants_changed = true;
             }
-            self.remote.entry(subject).or_default().insert(site);
-        } else if let Some(sites) = self.remote.get_mut(&subject) {
-            sites.remove(&site);
-            if sites.is_empty() {
-                self.remote.remove(&subject);
-            }
+            return;
         }
-        self.wants_changed = true;
+        match self.remote.offer(&site, &subject) {
+            Offer::Known => {}
+            Offer::Held => self.wants_changed = true,
+            Offer::HeldInstead(other, gone) => {
+                tracing::debug!(%site, %other, %gone, "a want let go for another site's");
+                Stats::add(&self.stats.refused_wants, 1);
+                self.wants_changed = true;
+            }
+            Offer::Refused if want.again => {}
+            Offer::Refused => Stats::add(&self.stats.refused_wants, 1),
+        }
+    }
+
+    /// Asks Zenoh again for every live want token, after one was refused
+    /// and room has freed. The answers come through the want queue, so the
+    /// bridge never waits on a Zenoh peer here.
+    fn relook(&mut self) {
+        let inbox = self.inbox.clone();
+        let asked = self
+            .session
+            .liveliness()
+            .get(keys::all_wants_expr())
+            .callback(move |reply| {
+                if let Ok(sample) = reply.result() {
+                    inbox.want(Want {
+                        key: sample.key_expr().as_str().to_owned(),
+                        alive: true,
+                        again: true,
+                    });
+                }
+            })
+            .wait();
+        if let Err(e) = asked {
+            tracing::warn!(error = %e, "could not list the live want tokens");
+        }
     }
 
     /// Rebuilds other sites' wants from Zenoh's list of live tokens, after
@@ -467,24 +531,28 @@ impl Bridge {
         while let Ok(Some(reply)) = replies.recv_timeout(Duration::from_secs(2)) {
             if let Ok(sample) = reply.result() {
                 let key = sample.key_expr().as_str().to_owned();
-                self.note_want(Want { key, alive: true });
+                self.note_want(Want {
+                    key,
+                    alive: true,
+                    again: true,
+                });
             }
         }
         self.wants_changed = true;
     }
 
-    /// Keeps subscribed on the hub exactly the channels other sites want
-    /// and the export rules allow (at most [`MAX_EXPORTS`]).
+    /// Brings the hub subscriptions toward the channels other sites want
+    /// and the export rules allow (at most [`MAX_EXPORTS`], shared between
+    /// sites), at most [`EXPORT_CHANGES`] at a time.
     fn sync_exports(&mut self) {
-        let allowed = self
-            .remote
-            .keys()
-            .filter(|s| any_matches(&self.config.export, s.as_str()));
-        let wanted: BTreeSet<Subject> = allowed.clone().take(MAX_EXPORTS).cloned().collect();
-        let unexported = allowed.count().saturating_sub(MAX_EXPORTS);
-        if unexported > 0 {
-            Stats::add(&self.stats.refused_wants, unexported as u64);
-        }
+        let export = &self.config.export;
+        let allowed = |s: &Subject| any_matches(export, s.as_str());
+        let wanted = self.remote.choose(allowed, MAX_EXPORTS);
+        let mut left_out = self.remote.wanted(allowed);
+        left_out.retain(|s| !wanted.contains(s));
+        let newly = left_out.difference(&self.left_out).count();
+        Stats::add(&self.stats.refused_wants, newly as u64);
+        self.left_out = left_out;
         if wanted == self.exported {
             return;
         }
@@ -494,17 +562,29 @@ impl Bridge {
             wanted.len(),
             first_names(wanted.iter())
         );
-        for gone in self.exported.difference(&wanted) {
+        let mut budget = EXPORT_CHANGES;
+        // Room first: the hub refuses a subscription beyond its limit.
+        let gone: Vec<Subject> = self.exported.difference(&wanted).cloned().collect();
+        for gone in gone.into_iter().take(budget) {
+            budget -= 1;
             if let Err(e) = self.client.unsubscribe(gone.as_str()) {
                 self.hub_error("unsubscribe", &e);
             }
+            self.exported.remove(&gone);
         }
-        for new in wanted.difference(&self.exported) {
+        let new: Vec<Subject> = wanted.difference(&self.exported).cloned().collect();
+        for new in new.into_iter().take(budget) {
+            if self.exported.len() >= MAX_EXPORTS {
+                break;
+            }
             if let Err(e) = self.client.subscribe(new.as_str()) {
                 self.hub_error("subscribe", &e);
             }
+            self.exported.insert(new);
         }
-        self.exported = wanted;
+        if self.exported != wanted {
+            self.wants_changed = true;
+        }
     }
 
     /// Declares what this site's clients want, and withdraws what they no
@@ -560,7 +640,7 @@ impl Bridge {
 
     /// Publishes into the hub a packet another site put, once it is sure
     /// the packet is what its key says and that this site asked for all of it.
-    fn import(&mut self, data: Data) {
+    fn import(&mut self, data: Data, now: Instant) {
         let Some((site, subjects)) = keys::read_sample(&data.key, &data.payload) else {
             Stats::add(&self.stats.rejected, 1);
             return;
@@ -575,12 +655,16 @@ impl Bridge {
             return;
         }
         if let Some(stamp) = data.stamp {
-            match self.tracker.check(&data.key, data.priority, stamp) {
+            match self
+                .tracker
+                .check(&data.key, data.priority, stamp, &data.payload, now)
+            {
                 Verdict::Duplicate => {
                     Stats::add(&self.stats.duplicates, 1);
                     return;
                 }
                 Verdict::New { lost } => Stats::add(&self.stats.lost, lost),
+                Verdict::Suspect => Stats::add(&self.stats.suspect, 1),
                 Verdict::Late => {
                     let _ =
                         self.stats
@@ -601,13 +685,14 @@ impl Bridge {
     fn report(&mut self) {
         let s = &self.stats;
         let about = format!(
-            "{} zenoh {}; exports {}; imports {}; lost {} dup {} rejected {} overflow {} put_failed {} refused {}",
+            "{} zenoh {}; exports {}; imports {}; lost {} dup {} suspect {} rejected {} overflow {} put_failed {} refused {}",
             self.marker(),
             self.config.mode.as_str(),
             counted(&self.exported),
             counted(&self.interest.channels),
             Stats::get(&s.lost),
             Stats::get(&s.duplicates),
+            Stats::get(&s.suspect),
             Stats::get(&s.rejected),
             Stats::get(&s.overflow),
             Stats::get(&s.put_failed),

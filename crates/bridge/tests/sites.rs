@@ -8,6 +8,7 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use colony_bridge::track::Stamp;
 use colony_bridge::{Bridge, BridgeConfig, Mode, Site, Stats};
 use colony_client::UdpClient;
 use colony_hub::{HubSpec, HubThread, Server};
@@ -474,4 +475,203 @@ fn a_site_whose_hub_stops_answering_withdraws_its_wants() {
     // silence), it stops asking, and A stops sending (three quiet rounds).
     b.hub.take().unwrap().stop().unwrap();
     until_quiet(&a, &mut publisher, "A kept exporting to a site with no hub");
+}
+
+/// The hub's drop counters; waits (generously) for the answer.
+fn hub_drops(site: &Site_) -> BTreeMap<String, u64> {
+    let mut c = site.client(&["test-status"]);
+    let start = Instant::now();
+    loop {
+        assert!(start.elapsed() < PATIENCE, "no status reply");
+        c.request(&[colony_wire::Request::Status]).unwrap();
+        let until = Instant::now() + Duration::from_millis(200);
+        while Instant::now() < until {
+            let _ = c.wait(Some(until));
+            if let Some(colony_wire::Reply::Status(r)) = c.recv_reply().unwrap() {
+                return r.drops.into_iter().collect();
+            }
+        }
+    }
+}
+
+fn zenoh_peer(connect: u16) -> zenoh::Session {
+    let mut c = zenoh::Config::default();
+    c.insert_json5("connect/endpoints", &format!("[\"{}\"]", endpoint(connect)))
+        .unwrap();
+    c.insert_json5("scouting/multicast/enabled", "false")
+        .unwrap();
+    zenoh::open(c).wait().unwrap()
+}
+
+/// The review's attack: 5,000 junk want tokens of a made-up site, named to
+/// sort before any real channel, filled the table of other sites' wants; a
+/// real site's want was refused for good, and the exports, picked in hash
+/// order, were subscribed and unsubscribed again and again until the hub
+/// rate-limited the bridge, each time counting every refusal again.
+#[test]
+fn a_stranger_s_flood_of_want_tokens_shuts_no_site_out_nor_churns_the_hub() {
+    let pa = free_port();
+    let a = Site_::new("a", Mode::Peer, &[], &[endpoint(pa)]);
+    let stranger = zenoh_peer(pa);
+    const JUNK: usize = 5_000;
+    let tokens: Vec<_> = (0..JUNK)
+        .map(|i| {
+            stranger
+                .liveliness()
+                .declare_token(format!("colony/x/want/aaa{i:05}"))
+                .wait()
+                .unwrap()
+        })
+        .collect();
+    let start = Instant::now();
+    while Stats::get(&a.stats().refused_wants) < (JUNK - 1_024) as u64 {
+        assert!(
+            start.elapsed() < PATIENCE,
+            "the junk wants never reached the bridge: {:?}",
+            a.stats()
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+
+    let b = Site_::new("b", Mode::Peer, &[endpoint(pa)], &[]);
+    let mut publisher = a.client(&[]);
+    let mut on_b = b.client(&["vision"]);
+    until_flowing(
+        &mut publisher,
+        "@ <vision> 0\nrobot id 1\n",
+        &mut [&mut on_b],
+    );
+    publish_paced(&mut publisher, &numbered("vision", 100));
+    assert_eq!(drain(&mut on_b, Duration::from_millis(1500)).len(), 100);
+
+    // Each want refused is counted once, however often the exports are
+    // brought in line: at most once as a want, once as a channel left out.
+    let refused = Stats::get(&a.stats().refused_wants);
+    assert!(
+        refused <= 2 * JUNK as u64,
+        "refused counted {refused} times"
+    );
+    let drops = hub_drops(&a);
+    for reason in ["rate_limited", "too_many_subscriptions"] {
+        assert_eq!(drops.get(reason).copied().unwrap_or(0), 0, "{drops:?}");
+    }
+    drop(tokens);
+    drop(stranger);
+}
+
+/// A want refused at its site's bound is taken once room frees: the bridge
+/// asks Zenoh for the live tokens again.
+#[test]
+fn a_want_refused_at_its_site_s_bound_is_taken_when_room_frees() {
+    let pa = free_port();
+    let a = Site_::new("a", Mode::Peer, &[], &[endpoint(pa)]);
+    let other = zenoh_peer(pa);
+    let mut tokens: Vec<_> = (0..1_024)
+        .map(|i| {
+            other
+                .liveliness()
+                .declare_token(format!("colony/x/want/junk{i:04}"))
+                .wait()
+                .unwrap()
+        })
+        .collect();
+    let start = Instant::now();
+    while Stats::get(&a.stats().refused_wants) < 1_024 - 255 {
+        assert!(start.elapsed() < PATIENCE, "{:?}", a.stats());
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // One more than the bound, named to be the first exported once held.
+    let before = Stats::get(&a.stats().refused_wants);
+    let _alpha = other
+        .liveliness()
+        .declare_token("colony/x/want/alpha")
+        .wait()
+        .unwrap();
+    let start = Instant::now();
+    while Stats::get(&a.stats().refused_wants) == before {
+        assert!(start.elapsed() < PATIENCE, "alpha was never refused");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let heard = other
+        .declare_subscriber("colony/a/ch/alpha")
+        .wait()
+        .unwrap();
+    drop(tokens.pop());
+    let mut publisher = a.client(&[]);
+    let start = Instant::now();
+    loop {
+        assert!(
+            start.elapsed() < PATIENCE,
+            "alpha was never exported once room freed"
+        );
+        publisher.publish(b"@ <alpha> 0\nhello\n").unwrap();
+        if heard
+            .recv_timeout(Duration::from_millis(100))
+            .ok()
+            .flatten()
+            .is_some()
+        {
+            break;
+        }
+    }
+}
+
+/// The review's attack: anyone on the Zenoh link sees a sender's run id,
+/// and one forged stamp (that run id, 2^64 - 2) sent every 50 ms kept 292
+/// of 300 real packets from arriving, each forgery adding 2^20 to `lost`.
+#[test]
+fn a_forged_stamp_far_ahead_neither_silences_a_stream_nor_counts_as_lost() {
+    let (pa, pb) = (free_port(), free_port());
+    let a = Site_::new("a", Mode::Peer, &[], &[endpoint(pa)]);
+    let b = Site_::new("b", Mode::Peer, &[endpoint(pa)], &[endpoint(pb)]);
+    let mut publisher = a.client(&[]);
+    let mut on_b = b.client(&["radio"]);
+    until_flowing(&mut publisher, "@ <radio> 0\nmsg id 0\n", &mut [&mut on_b]);
+    // The forger reads the run id off a real sample.
+    let forger = zenoh_peer(pb);
+    let spy = forger
+        .declare_subscriber("colony/a/ch/radio")
+        .wait()
+        .unwrap();
+    let start = Instant::now();
+    let run = loop {
+        assert!(start.elapsed() < PATIENCE, "the forger saw no real sample");
+        publisher.publish(b"@ <radio> 0\nmsg id 0\n").unwrap();
+        let sample = spy.recv_timeout(Duration::from_millis(100)).ok().flatten();
+        if let Some(stamp) = sample
+            .as_ref()
+            .and_then(|s| s.attachment())
+            .and_then(|a| Stamp::from_bytes(&a.to_bytes()))
+        {
+            break stamp.run;
+        }
+    };
+    // Zenoh's channel blocks its sender once full: no one reads it from here on.
+    drop(spy);
+    drain(&mut on_b, Duration::from_millis(300));
+    let lost_before = Stats::get(&b.stats().lost);
+    let forged = Stamp {
+        run,
+        seq: u64::MAX - 1,
+    };
+    // Read as it comes (a few milliseconds a packet), or the receiver's
+    // socket buffer would be the limit.
+    let mut got = BTreeMap::new();
+    for (i, p) in numbered("radio", 300).iter().enumerate() {
+        if i % 10 == 0 {
+            forger
+                .put("colony/a/ch/radio", "@ <radio> 0\nforged\n")
+                .attachment(forged.to_bytes().to_vec())
+                .wait()
+                .unwrap();
+        }
+        publisher.publish(p.as_bytes()).unwrap();
+        got.extend(drain(&mut on_b, Duration::from_millis(1)));
+    }
+    got.extend(drain(&mut on_b, Duration::from_millis(1500)));
+    let real = got.keys().filter(|p| p.contains("msg n")).count();
+    assert_eq!(real, 300, "{} of 300 arrived: {:?}", real, b.stats());
+    let lost = Stats::get(&b.stats().lost) - lost_before;
+    assert!(lost < 300, "lost counted {lost}");
+    assert!(Stats::get(&b.stats().suspect) > 0, "{:?}", b.stats());
 }
