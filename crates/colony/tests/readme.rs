@@ -59,10 +59,6 @@ enum Class {
     /// Draws in a terminal: run in tmux (80 x 24) until the screen shows the text, then `q`
     /// must end it with status 0.
     Terminal(&'static str),
-    /// Interactive: the lines after it in its block are what a person types into it, in a
-    /// terminal; a `cookie v` line typed is typed again with the cookie the hub answered
-    /// with, after which the screen must show the text.
-    Typed(&'static str),
     /// Not run here, for this reason.
     NotRun(&'static str),
 }
@@ -144,7 +140,10 @@ const RULES: &[Rule] = &[
     exact("colony status", Run("vision_out")).within("five commands"),
     prefix("colony replay traffic.clog", Run("replayed")),
     prefix("printf '@ <vision_out> 0", Run("")),
-    exact("nc -u 127.0.0.1 7400", Typed("lease")),
+    prefix(
+        "printf '@ <hub> 0\\ncookie v 0000000000000000\\n",
+        Run("cookie v "),
+    ),
     exact(
         "colony serve upper -- tr a-z A-Z",
         Keep(Prints("serves `upper`"), ""),
@@ -265,13 +264,10 @@ const RULES: &[Rule] = &[
         "colony game measure",
         NotRun("the paper's tables on a live match: about 5 minutes"),
     ),
-    prefix(
-        "colony game part world|server|robots|bot",
-        NotRun("four alternatives in one line (`|` would pipe them), not one command"),
-    ),
+    prefix("colony game part world ", Server(Prints("the world of a"))).hub(),
     prefix(
         "colony path maps/movingai/arena.map ",
-        Beside("0 mismatches"),
+        NotRun("the Moving AI maps are the repository's, read in a checkout"),
     ),
 ];
 
@@ -292,9 +288,6 @@ struct Example {
     subsection: Option<String>,
     /// The last comment line above it in its block (`# site "lab" ...`), or "".
     note: String,
-    block: usize,
-    /// What a person types into it (for `Typed`).
-    input: Vec<String>,
 }
 
 impl Example {
@@ -338,8 +331,8 @@ fn strip_comment(line: &str) -> &str {
 fn parse(readme: &str) -> Vec<Example> {
     let mut out = Vec::new();
     let (mut section, mut subsection) = (String::new(), None);
-    let mut block: Option<(bool, usize)> = None;
-    let mut blocks = 0;
+    // Inside a block, and whether it is a ```sh one.
+    let mut block: Option<bool> = None;
     let mut note = String::new();
     for (i, raw) in readme.lines().enumerate() {
         let trimmed = raw.trim();
@@ -347,8 +340,7 @@ fn parse(readme: &str) -> Vec<Example> {
             if block.is_some() {
                 block = None;
             } else {
-                blocks += 1;
-                block = Some((lang.trim() == "sh", blocks));
+                block = Some(lang.trim() == "sh");
                 note.clear();
             }
             continue;
@@ -362,8 +354,8 @@ fn parse(readme: &str) -> Vec<Example> {
                     subsection = None;
                 }
             }
-            Some((false, _)) => {}
-            Some((true, id)) => {
+            Some(false) => {}
+            Some(true) => {
                 if trimmed.starts_with('#') {
                     note = trimmed.to_string();
                     continue;
@@ -378,8 +370,6 @@ fn parse(readme: &str) -> Vec<Example> {
                     section: section.clone(),
                     subsection: subsection.clone(),
                     note: note.clone(),
-                    block: id,
-                    input: Vec::new(),
                 });
             }
         }
@@ -392,29 +382,18 @@ fn readme() -> String {
     std::fs::read_to_string(path).unwrap_or_else(|e| panic!("read {path}: {e}"))
 }
 
-/// A README's examples, each with the rule that classifies it (lines typed into a `Typed`
-/// example become its input); the examples no rule classifies; whether each rule was used.
+/// A README's examples, each with the rule that classifies it; the examples no rule
+/// classifies; whether each rule was used.
 type Classes = (Vec<(Example, &'static Rule)>, Vec<String>, Vec<bool>);
 
 fn classify(readme: &str) -> Classes {
     let mut plan: Vec<(Example, &'static Rule)> = Vec::new();
     let mut unclassified = Vec::new();
     let mut used = vec![false; RULES.len()];
-    let mut typed_into: Option<usize> = None;
     for ex in parse(readme) {
-        if let Some(at) = typed_into {
-            if plan[at].0.block == ex.block {
-                plan[at].0.input.push(ex.text);
-                continue;
-            }
-            typed_into = None;
-        }
         match RULES.iter().position(|r| r.matches(&ex)) {
             Some(r) => {
                 used[r] = true;
-                if matches!(RULES[r].class, Typed(_)) {
-                    typed_into = Some(plan.len());
-                }
                 plan.push((ex, &RULES[r]));
             }
             None => unclassified.push(ex.name()),
@@ -867,56 +846,6 @@ fn terminal(place: &Place, line: &str, shows: &str, n: usize) -> Result<(), Stri
         })
 }
 
-/// The `cookie v H` values on a screen, other than those typed.
-fn cookies(screen: &str, typed: &[&str]) -> Vec<String> {
-    screen
-        .lines()
-        .filter_map(|l| l.trim().strip_prefix("cookie v "))
-        .map(|c| c.trim().to_string())
-        .filter(|c| c.len() == 16 && c.chars().all(|x| x.is_ascii_hexdigit()))
-        .filter(|c| !typed.contains(&c.as_str()))
-        .collect()
-}
-
-/// An interactive example: its input typed in a terminal, line by line as a person types;
-/// the hub's cookie typed back; then the screen must show `answer`.
-fn typed(place: &Place, ex: &Example, answer: &str, n: usize) -> Result<(), String> {
-    let t = Tmux::start(place, &ex.text, n)?;
-    std::thread::sleep(Duration::from_millis(300));
-    let typed_cookies: Vec<&str> = ex
-        .input
-        .iter()
-        .filter_map(|l| l.strip_prefix("cookie v "))
-        .collect();
-    for l in &ex.input {
-        t.type_line(l, true);
-    }
-    if !typed_cookies.is_empty() {
-        let screen = t
-            .wait_for(Duration::from_secs(10), |s| {
-                !cookies(s, &typed_cookies).is_empty()
-            })
-            .map_err(|s| {
-                format!(
-                    "typed as shown, in a terminal ({} lines: each Enter hands it one line), it \
-                     drew no `cookie v` answer within 10 s; the screen:\n{}",
-                    ex.input.len(),
-                    screen_tail(&s)
-                )
-            })?;
-        let cookie = cookies(&screen, &typed_cookies).remove(0);
-        for l in &ex.input {
-            match l.strip_prefix("cookie v ") {
-                Some(_) => t.type_line(&format!("cookie v {cookie}"), true),
-                None => t.type_line(l, true),
-            }
-        }
-    }
-    t.wait_for(Duration::from_secs(10), |s| s.contains(answer))
-        .map(|_| ())
-        .map_err(|s| format!("its screen never showed `{answer}`:\n{}", screen_tail(&s)))
-}
-
 /// A process kept to the end of its section (or, for a hub started for one example, of it).
 struct Live {
     proc: Proc,
@@ -1032,12 +961,6 @@ impl Reader {
             Terminal(shows) => {
                 self.terminals += 1;
                 if let Err(why) = terminal(&self.place, &ex.text, shows, self.terminals) {
-                    self.fail(ex, why);
-                }
-            }
-            Typed(answer) => {
-                self.terminals += 1;
-                if let Err(why) = typed(&self.place, ex, answer, self.terminals) {
                     self.fail(ex, why);
                 }
             }
@@ -1180,7 +1103,7 @@ fn the_readme_examples_run_as_written() {
     let mut summary = format!(
         "{} README examples: {} run to their end ({} of them beside the others), {} servers \
          ({} kept to the end of their section), {} in the background, {} in a terminal, \
-         {} typed into, {} not run:\n",
+         {} not run:\n",
         plan.len(),
         count(|c| matches!(c, Run(_) | Beside(_))),
         count(|c| matches!(c, Beside(_))),
@@ -1188,7 +1111,6 @@ fn the_readme_examples_run_as_written() {
         count(|c| matches!(c, Keep(..))),
         count(|c| matches!(c, Background(_))),
         count(|c| matches!(c, Terminal(_))),
-        count(|c| matches!(c, Typed(_))),
         count(|c| matches!(c, NotRun(_))),
     );
     for (ex, r) in &plan {
@@ -1208,31 +1130,27 @@ fn the_readme_examples_run_as_written() {
 }
 
 #[test]
-fn comments_and_typed_lines_are_read_as_a_person_reads_them() {
+fn comments_are_read_as_a_person_reads_them() {
     assert_eq!(
         strip_comment(r#"colony call upper 'a # b' "c # d" e\#f   # a comment"#),
         r#"colony call upper 'a # b' "c # d" e\#f"#
     );
     assert_eq!(strip_comment("colony hub &  # the broker"), "colony hub &");
     assert_eq!(strip_comment("colony x#y"), "colony x#y");
-    let page = "## A\n\n```sh\n# a note\nnc -u 127.0.0.1 7400   # type:\n@ <hub> 0\n\
-                cookie v 0000000000000000\n```\n\n```sh\ncolony game measure\nmake it so\n```\n";
+    let page = "## A\n\n```sh\n# a note\ncolony tasks demo --seconds 2   # a demo\n```\n\n\
+                ```sh\ncolony game measure\nmake it so\n```\n";
     let (plan, unclassified, _) = classify(page);
-    let texts: Vec<(&str, &[String], &str)> = plan
+    let texts: Vec<(&str, &str)> = plan
         .iter()
-        .map(|(ex, _)| (ex.text.as_str(), ex.input.as_slice(), ex.note.as_str()))
+        .map(|(ex, _)| (ex.text.as_str(), ex.note.as_str()))
         .collect();
-    let typed = [
-        "@ <hub> 0".to_string(),
-        "cookie v 0000000000000000".to_string(),
-    ];
     assert_eq!(
         texts,
         [
-            ("nc -u 127.0.0.1 7400", &typed[..], "# a note"),
-            ("colony game measure", &[][..], "")
+            ("colony tasks demo --seconds 2", "# a note"),
+            ("colony game measure", "")
         ]
     );
-    assert_eq!(plan[1].0.line, 11);
-    assert_eq!(unclassified, ["README.md:12 `make it so`"]);
+    assert_eq!(plan[1].0.line, 9);
+    assert_eq!(unclassified, ["README.md:10 `make it so`"]);
 }
