@@ -39,6 +39,8 @@ use crate::keys::{self, Site};
 use crate::track::{Stamp, Tracker, Verdict};
 use crate::wants::{Offer, Wants};
 
+/// How long the bridge waits for its hub's first answer before it says none came.
+const FIRST_ANSWER: Duration = Duration::from_secs(3);
 const HUB: Token = Token(0);
 const WAKE: Token = Token(1);
 /// Samples waiting for the bridge's thread; beyond, they are dropped and counted.
@@ -227,6 +229,10 @@ pub struct Bridge {
     wants_changed: bool,
     next_export: Instant,
     next_relook: Instant,
+    /// When it started, and whether it has said the hub is not answering (so
+    /// a person learns it within seconds, and once).
+    started: Instant,
+    hub_warned: bool,
     /// The bridge's own channel, held so the hub shows it.
     own: Subject,
     interest: LocalInterest,
@@ -302,6 +308,8 @@ impl Bridge {
             wants_changed: false,
             next_export: now,
             next_relook: now,
+            started: now,
+            hub_warned: false,
             own,
             interest: LocalInterest::default(),
             subscribers: HashMap::new(),
@@ -403,6 +411,7 @@ impl Bridge {
             if let Err(e) = self.client.request(&[Request::Status]) {
                 self.hub_error("status request", &e);
             }
+            self.say_whether_the_hub_answers(now);
             // A hub that has gone quiet has no clients to serve: stop asking
             // other sites for their packets until it answers again.
             if matches!(self.client.hub_state(), HubState::Unreachable { .. })
@@ -420,6 +429,33 @@ impl Bridge {
             self.hub_error("refresh", &e);
         }
         Ok(())
+    }
+
+    /// Says, once, that the hub has not answered (within [`FIRST_ANSWER`] of
+    /// the start, or since it fell silent), and again when it answers.
+    fn say_whether_the_hub_answers(&mut self, now: Instant) {
+        let hub = self.client.hub_addr();
+        match self.client.hub_state() {
+            HubState::Alive if self.hub_warned => {
+                self.hub_warned = false;
+                tracing::warn!(site = %self.config.site, %hub, "the hub answers again");
+            }
+            HubState::Unreachable { .. } if !self.hub_warned => {
+                self.hub_warned = true;
+                tracing::warn!(site = %self.config.site, %hub, "the hub does not answer; still trying");
+            }
+            HubState::Unknown
+                if !self.hub_warned && now.duration_since(self.started) >= FIRST_ANSWER =>
+            {
+                self.hub_warned = true;
+                tracing::warn!(
+                    site = %self.config.site,
+                    %hub,
+                    "no answer from the hub yet; still trying (is `colony hub` running there? a hub run with --auth-all needs the bridge's --key)"
+                );
+            }
+            _ => {}
+        }
     }
 
     fn read_hub(&mut self) -> Result<(), BridgeError> {

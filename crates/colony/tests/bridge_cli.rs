@@ -275,3 +275,45 @@ fn zenohs_own_python_package_receives_a_colony_channel_and_publishes_one_back() 
     let colony_got = colony_got.expect("the hub's subscriber never received Python's to_colony");
     assert!(colony_got.contains("reply from python"), "{colony_got}");
 }
+
+#[test]
+fn a_bridge_with_no_hub_says_so_within_seconds_and_keeps_trying() {
+    // A port nothing listens on.
+    let quiet = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let hub = quiet.local_addr().unwrap().to_string();
+    drop(quiet);
+    let listen = endpoint(free_port());
+    let mut child = colony()
+        .args([
+            "bridge", "--hub", &hub, "--site", "lonely", "--listen", &listen,
+        ])
+        .env("COLONY_LOG", "warn")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let err = child.stderr.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(err).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                return;
+            }
+        }
+    });
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let mut said = None;
+    while said.is_none() && Instant::now() < deadline {
+        if let Ok(line) = rx.recv_timeout(Duration::from_millis(200)) {
+            if line.contains("no answer from the hub") {
+                said = Some(line);
+            }
+        }
+    }
+    let still_running = child.try_wait().unwrap().is_none();
+    let _ = child.kill();
+    let _ = child.wait();
+    let said = said.expect("the bridge never said its hub does not answer");
+    assert!(said.contains(&hub), "{said}");
+    assert!(still_running, "it keeps trying");
+}
