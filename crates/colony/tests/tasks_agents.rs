@@ -7,44 +7,7 @@ mod common;
 
 use std::time::{Duration, Instant};
 
-use common::{colony, HubProcess, Proc};
-
-fn agent(hub: &str, name: &str, resources: &str, extra: &[&str]) -> Proc {
-    let mut args = vec![
-        "tasks",
-        "agent",
-        "--hub",
-        hub,
-        "--name",
-        name,
-        "--resources",
-        resources,
-    ];
-    args.extend_from_slice(extra);
-    let p = Proc::start(&args);
-    assert!(
-        p.when("joins with", Duration::from_secs(20)).is_some(),
-        "agent {name} never started"
-    );
-    p
-}
-
-fn announce(hub: &str, name: &str, needs: &str, length: &str) -> Proc {
-    Proc::start(&[
-        "tasks",
-        "announce",
-        "--hub",
-        hub,
-        "--name",
-        name,
-        "--needs",
-        needs,
-        "--length",
-        length,
-        "--deadline",
-        "60",
-    ])
-}
+use common::{colony, tasks_agent as agent, tasks_announce as announce, HubProcess, Proc};
 
 /// The subscriptions of the client whose about text is `agent NAME ...`.
 fn subscriptions_of(hub: &str, name: &str) -> Option<String> {

@@ -13,42 +13,7 @@ use colony_client::UdpClient;
 use colony_tasks::protocol::{Bid, Message, Negotiation, Token};
 use colony_wire::seal::Identity;
 use colony_wire::{Packet, Subject};
-use common::{subscribed, HubProcess, Proc};
-
-fn agent(hub: &str, name: &str, resources: &str) -> Proc {
-    let p = Proc::start(&[
-        "tasks",
-        "agent",
-        "--hub",
-        hub,
-        "--name",
-        name,
-        "--resources",
-        resources,
-    ]);
-    assert!(
-        p.when("joins with", Duration::from_secs(20)).is_some(),
-        "agent {name} never started"
-    );
-    p
-}
-
-fn announce(hub: &str, name: &str, needs: &str, length: &str) -> Proc {
-    Proc::start(&[
-        "tasks",
-        "announce",
-        "--hub",
-        hub,
-        "--name",
-        name,
-        "--needs",
-        needs,
-        "--length",
-        length,
-        "--deadline",
-        "60",
-    ])
-}
+use common::{subscribed, tasks_agent, tasks_announce as announce, HubProcess, Proc};
 
 /// An attacker that hears every announcement for `resources` and every
 /// message of the auctions it hears of, with a key of its own.
@@ -132,8 +97,8 @@ fn forged_done_cancel_and_award_change_nothing_and_a_rogue_bid_does_not_win() {
     let hub = HubProcess::start(&[]);
     let h = hub.addr.to_string();
     let mut attacker = Attacker::new(hub.addr, &["gripper", "camera"]);
-    let r1 = agent(&h, "r1", "mobile,gripper");
-    let _r2 = agent(&h, "r2", "mobile,camera");
+    let r1 = tasks_agent(&h, "r1", "mobile,gripper", &[]);
+    let _r2 = tasks_agent(&h, "r2", "mobile,camera", &[]);
 
     // A 30 s task: the attacker says it is done, and cancels it on the
     // announcer's behalf, as soon as r1 has it.

@@ -312,6 +312,36 @@ impl Counter {
     }
 }
 
+/// A role bound to the key that first took it (a task's announcer, its
+/// winner), and the count of the last packet taken from that key: a protocol
+/// takes the role's packets only from that key, each once and in order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Binding {
+    key: PublicKey,
+    heard: Counter,
+}
+
+impl Binding {
+    /// The role bound to `key`, its packet `n` taken.
+    pub fn new(key: PublicKey, n: u64) -> Binding {
+        let mut heard = Counter::default();
+        heard.accept(n);
+        Binding { key, heard }
+    }
+
+    /// The key bound.
+    pub fn key(&self) -> PublicKey {
+        self.key
+    }
+
+    /// Whether a packet sealed by `key` with count `n` speaks for the role:
+    /// the bound key's, and newer than any taken before (a copy sent again
+    /// is not). Taking it counts it.
+    pub fn speaks(&mut self, key: PublicKey, n: u64) -> bool {
+        key == self.key && self.heard.accept(n)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -428,6 +458,17 @@ mod tests {
         let sealed = id.sealed(PACKET.to_vec());
         assert_eq!(sealed.len() - PACKET.len(), MAX_LINE);
         assert_eq!(open(&sealed).unwrap().n, u64::MAX);
+    }
+
+    #[test]
+    fn a_binding_takes_its_own_key_once_per_count() {
+        let (a, b) = (identity(8).public(), identity(9).public());
+        let mut bound = Binding::new(a, 3);
+        assert!(!bound.speaks(a, 3), "the packet that bound it, again");
+        assert!(!bound.speaks(b, 4), "another key");
+        assert!(bound.speaks(a, 4));
+        assert!(!bound.speaks(a, 2));
+        assert_eq!(bound.key(), a);
     }
 
     #[test]

@@ -243,3 +243,44 @@ impl Drop for Proc {
         self.kill();
     }
 }
+
+/// A `colony tasks agent` process on `hub`, once it has joined.
+#[allow(dead_code)] // Not every test file that shares this module starts agents.
+pub fn tasks_agent(hub: &str, name: &str, resources: &str, extra: &[&str]) -> Proc {
+    let mut args = vec![
+        "tasks",
+        "agent",
+        "--hub",
+        hub,
+        "--name",
+        name,
+        "--resources",
+        resources,
+    ];
+    args.extend_from_slice(extra);
+    let p = Proc::start(&args);
+    assert!(
+        p.when("joins with", Duration::from_secs(20)).is_some(),
+        "agent {name} never started"
+    );
+    p
+}
+
+/// `colony tasks announce` of a task `length` seconds long, on `hub`, giving up after 60 s.
+#[allow(dead_code)] // Not every test file that shares this module announces.
+pub fn tasks_announce(hub: &str, name: &str, needs: &str, length: &str) -> Proc {
+    Proc::start(&[
+        "tasks",
+        "announce",
+        "--hub",
+        hub,
+        "--name",
+        name,
+        "--needs",
+        needs,
+        "--length",
+        length,
+        "--deadline",
+        "60",
+    ])
+}

@@ -1,9 +1,10 @@
 //! Bidding: score an announcement, bid, and on winning acknowledge and start
 //! (or decline when something else came first).
 
+use colony_wire::seal::Binding;
 use colony_wire::Subject;
 
-use super::{Agent, AgentEvent, AgentMode, AnnouncerKey, Job, Pending};
+use super::{Agent, AgentEvent, AgentMode, Job, Pending};
 use crate::metric::RobotView;
 use crate::protocol::{Announcement, Bid, Negotiation};
 use colony_node::Time;
@@ -24,7 +25,7 @@ impl Agent {
 
     /// Hears a task: bids for it if it is free, capable, charged enough and
     /// can score it.
-    pub(super) fn on_announce(&mut self, now: Time, ann: Announcement, announcer: AnnouncerKey) {
+    pub(super) fn on_announce(&mut self, now: Time, ann: Announcement, announcer: Binding) {
         if self.mode != AgentMode::Idle
             || !ann.spec.resources.is_subset(&self.resources)
             || self.pending.contains_key(&ann.negotiation)

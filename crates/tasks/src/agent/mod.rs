@@ -7,7 +7,7 @@ mod events;
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use colony_proto::Vec2;
-use colony_wire::seal::{Counter, Identity, PublicKey};
+use colony_wire::seal::{Binding, Identity, PublicKey};
 use colony_wire::{Packet, Subject};
 
 pub use config::AgentConfig;
@@ -19,32 +19,11 @@ use crate::protocol::{ResourceSet, Token, IDLE};
 use colony_node::Node;
 use colony_node::Time;
 
-/// The key that sealed a task's announcement, and the count of its last
-/// message taken: only it speaks for the task's announcer.
-#[derive(Debug, Clone, Copy)]
-struct AnnouncerKey {
-    key: PublicKey,
-    heard: Counter,
-}
-
-impl AnnouncerKey {
-    fn new(key: PublicKey, n: u64) -> AnnouncerKey {
-        let mut heard = Counter::default();
-        heard.accept(n);
-        AnnouncerKey { key, heard }
-    }
-
-    /// Whether a message sealed by `key` with count `n` is the announcer's,
-    /// and newer than any taken before (a copy sent again is not).
-    fn speaks(&mut self, key: PublicKey, n: u64) -> bool {
-        key == self.key && self.heard.accept(n)
-    }
-}
-
 #[derive(Debug)]
 struct Pending {
     ann: Announcement,
-    announcer: AnnouncerKey,
+    /// The key that sealed the announcement: only it speaks for the announcer.
+    announcer: Binding,
     best: Bid,
     close_at: Time,
 }
@@ -52,7 +31,7 @@ struct Pending {
 #[derive(Debug)]
 struct Job {
     ann: Announcement,
-    announcer: AnnouncerKey,
+    announcer: Binding,
     last_heard: Time,
     next_renew: Time,
     progress: f64,
@@ -91,7 +70,7 @@ pub struct Agent {
     mode: AgentMode,
     pending: BTreeMap<Subject, Pending>,
     job: Option<Job>,
-    lingering: BTreeMap<Subject, (u64, Time, AnnouncerKey)>,
+    lingering: BTreeMap<Subject, (u64, Time, Binding)>,
     next_check: Time,
     /// When the next periodic report is due (`None`: the robot never reports).
     next_report: Option<Time>,
@@ -514,7 +493,7 @@ impl Node for Agent {
                 message: Message::Announce(ann),
                 key,
                 n,
-            }) => self.on_announce(now, ann, AnnouncerKey::new(key, n)),
+            }) => self.on_announce(now, ann, Binding::new(key, n)),
             Ok(Signed {
                 message: Message::Robot(_),
                 ..

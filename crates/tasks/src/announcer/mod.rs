@@ -7,7 +7,7 @@ mod events;
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
-use colony_wire::seal::{Counter, Identity, PublicKey};
+use colony_wire::seal::{Binding as Bidder, Identity, PublicKey};
 use colony_wire::{Packet, Subject};
 
 pub use config::AuctionConfig;
@@ -20,29 +20,9 @@ use crate::protocol::{
 use colony_node::Node;
 use colony_node::Time;
 
-/// A bidder as the announcer knows it: the key that sealed its first bid in
-/// the auction, and the count of its last message taken. Only that key
-/// speaks under the bidder's token for the rest of the auction and the task.
-#[derive(Debug, Clone, Copy)]
-struct Bidder {
-    key: PublicKey,
-    heard: Counter,
-}
-
-impl Bidder {
-    fn new(key: PublicKey, n: u64) -> Bidder {
-        let mut heard = Counter::default();
-        heard.accept(n);
-        Bidder { key, heard }
-    }
-
-    /// Whether a message sealed by `key` with count `n` is this bidder's,
-    /// and newer than any taken before (a copy sent again is not).
-    fn speaks(&mut self, key: PublicKey, n: u64) -> bool {
-        key == self.key && self.heard.accept(n)
-    }
-}
-
+/// A bidder as the announcer knows it ([`Binding`](colony_wire::seal::Binding)):
+/// the key that sealed its first bid in the auction. Only that key speaks
+/// under the bidder's token for the rest of the auction and the task.
 #[derive(Debug)]
 enum Phase {
     Bidding {
