@@ -2,12 +2,15 @@
 //! messages published on subjects nobody subscribes to (a task's negotiation
 //! subject, robots' reports) reach the board through the monitor's tap, and
 //! the page gets the task from announced to done with its bids and winner.
+//! Each message is sealed by the process it speaks for, as the board takes
+//! nothing else; a forged `done` from another key changes nothing.
 
 mod common;
 
 use std::time::Duration;
 
 use colony_client::UdpClient;
+use colony_wire::seal::Identity;
 use serde_json::Value;
 
 use common::{get, monitor, with_token, Hub, Ws};
@@ -50,27 +53,58 @@ fn the_board_follows_a_task_from_announced_to_done_on_subjects_nobody_subscribes
 
     let mut ws = Ws::connect(m.local_addr(), &with_token(&m, "/ws?view=tasks"));
     let mut publisher = UdpClient::connect(hub.addr).unwrap();
+    let (mut user, mut r2) = (Identity::generate(), Identity::generate());
+    let sealed = |id: &mut Identity, packet: &str| {
+        String::from_utf8(id.sealed(packet.as_bytes().to_vec())).unwrap()
+    };
+    let (announce, award) = (sealed(&mut user, ANNOUNCE), sealed(&mut user, AWARD));
+    let (bid, report, done) = (
+        sealed(&mut r2, BID),
+        sealed(&mut r2, REPORT),
+        sealed(&mut r2, DONE),
+    );
+    let forged_done = sealed(&mut Identity::generate(), DONE);
     let task = |v: &Value| v["tasks"][0].clone();
-    let b = until(&mut ws, &mut publisher, ANNOUNCE, "the announcement", |v| {
-        task(v)["name"] == "inspect"
-    });
+    let b = until(
+        &mut ws,
+        &mut publisher,
+        &announce,
+        "the announcement",
+        |v| task(v)["name"] == "inspect",
+    );
     assert_eq!(task(&b)["state"], "announced");
     assert_eq!(task(&b)["resources"], serde_json::json!(["camera"]));
-    let b = until(&mut ws, &mut publisher, BID, "the bid", |v| {
+    let b = until(&mut ws, &mut publisher, &bid, "the bid", |v| {
         task(v)["bids"].as_array().is_some_and(|a| !a.is_empty())
     });
     assert_eq!(task(&b)["state"], "bidding");
     assert_eq!(task(&b)["bids"][0]["bidder"], "r2");
     assert_eq!(task(&b)["bids"][0]["score"], 12.5);
-    until(&mut ws, &mut publisher, AWARD, "the award", |v| {
+    until(&mut ws, &mut publisher, &award, "the award", |v| {
         task(v)["winner"]["bidder"] == "r2"
     });
-    let b = until(&mut ws, &mut publisher, REPORT, "the robot", |v| {
+    let b = until(&mut ws, &mut publisher, &report, "the robot", |v| {
         v["robots"][0]["name"] == "r2"
     });
     assert_eq!(b["robots"][0]["mode"], "working");
     assert_eq!(b["robots"][0]["battery"], 0.7);
-    let b = until(&mut ws, &mut publisher, DONE, "the end", |v| {
+    // A `done` in r2's name from another key, and an unsealed one, are counted, not taken.
+    let b = until(
+        &mut ws,
+        &mut publisher,
+        &forged_done,
+        "the forged done counted",
+        |v| v["forged"].as_u64().is_some_and(|n| n > 0),
+    );
+    assert_eq!(task(&b)["state"], "awarded");
+    until(
+        &mut ws,
+        &mut publisher,
+        DONE,
+        "the unsealed done counted",
+        |v| v["forged"].as_u64().is_some_and(|n| n > 1),
+    );
+    let b = until(&mut ws, &mut publisher, &done, "the end", |v| {
         task(v)["state"] == "done"
     });
     let done = task(&b);
