@@ -46,7 +46,7 @@ fn a_packet_forged_with_printf_and_nc_reaches_colony_sub() {
     // machine may be slow to start it).
     let deadline = Instant::now() + Duration::from_secs(30);
     let script = format!(
-        "printf '@ <vision_out> 0\\nball x 5.3 y -2.5\\n' | nc -u -w0 127.0.0.1 {}",
+        "printf '@ <vision_out> 0\\nball x 5.3 y -2.5\\n' | nc -u -w1 127.0.0.1 {}",
         hub.addr.port()
     );
     let mut sub = sub;
