@@ -145,6 +145,61 @@ pub struct PhysicsConfig {
     pub substeps: u32,
     /// Constraint-solver iterations per physics step (rapier's default: 4).
     pub solver_iterations: u32,
+    /// The contact engine that steps the arena's bodies.
+    pub engine: Engine,
+}
+
+/// A contact engine for the arena (a choice per run: `--engine NAME`, `engine = "NAME"`).
+///
+/// Both step the same scene, bodies and parameters; they differ in how contacts are
+/// found and solved, and so in their last digits and their speed (BENCHMARKS.md,
+/// "Choosing the contact engine").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Engine {
+    /// rapier2d, the general-purpose engine: the reference.
+    #[default]
+    Rapier,
+    /// colony's own engine for the arena's few shapes (discs, capsules, convex
+    /// polygons against a rounded-rectangle wall): a uniform grid, resting pucks
+    /// asleep, a soft-step solver.
+    Disc,
+}
+
+impl Engine {
+    /// Every engine, by name.
+    pub const ALL: [Engine; 2] = [Engine::Rapier, Engine::Disc];
+
+    /// The engine's name on the command line and in configuration files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Engine::Rapier => "rapier",
+            Engine::Disc => "disc",
+        }
+    }
+}
+
+impl std::fmt::Display for Engine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Engine {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Engine, String> {
+        Engine::ALL
+            .into_iter()
+            .find(|e| e.name() == s)
+            .ok_or_else(|| {
+                let names: Vec<&str> = Engine::ALL.iter().map(|e| e.name()).collect();
+                format!(
+                    "no contact engine named {s:?} (there are: {})",
+                    names.join(", ")
+                )
+            })
+    }
 }
 
 /// Carrying detection with hysteresis (PuckSwarm: the fraction of gripper pixels
@@ -223,6 +278,7 @@ impl Default for PhysicsConfig {
             dt: 1.0 / 14.0,
             substeps: 3,
             solver_iterations: 4,
+            engine: Engine::default(),
         }
     }
 }
@@ -236,8 +292,9 @@ impl Default for CarryingConfig {
     }
 }
 
-/// The longest arena side accepted, cm (100 m; the standard arena is 1.87 m).
-pub const MAX_ARENA_SIDE: f64 = 10_000.0;
+/// The longest arena side accepted, cm (500 m: room for 100,000 robots at the standard
+/// densities, 296 m; the standard arena is 1.87 m).
+pub const MAX_ARENA_SIDE: f64 = 50_000.0;
 
 impl SceneConfig {
     /// The standard configuration scaled to `robots` robots: 10 pucks per robot and
@@ -324,7 +381,7 @@ impl SceneConfig {
             if side > MAX_ARENA_SIDE {
                 return Err(SimError::invalid(
                     field,
-                    format!("{side} cm is more than the {MAX_ARENA_SIDE} cm (100 m) this simulator supports"),
+                    format!("{side} cm is more than the {MAX_ARENA_SIDE} cm (500 m) this simulator supports"),
                 ));
             }
         }

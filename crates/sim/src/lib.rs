@@ -91,7 +91,7 @@ mod types;
 mod world;
 
 pub use config::{
-    ArenaConfig, CameraConfig, CarryingConfig, Footprint, PhysicsConfig, PuckConfig, RobotConfig,
+    ArenaConfig, CameraConfig, CarryingConfig, Engine, Footprint, PhysicsConfig, PuckConfig, RobotConfig,
     SceneConfig, MAX_ARENA_SIDE,
 };
 pub use error::{ConfigError, SimError};
