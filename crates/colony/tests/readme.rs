@@ -222,6 +222,10 @@ const RULES: &[Rule] = &[
         "colony sort run --method cachecons --scale-robots ",
         NotRun("4,096 robots for 100,000 steps: hours"),
     ),
+    prefix(
+        "colony sort run --method cachecons --trials 1 --steps 200 --engine ",
+        Beside("CSV files in engine-results"),
+    ),
     exact("colony sort live --speed 5", Server(Status("camera.0"))).hub(),
     // Task allocation.
     prefix("colony tasks demo ", Beside("awarded to")),

@@ -333,6 +333,9 @@ fn robot_and_puck_counts_past_what_a_world_takes_are_refused_before_any_memory_i
         ("--pucks", "1000000000", "pucks"),
         ("--scale-robots", "1000000000", "robots"),
         ("--scale-robots", "18446744073709551615", "robots"),
+        ("--scale-robots", "10000000", "robots"),
+        // One past the most a world takes (100,000 robots, 10 pucks each).
+        ("--scale-robots", "100001", "robots"),
     ] {
         let (code, _, e) = common::run_bounded(
             &[
@@ -359,4 +362,174 @@ fn robot_and_puck_counts_past_what_a_world_takes_are_refused_before_any_memory_i
             "{flag} {n}: {e}"
         );
     }
+}
+
+#[test]
+fn a_scale_of_zero_robots_is_refused() {
+    let (code, _, e) = common::run_bounded(
+        &[
+            "sort",
+            "run",
+            "--method",
+            "cachecons",
+            "--scale-robots",
+            "0",
+            "--steps",
+            "10",
+            "--trials",
+            "1",
+            "--out",
+            "/nonexistent/out",
+        ],
+        "warn",
+    );
+    assert_eq!(code, Some(1), "{e}");
+    assert!(
+        e.contains("--scale-robots must be at least 1") && !e.contains("panicked"),
+        "{e}"
+    );
+}
+
+#[test]
+fn non_finite_numbers_in_a_scene_file_are_refused_naming_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    for (text, field) in [
+        ("[arena]\nwidth = nan\n", "arena.width"),
+        ("[arena]\nheight = inf\n", "arena.height"),
+        ("[arena]\ncorner_radius = -inf\n", "arena.corner_radius"),
+        ("[robots]\nmass = inf\n", "robots.mass"),
+        (
+            "[robots]\ncommand_duration = nan\n",
+            "robots.command_duration",
+        ),
+        ("[pucks]\nfriction = -inf\n", "pucks.friction"),
+        ("[camera]\noffset = nan\n", "camera.offset"),
+        ("[physics]\ndt = inf\n", "physics.dt"),
+        (
+            "[carrying]\nkeep_fraction = -nan\n",
+            "carrying.keep_fraction",
+        ),
+    ] {
+        let scene = dir.path().join("scene.toml");
+        std::fs::write(&scene, text).unwrap();
+        let (code, _, e) = common::run_bounded(
+            &[
+                "sort",
+                "run",
+                "--method",
+                "cachecons",
+                "--scene",
+                scene.to_str().unwrap(),
+                "--steps",
+                "10",
+                "--trials",
+                "1",
+                "--out",
+                "/nonexistent/out",
+            ],
+            "warn",
+        );
+        assert_eq!(code, Some(1), "{text}: {e}");
+        assert!(
+            e.contains("scene.toml:2")
+                && e.contains(&format!("`{field}`"))
+                && !e.contains("panicked"),
+            "{text}: {e}"
+        );
+    }
+}
+
+#[test]
+fn an_engine_that_does_not_exist_is_refused_naming_those_that_do() {
+    for args in [
+        &["sort", "run", "--method", "cachecons", "--engine", "warp"][..],
+        &[
+            "sort",
+            "reproduce",
+            "--engine",
+            "warp",
+            "--out",
+            "/nonexistent/out",
+        ],
+        &[
+            "sort",
+            "supplementary",
+            "--engine",
+            "warp",
+            "--out",
+            "/nonexistent/out",
+        ],
+        &["sort", "live", "--engine", "warp", "--hub", "127.0.0.1:9"],
+        &["demo", "--engine", "warp", "--hub-bind", "127.0.0.1:0"],
+    ] {
+        let (code, _, e) = common::run_bounded(args, "warn");
+        assert_eq!(code, Some(2), "{args:?}: {e}");
+        assert!(
+            e.contains("--engine")
+                && e.contains("no contact engine named \"warp\" (there are: rapier, disc)"),
+            "{args:?}: {e}"
+        );
+    }
+}
+
+#[test]
+fn the_engine_can_be_chosen_on_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = colony()
+        .args([
+            "sort", "run", "--method", "probseek", "--trials", "1", "--steps", "100", "--engine",
+            "rapier", "--out",
+        ])
+        .arg(dir.path())
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(dir.path().join("summary.csv").exists());
+}
+
+#[test]
+fn long_work_shows_progress_lines_when_stderr_is_not_a_terminal() {
+    // A line every 20 ms rather than every 10 s: a run of a second or so shows
+    // several, whatever the machine's speed (the first comes 20 ms in).
+    let dir = tempfile::tempdir().unwrap();
+    let started = Instant::now();
+    let o = colony()
+        .args([
+            "sort",
+            "run",
+            "--method",
+            "cachecons",
+            "--trials",
+            "2",
+            "--steps",
+            "2000",
+            "--out",
+        ])
+        .arg(dir.path())
+        .env("COLONY_PROGRESS_SECS", "0.02")
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{e}");
+    assert!(
+        e.contains(
+            "colony: sort run: building 2 worlds of 4 robots and 40 pucks for 2 trials \
+             (4,000 control steps in all) on "
+        ),
+        "{e}"
+    );
+    let lines: Vec<&str> = e
+        .lines()
+        .filter(|l| l.starts_with("sort run: ") && l.contains(" of 4,000 control steps ("))
+        .collect();
+    assert!(
+        !lines.is_empty(),
+        "no progress line in {:?}: {e}",
+        started.elapsed()
+    );
+    assert!(lines.iter().all(|l| l.contains(" elapsed")), "{e}");
+    // Nothing drawn for a terminal: no bar, no carriage returns.
+    assert!(!e.contains('\r') && !e.contains('\u{1b}'), "{e}");
 }

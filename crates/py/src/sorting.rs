@@ -31,7 +31,8 @@ pub struct SortConfig {
 impl SortConfig {
     #[new]
     #[pyo3(signature = (*, scene=None, params=None, robots=None, pucks=None, kinds=None,
-        scale_robots=None, max_steps=2000, pc_target=None, reward="pc_change", grid=16))]
+        scale_robots=None, max_steps=2000, pc_target=None, reward="pc_change", grid=16,
+        engine=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         scene: Option<PathBuf>,
@@ -44,6 +45,7 @@ impl SortConfig {
         pc_target: Option<f64>,
         reward: &str,
         grid: usize,
+        engine: Option<&str>,
     ) -> PyResult<SortConfig> {
         let reward = match reward {
             "pc" => RewardKind::Pc,
@@ -66,7 +68,10 @@ impl SortConfig {
             }
             config = config.with_scaled_robots(n);
         }
-        config = config.with_counts(robots, pucks, kinds);
+        config = config
+            .with_counts(robots, pucks, kinds)
+            .with_engine(engine)
+            .map_err(error)?;
         config.max_steps = max_steps;
         config.pc_target = pc_target;
         config.reward = reward;

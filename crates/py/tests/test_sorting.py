@@ -186,6 +186,15 @@ class Observations(unittest.TestCase):
         with self.assertRaises(ValueError):
             SortingBatch(65536, scale_robots=1000)
 
+    def test_the_contact_engine_is_chosen_by_name_and_an_unknown_one_refused(self):
+        env = small(engine="rapier")
+        env.reset(seed=1)
+        env.step({})
+        with self.assertRaisesRegex(ValueError, r'no contact engine named "warp" \(there are: rapier, disc\)'):
+            SortingEnv(engine="warp")
+        with self.assertRaisesRegex(ValueError, "warp"):
+            SortingBatch(2, robots=2, engine="warp")
+
     def test_the_human_view_is_paced_to_the_scenes_control_step(self):
         env = small(render_mode="human", hub="127.0.0.1:9", render_speed=20.0)
         self.addCleanup(env.close)

@@ -180,3 +180,57 @@ fn layouts_outside_the_arena_are_refused() {
         Err(SimError::Layout(_))
     ));
 }
+
+#[test]
+fn non_finite_numbers_are_refused_in_every_float_field() {
+    // TOML writes them `nan`, `inf` and `-inf`; each must be refused naming its field.
+    let fields = [
+        ("arena", "width"),
+        ("arena", "height"),
+        ("arena", "corner_radius"),
+        ("robots", "length"),
+        ("robots", "width"),
+        ("robots", "mass"),
+        ("robots", "full_speed"),
+        ("robots", "full_turn_rate"),
+        ("robots", "command_duration"),
+        ("robots", "gripper_radius"),
+        ("robots", "gripper_mouth_deg"),
+        ("robots", "friction"),
+        ("pucks", "diameter"),
+        ("pucks", "mass"),
+        ("pucks", "linear_damping"),
+        ("pucks", "angular_damping"),
+        ("pucks", "friction"),
+        ("camera", "offset"),
+        ("camera", "near"),
+        ("camera", "far"),
+        ("camera", "half_width"),
+        ("camera", "max_range"),
+        ("camera", "half_angle_deg"),
+        ("camera", "obstacle_spacing"),
+        ("physics", "dt"),
+        ("carrying", "start_fraction"),
+        ("carrying", "keep_fraction"),
+    ];
+    for (table, key) in fields {
+        for value in ["nan", "inf", "-inf", "+inf", "-nan"] {
+            let text = format!("[{table}]\n{key} = {value}\n");
+            let e = config_error(&text);
+            assert_eq!(
+                e.field.as_deref(),
+                Some(format!("{table}.{key}").as_str()),
+                "{text}: {e}"
+            );
+            assert_eq!(e.line, Some(2), "{text}: {e}");
+        }
+    }
+    // Every float field of the standard configuration is in the list above.
+    let written = SceneConfig::default().to_toml_string();
+    let floats = written
+        .lines()
+        .filter(|l| l.contains('.') && l.contains(" = "))
+        .count();
+    // (command_duration is absent by default, so not written.)
+    assert_eq!(floats, fields.len() - 1, "{written}");
+}

@@ -169,3 +169,20 @@ fn trials_read_back_from_their_csv_files_and_bad_files_are_refused() {
     let e = read_csv(dir.path()).unwrap_err().to_string();
     assert!(e.contains("trial00.csv:2"), "{e}");
 }
+
+#[test]
+fn progress_counts_every_step_once_and_more_often_in_larger_worlds() {
+    use std::sync::Mutex;
+    let calls = |s: &TrialSpec| {
+        let seen = Mutex::new(Vec::new());
+        run_trial(s, &|n| seen.lock().unwrap().push(n)).unwrap();
+        seen.into_inner().unwrap()
+    };
+    // The standard world (44 bodies): every 1,000 steps, and the rest at the end.
+    assert_eq!(calls(&spec(Method::ProbSeek, 3, 2_500)), [1000, 1000, 500]);
+    // 1,100 bodies: every 90 steps (100,000 / 1,100).
+    let mut big = spec(Method::ProbSeek, 3, 100);
+    big.scene = SceneConfig::scaled(100);
+    big.snapshot_at.clear();
+    assert_eq!(calls(&big), [90, 10]);
+}

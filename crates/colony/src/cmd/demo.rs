@@ -4,6 +4,7 @@
 //! a hub client of its own, on threads of this process), and the monitor in
 //! the browser. Ctrl-C, or `--seconds`, stops all three.
 
+use std::str::FromStr as _;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -11,7 +12,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context as _;
 use colony_hub::{HubSite, HubSpec, HubThread};
 use colony_monitor::{Monitor, MonitorConfig};
-use colony_sim::SceneConfig;
+use colony_sim::{Engine, SceneConfig};
 use colony_sort::live::launch::{Controllers, Swarm, SwarmSpec};
 use colony_sort::{Method, SortParams};
 
@@ -42,6 +43,9 @@ pub struct Args {
     /// ending in `.mcap` an MCAP file for Foxglove or Lichtblick.
     #[arg(long, value_name = "FILE")]
     pub log: Option<std::path::PathBuf>,
+    /// The contact engine that steps the arena: rapier (the reference) or disc.
+    #[arg(long, value_name = "NAME", value_parser = Engine::from_str, default_value_t = Engine::default())]
+    pub engine: Engine,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -91,9 +95,11 @@ fn run_with_hub(
         ),
         e => e.into(),
     })?;
+    let mut scene = SceneConfig::default();
+    scene.physics.engine = args.engine;
     let spec = SwarmSpec {
         hub: hub_addr.to_string(),
-        scene: SceneConfig::default(),
+        scene,
         params: SortParams::default(),
         method: Method::CacheCons,
         seed: 1,
@@ -103,8 +109,9 @@ fn run_with_hub(
     let speed = args.speed;
     let simulator = std::thread::spawn(move || swarm.run(speed, None, |_| {}));
     println!(
-        "colony demo: open {} (hub on {hub_addr}; CACHECONS, 4 robots and 40 pucks, {}x real time); Ctrl-C stops",
+        "colony demo: open {} (hub on {hub_addr}; CACHECONS, 4 robots and 40 pucks, {} engine, {}x real time); Ctrl-C stops",
         monitor.url(),
+        args.engine,
         args.speed
     );
     let mut outcome = Ok(());

@@ -6,6 +6,7 @@ pub mod game;
 pub mod hub;
 pub mod monitor;
 pub mod path;
+pub mod progress;
 pub mod pubsub;
 pub mod rpc;
 pub mod sort;

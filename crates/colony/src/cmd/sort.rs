@@ -2,19 +2,19 @@
 
 use std::path::PathBuf;
 use std::process::Command;
-use std::sync::atomic::Ordering;
+use std::str::FromStr as _;
 
 use anyhow::Context as _;
-use colony_sim::SceneConfig;
+use colony_sim::{Engine, SceneConfig};
 use colony_sort::env::{check_counts, check_robots};
-use colony_sort::experiment::{run_trials, write_csv, Disturbance, StepCounter, TrialSpec};
+use colony_sort::experiment::{run_trials, write_csv, Disturbance, TrialSpec};
 use colony_sort::live::launch::{self, Swarm, SwarmSpec};
 use colony_sort::methods::Method;
 use colony_sort::params::SortParams;
 use colony_sort::report;
 use colony_sort::supplementary::{self, Experiment};
-use indicatif::{ProgressBar, ProgressStyle};
 
+use super::progress::Progress;
 use super::HubAddr;
 
 #[derive(clap::Subcommand, Debug)]
@@ -45,6 +45,10 @@ pub struct Setup {
     /// and the arena grown to keep the paper's densities (live mode).
     #[arg(long = "scale-robots", value_name = "N")]
     pub scale_robots: Option<usize>,
+    /// The contact engine that steps the arena: rapier (the reference) or disc;
+    /// default: the scene's (`physics.engine`).
+    #[arg(long, value_name = "NAME", value_parser = Engine::from_str)]
+    pub engine: Option<Engine>,
 }
 
 impl Setup {
@@ -58,9 +62,14 @@ impl Setup {
                 anyhow::bail!("--scale-robots must be at least 1");
             }
             check_robots(n).context("--scale-robots")?;
-            let kinds = scene.pucks.kinds;
+            // Scaling replaces the scene; its puck kinds and engine carry over.
+            let (kinds, engine) = (scene.pucks.kinds, scene.physics.engine);
             scene = SceneConfig::scaled(n);
             scene.pucks.kinds = kinds;
+            scene.physics.engine = engine;
+        }
+        if let Some(engine) = self.engine {
+            scene.physics.engine = engine;
         }
         check_counts(&scene).context("invalid scene")?;
         let params = match &self.params {
@@ -218,28 +227,46 @@ fn method(name: &str) -> anyhow::Result<Method> {
     Ok(name.parse::<Method>()?)
 }
 
-fn progress_bar(total: u64) -> ProgressBar {
-    let bar = ProgressBar::new(total);
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{bar:40} {percent:>3}% {human_pos}/{human_len} steps, {per_sec}, eta {eta}",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar
+/// Runs specs in parallel, showing progress (`label`: `sort run`): first a line
+/// saying what is built (a world of thousands of robots takes a while), then a bar
+/// on a terminal, or a line at least every 10 s otherwise.
+fn execute(
+    label: &str,
+    specs: &[TrialSpec],
+) -> anyhow::Result<Vec<colony_sort::experiment::TrialResult>> {
+    let total: u64 = specs.iter().map(|s| s.steps).sum();
+    eprintln!("colony: {label}: {}", plan_text(specs, total));
+    let progress = Progress::start(label, total);
+    let results = run_trials(specs, &|n| progress.add(n))?;
+    drop(progress);
+    Ok(results)
 }
 
-/// Runs specs in parallel behind a progress bar.
-fn execute(specs: &[TrialSpec]) -> anyhow::Result<Vec<colony_sort::experiment::TrialResult>> {
-    let total: u64 = specs.iter().map(|s| s.steps).sum();
-    let bar = progress_bar(total);
-    let counter = StepCounter::default();
-    let results = run_trials(specs, &|n| {
-        counter.add(n);
-        bar.set_position(counter.0.load(Ordering::Relaxed));
-    })?;
-    bar.finish_and_clear();
-    Ok(results)
+/// `building 5 worlds of 4,096 robots and 40,960 pucks for 5 trials (500,000
+/// control steps in all) on 2 threads…`
+fn plan_text(specs: &[TrialSpec], total: u64) -> String {
+    use super::progress::grouped;
+    let range = |f: fn(&TrialSpec) -> usize| {
+        let lo = specs.iter().map(f).min().unwrap_or(0) as u64;
+        let hi = specs.iter().map(f).max().unwrap_or(0) as u64;
+        if lo == hi {
+            grouped(lo)
+        } else {
+            format!("{} to {}", grouped(lo), grouped(hi))
+        }
+    };
+    let plural = |n: usize, one: &str, many: &str| {
+        format!("{} {}", grouped(n as u64), if n == 1 { one } else { many })
+    };
+    format!(
+        "building {} of {} robots and {} pucks for {} ({} control steps in all) on {}\u{2026}",
+        plural(specs.len(), "world", "worlds"),
+        range(|s| s.scene.robots.count),
+        range(|s| s.scene.pucks.count),
+        plural(specs.len(), "trial", "trials"),
+        grouped(total),
+        plural(rayon::current_num_threads(), "thread", "threads"),
+    )
 }
 
 fn run_cmd(a: RunArgs) -> anyhow::Result<()> {
@@ -284,7 +311,7 @@ fn run_cmd(a: RunArgs) -> anyhow::Result<()> {
                 .collect(),
         })
         .collect();
-    let results = execute(&specs)?;
+    let results = execute("sort run", &specs)?;
     write_csv(&a.out, &results)?;
     for (t, r) in results.iter().enumerate() {
         let stc = r.stc.map_or("not reached".to_string(), |s| s.to_string());
@@ -305,13 +332,7 @@ fn reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create {}", a.out.display()))?;
     let specs = report::specs(&scene, &params, a.steps, a.trials, a.seed);
-    eprintln!(
-        "colony: {} trials of {} steps on {} threads",
-        specs.len(),
-        a.steps,
-        rayon::current_num_threads()
-    );
-    let results = execute(&specs)?;
+    let results = execute("sort reproduce", &specs)?;
     let command = format!(
         "colony sort reproduce{} --steps {} --trials {} --seed {} --out {}",
         setup_text(&a.setup),
@@ -344,12 +365,7 @@ fn supplementary(a: SupplementaryArgs) -> anyhow::Result<()> {
     let results = if a.report_only {
         supplementary::report::read_results(&a.out, &plan)?
     } else {
-        eprintln!(
-            "colony: {} trials on {} threads",
-            plan.specs.len(),
-            rayon::current_num_threads()
-        );
-        execute(&plan.specs)?
+        execute("sort supplementary", &plan.specs)?
     };
     let only = if a.only.is_empty() {
         String::new()
@@ -386,6 +402,9 @@ fn setup_args(setup: &Setup) -> Vec<String> {
     }
     if let Some(n) = setup.scale_robots {
         v.extend(["--scale-robots".to_string(), n.to_string()]);
+    }
+    if let Some(e) = setup.engine {
+        v.extend(["--engine".to_string(), e.name().to_string()]);
     }
     v
 }
@@ -456,4 +475,52 @@ fn robot(a: RobotArgs) -> anyhow::Result<()> {
     let stop = super::stop_flag()?;
     launch::run_controller(&spec, a.id, &stop)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser as _;
+
+    use super::*;
+
+    #[derive(clap::Parser)]
+    struct Cli {
+        #[command(flatten)]
+        setup: Setup,
+    }
+
+    fn setup(args: &[&str]) -> Setup {
+        Cli::parse_from(std::iter::once("colony").chain(args.iter().copied())).setup
+    }
+
+    #[test]
+    fn the_engine_is_applied_after_scaling_and_forwarded_to_robot_processes() {
+        let s = setup(&["--scale-robots", "8", "--engine", "rapier"]);
+        assert_eq!(
+            setup_args(&s),
+            ["--scale-robots", "8", "--engine", "rapier"]
+        );
+        let (scene, _) = s.load().unwrap();
+        assert_eq!(
+            (scene.robots.count, scene.physics.engine),
+            (8, Engine::Rapier)
+        );
+        // Without --engine, a scene file's engine holds, scaled or not.
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("scene.toml");
+        std::fs::write(&file, "[physics]\nengine = \"disc\"\n").unwrap();
+        let path = file.to_str().unwrap();
+        for args in [
+            &["--scene", path][..],
+            &["--scene", path, "--scale-robots", "8"],
+        ] {
+            let (scene, _) = setup(args).load().unwrap();
+            assert_eq!(scene.physics.engine, Engine::Disc, "{args:?}");
+        }
+        let (scene, _) = setup(&["--scene", path, "--engine", "rapier"])
+            .load()
+            .unwrap();
+        assert_eq!(scene.physics.engine, Engine::Rapier);
+        assert!(Cli::try_parse_from(["colony", "--engine", "warp"]).is_err());
+    }
 }

@@ -35,6 +35,7 @@ class SortConfig:
         pc_target: Optional[float] = None,
         reward: str = "pc_change",
         grid: int = 16,
+        engine: Optional[str] = None,
     ) -> None: ...
 
 class SortCore:

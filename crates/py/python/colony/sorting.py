@@ -45,6 +45,8 @@ class SortingEnv(ParallelEnv):
             step's increment of the time-weighted completion of PC sampled every
             step), all as fractions (PC / 100); every robot gets the team's reward.
         grid: cells per side of the local map.
+        engine: the contact engine that steps the arena, ``"rapier"`` or
+            ``"disc"`` (``--engine``); None keeps the scene's (``physics.engine``).
         actions: ``"continuous"`` (forward and turn in [-1, 1], float64) or
             ``"discrete"`` (an index into :attr:`discrete_actions`).
         render_mode: ``"rgb_array"`` (an image of the arena) or ``"human"`` (each
@@ -69,6 +71,7 @@ class SortingEnv(ParallelEnv):
         pc_target: Optional[float] = None,
         reward: str = "pc_change",
         grid: int = 16,
+        engine: Optional[str] = None,
         actions: str = "continuous",
         render_mode: Optional[str] = None,
         render_size: int = 400,
@@ -90,6 +93,7 @@ class SortingEnv(ParallelEnv):
             pc_target=pc_target,
             reward=reward,
             grid=grid,
+            engine=engine,
         )
         self.core = _native.SortCore(config, seed)
         self.discrete = actions == "discrete"

@@ -4,18 +4,25 @@
 
 use std::path::Path;
 
-use colony_sim::SceneConfig;
+use colony_sim::{Engine, SceneConfig};
 
 use super::EnvError;
 use crate::params::SortParams;
 
-/// The most robots an environment accepts: far more than any benchmark asks
-/// for, and few enough that a typo (a robot count of 10^12) is refused before
-/// the layout reserves memory for it.
-pub const MAX_ROBOTS: usize = 65_536;
+/// The most robots an environment accepts: 100,000, a swarm the simulator's
+/// largest arena (500 m a side) holds at the paper's densities, and few enough
+/// that a typo (a robot count of 10^12) is refused before the layout reserves
+/// memory for it.
+pub const MAX_ROBOTS: usize = 100_000;
 
-/// The most pucks an environment accepts (16 per robot at [`MAX_ROBOTS`]).
+/// The most pucks an environment accepts: more than the 10 per robot that
+/// `--scale-robots` gives [`MAX_ROBOTS`] robots (1,000,000).
 pub const MAX_PUCKS: usize = 1 << 20;
+
+const _: () = assert!(
+    MAX_PUCKS >= 10 * MAX_ROBOTS,
+    "--scale-robots needs 10 pucks a robot"
+);
 
 /// Checks a robot count against [`MAX_ROBOTS`]; for a count a scene is about to be
 /// scaled to (`--scale-robots`), this must come first, as scaling multiplies it.
@@ -157,10 +164,23 @@ impl EnvConfig {
     /// grown to keep the paper's densities), keeping this scene's puck kinds:
     /// `--scale-robots`. Checked when the environment is made.
     pub fn with_scaled_robots(mut self, robots: usize) -> EnvConfig {
-        let kinds = self.scene.pucks.kinds;
+        let (kinds, engine) = (self.scene.pucks.kinds, self.scene.physics.engine);
         self.scene = SceneConfig::scaled(robots);
         self.scene.pucks.kinds = kinds;
+        self.scene.physics.engine = engine;
         self
+    }
+
+    /// The contact engine named `name` (`rapier`, `disc`: `--engine`); `None`
+    /// keeps the scene's (`physics.engine`). A name no engine has is refused,
+    /// and the error lists the engines there are.
+    pub fn with_engine(mut self, name: Option<&str>) -> Result<EnvConfig, EnvError> {
+        if let Some(name) = name {
+            self.scene.physics.engine = name
+                .parse::<Engine>()
+                .map_err(|e| EnvError::Config(format!("engine: {e}")))?;
+        }
+        Ok(self)
     }
 
     /// Checks every value; the error names the first bad one.

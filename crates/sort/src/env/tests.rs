@@ -469,3 +469,37 @@ fn env_is_send_and_sync() {
     fn send_sync<T: Send + Sync>() {}
     send_sync::<SortEnv>();
 }
+
+#[test]
+fn env_engine_is_chosen_by_name_and_kept_through_scaling() {
+    use colony_sim::Engine;
+    let kept = EnvConfig::default().with_engine(None).unwrap();
+    assert_eq!(kept.scene.physics.engine, Engine::default());
+    let disc = EnvConfig::default()
+        .with_engine(Some("disc"))
+        .unwrap()
+        .with_scaled_robots(16);
+    assert_eq!(disc.scene.physics.engine, Engine::Disc);
+    assert_eq!(disc.scene.robots.count, 16);
+    let e = EnvConfig::default()
+        .with_engine(Some("warp"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("\"warp\"") && e.contains("rapier") && e.contains("disc"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_hundred_thousand_robots_with_ten_pucks_each_pass_the_count_checks() {
+    // Checked, not built: the scene `--scale-robots 100000` makes.
+    let scene = SceneConfig::scaled(100_000);
+    assert_eq!(scene.pucks.count, 1_000_000);
+    check_counts(&scene).unwrap();
+    scene.validate().unwrap();
+    assert!(check_robots(MAX_ROBOTS + 1)
+        .unwrap_err()
+        .to_string()
+        .contains("100001 robots is more than the 100000"));
+}
