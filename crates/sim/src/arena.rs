@@ -44,6 +44,10 @@ impl Arena {
         self.hh
     }
 
+    pub fn corner_radius(&self) -> f64 {
+        self.r
+    }
+
     /// Signed distance to the inner wall surface: negative inside, positive outside.
     pub fn signed_distance(&self, p: Vec2) -> f64 {
         let qx = p.x.abs() - (self.hw - self.r);

@@ -77,6 +77,7 @@ mod body;
 pub mod canvas;
 mod config;
 mod config_load;
+mod disc;
 mod error;
 pub mod field;
 mod grid;
@@ -91,10 +92,11 @@ mod types;
 mod world;
 
 pub use config::{
-    ArenaConfig, CameraConfig, CarryingConfig, Engine, Footprint, PhysicsConfig, PuckConfig, RobotConfig,
-    SceneConfig, MAX_ARENA_SIDE,
+    ArenaConfig, CameraConfig, CarryingConfig, Engine, Footprint, PhysicsConfig, PuckConfig,
+    RobotConfig, SceneConfig, MAX_ARENA_SIDE,
 };
 pub use error::{ConfigError, SimError};
+pub use physics::PhysicsStats;
 pub use snapshot::{PuckSnapshot, RobotSnapshot, WorldSnapshot};
 pub use types::*;
 pub use world::{RobotShape, World};

@@ -1,4 +1,5 @@
-//! The rapier2d world behind a [`crate::World`]: every set rapier needs, one step function.
+//! The contact engine behind a [`crate::World`], whichever was chosen
+//! ([`crate::Engine`]): rapier2d, or colony's own disc engine ([`crate::disc`]).
 //!
 //! Lengths are centimetres throughout, and rapier is told so
 //! (`IntegrationParameters::length_unit = 100`, i.e. 100 units per metre), which
@@ -8,9 +9,100 @@ use rapier2d::prelude::*;
 
 use crate::arena::Arena;
 use crate::body::{Part, RobotGeometry};
-use crate::config::SceneConfig;
+use crate::config::{Engine, SceneConfig};
+use crate::disc::DiscEngine;
 use crate::rapier::{groups, rapier_pose, vector as v, Rapier};
 use crate::types::{Pose as WorldPose, Vec2};
+
+/// The arena's bodies in the chosen engine; a body is named by the index its `add_` gave.
+pub(crate) enum Physics {
+    Rapier(Box<RapierArena>),
+    Disc(Box<DiscEngine>),
+}
+
+impl Physics {
+    pub fn new(cfg: &SceneConfig, arena: &Arena, geometry: &RobotGeometry) -> Physics {
+        match cfg.physics.engine {
+            Engine::Rapier => Physics::Rapier(Box::new(RapierArena::new(cfg, arena))),
+            Engine::Disc => Physics::Disc(Box::new(DiscEngine::new(cfg, arena, geometry))),
+        }
+    }
+
+    pub fn add_robot(&mut self, cfg: &SceneConfig, geom: &RobotGeometry, pose: WorldPose) -> usize {
+        match self {
+            Physics::Rapier(r) => r.add_robot(cfg, geom, pose),
+            Physics::Disc(d) => d.add_robot(cfg, pose),
+        }
+    }
+
+    pub fn add_puck(&mut self, cfg: &SceneConfig, pos: Vec2) -> usize {
+        match self {
+            Physics::Rapier(r) => r.add_puck(cfg, pos),
+            Physics::Disc(d) => d.add_puck(cfg, pos),
+        }
+    }
+
+    /// Moves a body to a new place at rest (a disturbance, not physics).
+    pub fn teleport(&mut self, body: usize, pos: Vec2) {
+        match self {
+            Physics::Rapier(r) => r.teleport(body, pos),
+            Physics::Disc(d) => d.teleport(body, pos),
+        }
+    }
+
+    /// A body's position, and for robots its heading as (cos, sin).
+    pub fn pose_of(&self, body: usize) -> (Vec2, f64, f64) {
+        match self {
+            Physics::Rapier(r) => r.pose_of(body),
+            Physics::Disc(d) => d.pose_of(body),
+        }
+    }
+
+    /// What the last physics step held: contact points and sleeping pucks.
+    pub fn stats(&self) -> PhysicsStats {
+        match self {
+            Physics::Rapier(r) => PhysicsStats {
+                contacts: r.rapier.contact_points(),
+                sleeping_pucks: r.rapier.sleeping_bodies(),
+            },
+            Physics::Disc(d) => PhysicsStats {
+                contacts: d.contact_count(),
+                sleeping_pucks: d.sleeping_pucks(),
+            },
+        }
+    }
+
+    /// `n` physics steps; in the `k`-th, robot `bodies[i]` drives at `drives[i]` (speed along
+    /// its heading, turn rate) times `share(k)`.
+    pub fn steps(
+        &mut self,
+        n: u32,
+        bodies: &[usize],
+        drives: &[(f64, f64)],
+        share: impl Fn(u32) -> f64 + Send + Sync,
+    ) {
+        match self {
+            Physics::Rapier(r) => {
+                let handles = &r.handles;
+                r.rapier.steps(n, |rapier, k| {
+                    let s = share(k);
+                    for (&i, &(speed, turn)) in bodies.iter().zip(drives) {
+                        rapier.drive(handles[i], speed * s, turn * s);
+                    }
+                });
+            }
+            Physics::Disc(d) => {
+                for k in 0..n {
+                    let s = share(k);
+                    for (&i, &(speed, turn)) in bodies.iter().zip(drives) {
+                        d.drive(i, speed * s, turn * s);
+                    }
+                    d.step();
+                }
+            }
+        }
+    }
+}
 
 /// Collision groups: walls, robot bodies (with their grippers), gripper bows, pucks.
 const WALL: Group = Group::GROUP_1;
@@ -18,13 +110,23 @@ const ROBOT: Group = Group::GROUP_2;
 const BOW: Group = Group::GROUP_3;
 const PUCK: Group = Group::GROUP_4;
 
-/// The arena's bodies in rapier.
-pub(crate) struct Physics {
-    pub rapier: Rapier,
+/// What a world's contact engine holds after a step, to compare engines by.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PhysicsStats {
+    /// Points of contact (touching or about to) in the last physics step.
+    pub contacts: usize,
+    /// Pucks asleep: at rest and left out of the step until something moving comes near.
+    pub sleeping_pucks: usize,
 }
 
-impl Physics {
-    pub fn new(cfg: &SceneConfig, arena: &Arena) -> Physics {
+/// The arena's bodies in rapier.
+pub(crate) struct RapierArena {
+    pub rapier: Rapier,
+    handles: Vec<RigidBodyHandle>,
+}
+
+impl RapierArena {
+    pub fn new(cfg: &SceneConfig, arena: &Arena) -> RapierArena {
         let params = IntegrationParameters {
             dt: cfg.physics.dt as f32,
             length_unit: 100.0,
@@ -40,8 +142,9 @@ impl Physics {
             max_ccd_substeps: 0,
             ..IntegrationParameters::default()
         };
-        let mut physics = Physics {
+        let mut physics = RapierArena {
             rapier: Rapier::new(params),
+            handles: Vec::new(),
         };
         let walls = physics.rapier.bodies.insert(RigidBodyBuilder::fixed());
         for b in arena.wall_boxes() {
@@ -58,12 +161,7 @@ impl Physics {
 
     /// Adds a robot at `pose`; its centre of mass is the body rectangle's centre,
     /// so it turns on the spot like a tracked vehicle.
-    pub fn add_robot(
-        &mut self,
-        cfg: &SceneConfig,
-        geom: &RobotGeometry,
-        pose: WorldPose,
-    ) -> RigidBodyHandle {
+    pub fn add_robot(&mut self, cfg: &SceneConfig, geom: &RobotGeometry, pose: WorldPose) -> usize {
         let m = cfg.robots.mass as f32;
         let (l, w) = (cfg.robots.length as f32, cfg.robots.width as f32);
         let inertia = m * (l * l + w * w) / 12.0;
@@ -102,11 +200,12 @@ impl Physics {
             .friction(cfg.robots.friction as f32)
             .collision_groups(groups(BOW, WALL | ROBOT | BOW));
         self.rapier.attach(bow, handle);
-        handle
+        self.handles.push(handle);
+        self.handles.len() - 1
     }
 
     /// Adds a puck: a disc with floor friction modelled as damping.
-    pub fn add_puck(&mut self, cfg: &SceneConfig, pos: Vec2) -> RigidBodyHandle {
+    pub fn add_puck(&mut self, cfg: &SceneConfig, pos: Vec2) -> usize {
         let dt = cfg.physics.dt;
         let body = RigidBodyBuilder::dynamic()
             .translation(v(pos))
@@ -118,18 +217,18 @@ impl Physics {
             .friction(cfg.pucks.friction as f32)
             .collision_groups(groups(PUCK, WALL | ROBOT | PUCK));
         self.rapier.attach(collider, handle);
-        handle
+        self.handles.push(handle);
+        self.handles.len() - 1
     }
 
-    /// Moves a body to a new place at rest (a disturbance, not physics).
-    pub fn teleport(&mut self, handle: RigidBodyHandle, pos: Vec2) {
+    fn teleport(&mut self, body: usize, pos: Vec2) {
+        let handle = self.handles[body];
         self.rapier.bodies[handle].set_translation(v(pos), true);
         self.rapier.halt(handle);
     }
 
-    /// A body's position, and for robots its heading as (cos, sin).
-    pub fn pose_of(&self, handle: RigidBodyHandle) -> (Vec2, f64, f64) {
-        let rb = &self.rapier.bodies[handle];
+    fn pose_of(&self, body: usize) -> (Vec2, f64, f64) {
+        let rb = &self.rapier.bodies[self.handles[body]];
         let t = rb.translation();
         let r = rb.rotation();
         // Renormalise in f64 so headings stay unit vectors to the last bit we use.

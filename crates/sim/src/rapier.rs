@@ -112,6 +112,20 @@ impl Rapier {
         }
     }
 
+    /// Contact points in the pairs that touch (or are within rapier's prediction distance).
+    pub fn contact_points(&self) -> usize {
+        self.narrow_phase
+            .contact_pairs()
+            .filter(|p| p.has_any_active_contact())
+            .map(|p| p.manifolds().iter().map(|m| m.points.len()).sum::<usize>())
+            .sum()
+    }
+
+    /// Bodies asleep (rapier's islands at rest).
+    pub fn sleeping_bodies(&self) -> usize {
+        self.bodies.iter().filter(|(_, b)| b.is_sleeping()).count()
+    }
+
     /// One physics step, on the calling thread and, with `parallel-physics`, its rayon pool.
     fn step(&mut self) {
         self.pipeline.step(

@@ -3,7 +3,6 @@
 use colony_proto::geometry::unit;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rapier2d::prelude::RigidBodyHandle;
 
 use crate::arena::Arena;
 use crate::body::RobotGeometry;
@@ -11,7 +10,7 @@ use crate::config::{Footprint, SceneConfig};
 use crate::error::SimError;
 use crate::grid::Grid;
 use crate::layout::{sample_pucks, sample_robots};
-use crate::physics::Physics;
+use crate::physics::{Physics, PhysicsStats};
 use crate::snapshot::{PuckSnapshot, RobotSnapshot, WorldSnapshot};
 use crate::types::{Pose, Puck, PuckId, PuckKind, RobotId, RobotState, Vec2, WheelCommand};
 
@@ -49,7 +48,7 @@ pub struct World {
 /// A robot's rapier body and what the world tracks about it between steps.
 #[derive(Debug, Clone)]
 pub(crate) struct RobotSlot {
-    body: RigidBodyHandle,
+    body: usize,
     pub pose: Pose,
     /// cos and sin of the heading (kept rather than recomputed from `pose.theta`).
     pub cos: f64,
@@ -79,7 +78,7 @@ impl RobotSlot {
 /// A puck's rapier body and what the world tracks about it between steps.
 #[derive(Debug, Clone)]
 pub(crate) struct PuckSlot {
-    body: RigidBodyHandle,
+    body: usize,
     pub kind: PuckKind,
     pub pos: Vec2,
     /// The robot that carries it (with the carrying hysteresis).
@@ -176,7 +175,7 @@ impl World {
         robots: &[Pose],
         pucks: &[(PuckKind, Vec2)],
     ) -> World {
-        let mut physics = Physics::new(&config, &arena);
+        let mut physics = Physics::new(&config, &arena, &geometry);
         let robots = robots
             .iter()
             .map(|&pose| RobotSlot {
@@ -232,26 +231,27 @@ impl World {
         let speed = self.config.robots.full_speed;
         let rate = self.config.robots.full_turn_rate;
         let command_duration = self.config.robots.command_duration;
-        let robots = &self.robots;
+        let bodies: Vec<usize> = self.robots.iter().map(|r| r.body).collect();
+        let drives: Vec<(f64, f64)> = (0..self.robots.len())
+            .map(|i| {
+                let c = commands.get(i).copied().unwrap_or(WheelCommand::STOP);
+                (unit(c.forward) * speed, unit(c.turn) * rate)
+            })
+            .collect();
+        // The share of each physics step during which the command acts.
+        let share = |k: u32| match command_duration {
+            None => 1.0,
+            Some(d) => ((d - k as f64 * dt) / dt).clamp(0.0, 1.0),
+        };
         self.physics
-            .rapier
-            .steps(self.config.physics.substeps, |rapier, k| {
-                // The share of this physics step during which the command acts.
-                let share = match command_duration {
-                    None => 1.0,
-                    Some(d) => ((d - k as f64 * dt) / dt).clamp(0.0, 1.0),
-                };
-                for (i, r) in robots.iter().enumerate() {
-                    let c = commands.get(i).copied().unwrap_or(WheelCommand::STOP);
-                    rapier.drive(
-                        r.body,
-                        unit(c.forward) * share * speed,
-                        unit(c.turn) * share * rate,
-                    );
-                }
-            });
+            .steps(self.config.physics.substeps, &bodies, &drives, share);
         self.step += 1;
         self.refresh();
+    }
+
+    /// What the contact engine held in the last physics step (for benchmarks).
+    pub fn physics_stats(&self) -> PhysicsStats {
+        self.physics.stats()
     }
 
     /// Control steps taken since the world was made.

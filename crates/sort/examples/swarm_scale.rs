@@ -11,26 +11,39 @@
 
 use std::time::Instant;
 
-use colony_sim::{SceneConfig, World};
+use colony_sim::{Engine, SceneConfig, World};
 use colony_sort::experiment::{run_trial, TrialSpec};
 use colony_sort::{Method, SortParams};
 
 fn main() {
     let (mut robots, mut steps, mut seed) = (4usize, 1_000u64, 1u64);
+    let mut engine = Engine::default();
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
-        let value = args.next().and_then(|v| v.parse::<u64>().ok());
+        let text = args.next();
+        if a == "--engine" {
+            match text.as_deref().map(str::parse) {
+                Some(Ok(e)) => engine = e,
+                _ => {
+                    eprintln!("swarm_scale: --engine takes one of rapier, disc");
+                    std::process::exit(2);
+                }
+            }
+            continue;
+        }
+        let value = text.and_then(|v| v.parse::<u64>().ok());
         match (a.as_str(), value) {
             ("--robots", Some(v)) if v > 0 => robots = v as usize,
             ("--steps", Some(v)) if v > 0 => steps = v,
             ("--seed", Some(v)) => seed = v,
             _ => {
-                eprintln!("usage: swarm_scale [--robots N] [--steps N] [--seed N]");
+                eprintln!("usage: swarm_scale [--robots N] [--steps N] [--seed N] [--engine NAME]");
                 std::process::exit(2);
             }
         }
     }
-    let scene = SceneConfig::scaled(robots);
+    let mut scene = SceneConfig::scaled(robots);
+    scene.physics.engine = engine;
     let started = Instant::now();
     let world = World::new(&scene, seed).unwrap_or_else(|e| {
         eprintln!("swarm_scale: {e}");
@@ -58,7 +71,7 @@ fn main() {
     let per_second = steps as f64 / stepping;
     let real_time = per_second * scene.control_step_seconds();
     println!(
-        "| {robots} | {} | {:.1} m x {:.1} m | {setup:.3} s | {per_second:.1} | {real_time:.2} | {} | final PC {:.1} % after {steps} steps |",
+        "| {engine} | {robots} | {} | {:.1} m x {:.1} m | {setup:.3} s | {per_second:.1} | {real_time:.2} | {} | final PC {:.1} % after {steps} steps |",
         scene.pucks.count,
         scene.arena.width / 100.0,
         scene.arena.height / 100.0,
