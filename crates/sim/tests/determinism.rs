@@ -1,10 +1,15 @@
 mod common;
 
-use colony_sim::{SceneConfig, World};
+use colony_sim::{Engine, SceneConfig, World};
 use common::{digest, RandomDriver};
 
 fn run(seed: u64, steps: usize) -> World {
-    let cfg = SceneConfig::default();
+    run_on(Engine::default(), seed, steps)
+}
+
+fn run_on(engine: Engine, seed: u64, steps: usize) -> World {
+    let mut cfg = SceneConfig::default();
+    cfg.physics.engine = engine;
     let mut world = World::new(&cfg, seed).unwrap();
     let mut driver = RandomDriver::new(seed ^ 0x5eed, cfg.robots.count);
     for _ in 0..steps {
@@ -29,16 +34,43 @@ fn same_seed_gives_identical_positions_after_2000_steps() {
 /// it changes after a deliberate change to the physics, record the new value.
 #[test]
 fn a_recorded_trial_replays_bit_for_bit() {
-    let world = run(2024, 300);
-    assert_eq!(
-        digest(&world),
-        RECORDED_DIGEST,
-        "digest {:#018x}",
-        digest(&world)
-    );
+    for (engine, recorded) in [(Engine::Rapier, RAPIER_DIGEST), (Engine::Disc, DISC_DIGEST)] {
+        let world = run_on(engine, 2024, 300);
+        assert_eq!(
+            digest(&world),
+            recorded,
+            "{engine}: digest {:#018x}",
+            digest(&world)
+        );
+    }
 }
 
-const RECORDED_DIGEST: u64 = 0x9a9f37f8b78ac699;
+const RAPIER_DIGEST: u64 = 0x9a9f37f8b78ac699;
+const DISC_DIGEST: u64 = 0xb42586d12446ad91;
+
+/// The disc engine finds contacts on rayon's threads, in chunks of a fixed size: a
+/// world of more bodies than one chunk steps to the same bits on one thread and on two.
+#[test]
+fn the_disc_engine_gives_the_same_bits_on_one_thread_and_two() {
+    let run_in = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut cfg = SceneConfig::scaled(100);
+            cfg.physics.engine = Engine::Disc;
+            let mut world = World::new(&cfg, 8).unwrap();
+            let mut driver = RandomDriver::new(3, cfg.robots.count);
+            for _ in 0..60 {
+                world.step(driver.next());
+            }
+            assert!(world.physics_stats().contacts > 0, "no contacts to test");
+            digest(&world)
+        })
+    };
+    assert_eq!(run_in(1), run_in(2));
+}
 
 #[test]
 fn different_seeds_give_different_layouts() {

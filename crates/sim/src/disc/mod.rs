@@ -37,7 +37,7 @@ use crate::config::SceneConfig;
 use crate::grid::Grid;
 use crate::types::{Pose, Vec2};
 
-use shape::{collide, wall_contacts, Convex, Frame, Manifold};
+use shape::{collide, dist, norm, wall_contacts, Convex, Frame, Manifold};
 use solver::{Contact, Soft};
 
 /// Solver substeps per physics step (Box2D v3's default is 4 per 1/60 s; ours are 1/56 s).
@@ -160,7 +160,7 @@ impl DiscEngine {
         let robot_bound = solid
             .iter()
             .chain([&bow])
-            .map(|c| c.centre.length() + c.bound)
+            .map(|c| norm(c.centre) + c.bound)
             .fold(0.0, f64::max);
         let puck_radius = cfg.puck_radius();
         let keep = |c: f64| {
@@ -323,7 +323,7 @@ impl DiscEngine {
                     let r = Vec2::new(reach, reach);
                     self.puck_grid.query(c - r, c + r, |j| {
                         let p = self.pucks[j as usize];
-                        if b.asleep[p as usize] && b.pos[p as usize].distance(c) < reach {
+                        if b.asleep[p as usize] && dist(b.pos[p as usize], c) < reach {
                             out.push(p);
                         }
                     });
@@ -382,7 +382,7 @@ impl DiscEngine {
         self.puck_grid.query(c - r, c + r, |j| {
             let p = self.pucks[j as usize] as usize;
             let local = frame.unapply(b.pos[p]);
-            if local.length() > reach {
+            if norm(local) > reach {
                 return;
             }
             let disc = Convex::disc(local, self.puck_radius);
@@ -396,7 +396,7 @@ impl DiscEngine {
         let r = Vec2::new(reach, reach);
         self.robot_grid.query(c - r, c + r, |j| {
             let o = self.robots[j as usize] as usize;
-            if o <= i || b.pos[o].distance(c) > reach {
+            if o <= i || dist(b.pos[o], c) > reach {
                 return;
             }
             // The other robot's parts in this robot's frame.
@@ -527,7 +527,7 @@ fn moving(b: &Bodies, i: usize) -> bool {
 /// A rotation `(cos, sin)` turned by the small angle `a`, kept a unit vector.
 fn turn((c, s): (f64, f64), a: f64) -> (f64, f64) {
     let (c2, s2) = (c - a * s, s + a * c);
-    let n = c2.hypot(s2);
+    let n = (c2 * c2 + s2 * s2).sqrt();
     (c2 / n, s2 / n)
 }
 

@@ -19,6 +19,16 @@ pub(crate) fn dot(a: Vec2, b: Vec2) -> f64 {
     a.x * b.x + a.y * b.y
 }
 
+/// A vector's length, by `sqrt` alone: IEEE rounds it exactly, so every platform gets
+/// the same bits (`hypot` comes from the platform's maths library).
+pub(crate) fn norm(a: Vec2) -> f64 {
+    (a.x * a.x + a.y * a.y).sqrt()
+}
+
+pub(crate) fn dist(a: Vec2, b: Vec2) -> f64 {
+    norm(a - b)
+}
+
 pub(crate) fn cross(a: Vec2, b: Vec2) -> f64 {
     a.x * b.y - a.y * b.x
 }
@@ -29,7 +39,7 @@ fn right(a: Vec2) -> Vec2 {
 }
 
 fn normalized(a: Vec2) -> Option<Vec2> {
-    let l = a.x.hypot(a.y);
+    let l = norm(a);
     (l > 1e-12).then(|| Vec2::new(a.x / l, a.y / l))
 }
 
@@ -116,7 +126,7 @@ impl Convex {
             * (1.0 / count as f64);
         let bound = verts[..count]
             .iter()
-            .map(|&v| v.distance(centre))
+            .map(|&v| dist(v, centre))
             .fold(0.0, f64::max)
             + radius;
         Convex {
@@ -191,7 +201,7 @@ impl Manifold {
 
 /// The contacts of `a` and `b` (same frame) whose surfaces are less than `margin` apart.
 pub(crate) fn collide(a: &Convex, b: &Convex, margin: f64) -> Option<Manifold> {
-    if a.centre.distance(b.centre) > a.bound + b.bound + margin {
+    if dist(a.centre, b.centre) > a.bound + b.bound + margin {
         return None;
     }
     match (a.count, b.count) {
@@ -204,8 +214,8 @@ pub(crate) fn collide(a: &Convex, b: &Convex, margin: f64) -> Option<Manifold> {
 
 fn discs(ca: Vec2, ra: f64, cb: Vec2, rb: f64, margin: f64) -> Option<Manifold> {
     let d = cb - ca;
-    let dist = d.x.hypot(d.y);
-    let separation = dist - ra - rb;
+    let gap = norm(d);
+    let separation = gap - ra - rb;
     if separation > margin {
         return None;
     }
@@ -228,13 +238,13 @@ fn disc_convex(c: Vec2, r: f64, shape: &Convex, margin: f64) -> Option<Manifold>
             best_edge = i;
         }
     }
-    let (normal, dist, feature) = if n_edges >= 3 && best_sep <= 0.0 {
+    let (normal, depth, feature) = if n_edges >= 3 && best_sep <= 0.0 {
         (shape.normals[best_edge], best_sep, best_edge as u16)
     } else {
         let (mut q, mut dq, mut edge) = (core[0], f64::INFINITY, 0);
         for i in 0..n_edges {
             let p = closest_on_segment(c, core[i], core[(i + 1) % n_edges]);
-            let d = p.distance(c);
+            let d = dist(p, c);
             if d < dq {
                 (q, dq, edge) = (p, d, i);
             }
@@ -242,7 +252,7 @@ fn disc_convex(c: Vec2, r: f64, shape: &Convex, margin: f64) -> Option<Manifold>
         let n = normalized(c - q).unwrap_or(shape.normals[best_edge]);
         (n, dq, edge as u16)
     };
-    let separation = dist - r - shape.radius;
+    let separation = depth - r - shape.radius;
     if separation > margin {
         return None;
     }
@@ -373,8 +383,8 @@ fn reference_contacts(
         // Cores apart and not face to face: one point, between the closest features.
         let (p, q) = closest_between_segments(v1, v2, w1, w2);
         let d = q - p;
-        let dist = d.x.hypot(d.y);
-        let separation = dist - radii;
+        let gap = norm(d);
+        let separation = gap - radii;
         if separation > margin {
             return None;
         }
