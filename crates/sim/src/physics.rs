@@ -64,10 +64,15 @@ impl Physics {
             Physics::Rapier(r) => PhysicsStats {
                 contacts: r.rapier.contact_points(),
                 sleeping_pucks: r.rapier.sleeping_bodies(),
+                stage_seconds: Vec::new(),
             },
             Physics::Disc(d) => PhysicsStats {
                 contacts: d.contact_count(),
                 sleeping_pucks: d.sleeping_pucks(),
+                stage_seconds: crate::disc::STAGES
+                    .into_iter()
+                    .zip(d.stage_seconds())
+                    .collect(),
             },
         }
     }
@@ -111,12 +116,15 @@ const BOW: Group = Group::GROUP_3;
 const PUCK: Group = Group::GROUP_4;
 
 /// What a world's contact engine holds after a step, to compare engines by.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct PhysicsStats {
     /// Points of contact (touching or about to) in the last physics step.
     pub contacts: usize,
     /// Pucks asleep: at rest and left out of the step until something moving comes near.
     pub sleeping_pucks: usize,
+    /// Seconds each stage of the physics step took since the world was made, where the
+    /// engine keeps them (the disc engine does; rapier only with its profiler built in).
+    pub stage_seconds: Vec<(&'static str, f64)>,
 }
 
 /// The arena's bodies in rapier.

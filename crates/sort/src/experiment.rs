@@ -196,6 +196,16 @@ pub fn run_trial(
     spec: &TrialSpec,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<TrialResult, ExperimentError> {
+    run_trial_then(spec, progress, |_| {})
+}
+
+/// [`run_trial`], handing the world as it ends to `last` (benchmarks read its engine's
+/// figures there).
+pub fn run_trial_then(
+    spec: &TrialSpec,
+    progress: &(dyn Fn(u64) + Sync),
+    last: impl FnOnce(&World),
+) -> Result<TrialResult, ExperimentError> {
     if spec.sample_every == 0 {
         return Err(ExperimentError::Invalid(
             "the sampling interval must be at least one step".into(),
@@ -278,6 +288,7 @@ pub fn run_trial(
         }
     }
     progress(spec.steps - reported);
+    last(&world);
     let series: Vec<(u64, f64)> = samples.iter().map(|s| (s.step, s.pc)).collect();
     Ok(TrialResult {
         method: spec.method,

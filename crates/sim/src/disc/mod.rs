@@ -10,7 +10,8 @@
 //!   little wider than a puck), one of robots.
 //! - **Sleep**: a puck that has barely moved for half a second sleeps. It is not moved,
 //!   and pairs of sleepers are never looked at, so a resting pile costs nothing until
-//!   something moving comes within reach and wakes it. A sleeper touched by a body that is
+//!   a robot or a moving puck comes within reach and wakes it (a robot's contacts are
+//!   found first, and what they reach wakes before the pucks' contacts are found). A sleeper touched by a body that is
 //!   awake but not moving stands in as a wall for it.
 //! - **Narrow phase** ([`shape`]): speculative contacts between rounded convex shapes, a
 //!   robot's against a puck found in the robot's own frame. Robots and awake pucks are
@@ -72,8 +73,8 @@ pub(crate) struct Bodies {
     pos: Vec<Vec2>,
     /// Heading as (cos, sin).
     rot: Vec<(f64, f64)>,
-    vel: Vec<Vec2>,
-    spin: Vec<f64>,
+    /// What the solver reads and writes, together (one cache line a body).
+    state: Vec<State>,
     inv_mass: Vec<f64>,
     inv_inertia: Vec<f64>,
     friction: Vec<f64>,
@@ -81,9 +82,25 @@ pub(crate) struct Bodies {
     keep: Vec<(f64, f64)>,
     asleep: Vec<bool>,
     still_for: Vec<f64>,
-    /// Moved and turned since the physics step began (for the contacts' separations).
-    moved: Vec<Vec2>,
-    turned: Vec<(f64, f64)>,
+}
+
+/// A body's velocity, and how far it moved and turned since the physics step began (for
+/// the contacts' separations).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct State {
+    vel: Vec2,
+    spin: f64,
+    moved: Vec2,
+    turned: (f64, f64),
+}
+
+impl State {
+    const REST: State = State {
+        vel: Vec2 { x: 0.0, y: 0.0 },
+        spin: 0.0,
+        moved: Vec2 { x: 0.0, y: 0.0 },
+        turned: (1.0, 0.0),
+    };
 }
 
 impl Bodies {
@@ -91,16 +108,13 @@ impl Bodies {
         self.kind.push(kind);
         self.pos.push(pos);
         self.rot.push(rot);
-        self.vel.push(Vec2::new(0.0, 0.0));
-        self.spin.push(0.0);
+        self.state.push(State::REST);
         self.inv_mass.push(inv.0);
         self.inv_inertia.push(inv.1);
         self.friction.push(friction);
         self.keep.push((1.0, 1.0));
         self.asleep.push(kind == Kind::Wall);
         self.still_for.push(0.0);
-        self.moved.push(Vec2::new(0.0, 0.0));
-        self.turned.push((1.0, 0.0));
     }
 
     fn frame(&self, i: usize) -> Frame {
@@ -130,7 +144,12 @@ pub(crate) struct DiscEngine {
     contacts: Vec<Contact>,
     /// Last step's impulses by contact key, to start this step's from.
     impulses: HashMap<u64, (f64, f64), solver::KeyHash>,
+    /// Seconds spent in each stage since the engine was made (see [`STAGES`]).
+    stage_seconds: [f64; STAGES.len()],
 }
+
+/// The stages of a physics step, in order, as [`DiscEngine::stage_seconds`] names them.
+pub(crate) const STAGES: [&str; 5] = ["grids", "wake", "contacts", "solver", "sleep"];
 
 impl DiscEngine {
     pub fn new(cfg: &SceneConfig, arena: &Arena, geometry: &RobotGeometry) -> DiscEngine {
@@ -188,6 +207,7 @@ impl DiscEngine {
             robot_grid: Grid::new(half, cell(2.0 * robot_bound + MARGIN)),
             contacts: Vec::new(),
             impulses: HashMap::default(),
+            stage_seconds: [0.0; STAGES.len()],
         }
     }
 
@@ -230,8 +250,7 @@ impl DiscEngine {
     pub fn teleport(&mut self, i: usize, pos: Vec2) {
         let b = &mut self.bodies;
         b.pos[i] = pos;
-        b.vel[i] = Vec2::new(0.0, 0.0);
-        b.spin[i] = 0.0;
+        b.state[i] = State::REST;
         b.asleep[i] = false;
         b.still_for[i] = 0.0;
     }
@@ -239,8 +258,8 @@ impl DiscEngine {
     /// Sets a robot's velocity for the next physics step: `speed` along its heading, `turn`.
     pub fn drive(&mut self, i: usize, speed: f64, turn: f64) {
         let (c, s) = self.bodies.rot[i];
-        self.bodies.vel[i] = Vec2::new(c * speed, s * speed);
-        self.bodies.spin[i] = turn;
+        self.bodies.state[i].vel = Vec2::new(c * speed, s * speed);
+        self.bodies.state[i].spin = turn;
     }
 
     /// A body's position and heading as (cos, sin).
@@ -262,20 +281,43 @@ impl DiscEngine {
             .count()
     }
 
+    /// Seconds spent in each of [`STAGES`] since the engine was made.
+    pub fn stage_seconds(&self) -> [f64; STAGES.len()] {
+        self.stage_seconds
+    }
+
     /// One physics step.
     pub fn step(&mut self) {
+        let mut clock = std::time::Instant::now();
+        let mut lap = |engine: &mut DiscEngine, stage: usize| {
+            let now = std::time::Instant::now();
+            engine.stage_seconds[stage] += (now - clock).as_secs_f64();
+            clock = now;
+        };
         self.rebuild_grids();
-        self.wake_touched();
-        self.find_contacts();
+        lap(self, 0);
+        let touched = self.find_robot_contacts();
+        lap(self, 2);
+        self.wake(touched);
+        lap(self, 1);
+        self.find_puck_contacts();
+        lap(self, 2);
+        self.solve();
+        lap(self, 3);
+        self.settle();
+        lap(self, 4);
+    }
+
+    fn solve(&mut self) {
         let h = self.dt / SUBSTEPS as f64;
         let soft = Soft::new(h);
         solver::prepare(&mut self.contacts, &self.bodies, &self.impulses);
         for _ in 0..SUBSTEPS {
             self.damp();
-            solver::warm_start(&self.contacts, &mut self.bodies);
-            solver::solve(&mut self.contacts, &mut self.bodies, &soft, true);
+            solver::warm_start(&self.contacts, &mut self.bodies.state);
+            solver::solve(&mut self.contacts, &mut self.bodies.state, &soft, true);
             self.integrate(h);
-            solver::solve(&mut self.contacts, &mut self.bodies, &soft, false);
+            solver::solve(&mut self.contacts, &mut self.bodies.state, &soft, false);
         }
         self.impulses.clear();
         self.impulses.extend(
@@ -283,7 +325,6 @@ impl DiscEngine {
                 .iter()
                 .map(|c| (c.key, (c.normal_impulse, c.tangent_impulse))),
         );
-        self.settle();
     }
 
     fn rebuild_grids(&mut self) {
@@ -294,32 +335,46 @@ impl DiscEngine {
             .rebuild(self.robots.iter().map(|&r| pos[r as usize]));
     }
 
-    /// Wakes the sleeping pucks within reach of a robot or a moving puck.
-    fn wake_touched(&mut self) {
-        let b = &self.bodies;
-        let reach_robot = self.robot_bound + self.puck_radius + MARGIN;
-        let reach_puck = 2.0 * self.puck_radius + MARGIN;
-        let movers: Vec<u32> = self
+    /// Every robot's contacts (the first of the step's), and the sleeping pucks within
+    /// their reach, which wake.
+    fn find_robot_contacts(&mut self) -> Vec<u32> {
+        let this = &*self;
+        let found: Vec<(Vec<Contact>, Vec<u32>)> = this
             .robots
+            .par_chunks(CHUNK)
+            .map(|chunk| {
+                let (mut out, mut woken) = (Vec::new(), Vec::new());
+                for &r in chunk {
+                    this.robot_contacts(r as usize, &mut out, &mut woken);
+                }
+                (out, woken)
+            })
+            .collect();
+        self.contacts.clear();
+        let mut woken = Vec::new();
+        for (contacts, touched) in found {
+            self.contacts.extend(contacts);
+            woken.extend(touched);
+        }
+        woken
+    }
+
+    /// Wakes `touched` and the sleeping pucks within reach of a moving puck.
+    fn wake(&mut self, mut touched: Vec<u32>) {
+        let b = &self.bodies;
+        let reach = 2.0 * self.puck_radius + MARGIN;
+        let movers: Vec<u32> = self
+            .pucks
             .iter()
             .copied()
-            .chain(self.pucks.iter().copied().filter(|&p| {
-                let p = p as usize;
-                !b.asleep[p] && moving(b, p)
-            }))
+            .filter(|&p| !b.asleep[p as usize] && moving(b, p as usize))
             .collect();
-        let woken: Vec<u32> = movers
+        let near_movers: Vec<u32> = movers
             .par_chunks(CHUNK)
             .flat_map_iter(|chunk| {
                 let mut out = Vec::new();
                 for &m in chunk {
-                    let m = m as usize;
-                    let reach = if b.kind[m] == Kind::Robot {
-                        reach_robot
-                    } else {
-                        reach_puck
-                    };
-                    let c = b.pos[m];
+                    let c = b.pos[m as usize];
                     let r = Vec2::new(reach, reach);
                     self.puck_grid.query(c - r, c + r, |j| {
                         let p = self.pucks[j as usize];
@@ -331,13 +386,16 @@ impl DiscEngine {
                 out
             })
             .collect();
-        for p in woken {
+        touched.extend(near_movers);
+        for p in touched {
             self.bodies.asleep[p as usize] = false;
             self.bodies.still_for[p as usize] = 0.0;
         }
     }
 
-    fn find_contacts(&mut self) {
+    /// Every awake puck's contacts with later or sleeping pucks and the wall, after the
+    /// robots'.
+    fn find_puck_contacts(&mut self) {
         let awake: Vec<u32> = self
             .pucks
             .iter()
@@ -345,18 +403,7 @@ impl DiscEngine {
             .filter(|&p| !self.bodies.asleep[p as usize])
             .collect();
         let this = &*self;
-        let robot_contacts: Vec<Vec<Contact>> = this
-            .robots
-            .par_chunks(CHUNK)
-            .map(|chunk| {
-                let mut out = Vec::new();
-                for &r in chunk {
-                    this.robot_contacts(r as usize, &mut out);
-                }
-                out
-            })
-            .collect();
-        let puck_contacts: Vec<Vec<Contact>> = awake
+        let found: Vec<Vec<Contact>> = awake
             .par_chunks(CHUNK)
             .map(|chunk| {
                 let mut out = Vec::new();
@@ -366,14 +413,14 @@ impl DiscEngine {
                 out
             })
             .collect();
-        self.contacts.clear();
-        for part in robot_contacts.into_iter().chain(puck_contacts) {
+        for part in found {
             self.contacts.extend(part);
         }
     }
 
-    /// A robot's contacts with pucks, later robots and the wall.
-    fn robot_contacts(&self, i: usize, out: &mut Vec<Contact>) {
+    /// A robot's contacts with pucks, later robots and the wall; the sleeping pucks it
+    /// could touch go to `woken`.
+    fn robot_contacts(&self, i: usize, out: &mut Vec<Contact>, woken: &mut Vec<u32>) {
         let b = &self.bodies;
         let frame = b.frame(i);
         let c = b.pos[i];
@@ -384,6 +431,9 @@ impl DiscEngine {
             let local = frame.unapply(b.pos[p]);
             if norm(local) > reach {
                 return;
+            }
+            if b.asleep[p] {
+                woken.push(p as u32);
             }
             let disc = Convex::disc(local, self.puck_radius);
             for (k, part) in self.solid.iter().enumerate() {
@@ -414,7 +464,7 @@ impl DiscEngine {
                 }
             }
         });
-        if -self.arena.signed_distance(c) - self.robot_bound > MARGIN {
+        if shape::wall_gap(&self.arena, c).0 - self.robot_bound > MARGIN {
             return;
         }
         for (k, part) in self.solid.iter().chain([&self.bow]).enumerate() {
@@ -463,8 +513,9 @@ impl DiscEngine {
             let p = p as usize;
             if !b.asleep[p] {
                 let (lin, ang) = b.keep[p];
-                b.vel[p] = b.vel[p] * lin;
-                b.spin[p] *= ang;
+                let st = &mut b.state[p];
+                st.vel = st.vel * lin;
+                st.spin *= ang;
             }
         }
     }
@@ -476,21 +527,22 @@ impl DiscEngine {
             if b.asleep[i] {
                 continue;
             }
-            let d = b.vel[i] * h;
+            let st = &mut b.state[i];
+            let d = st.vel * h;
             b.pos[i] = b.pos[i] + d;
-            b.moved[i] = b.moved[i] + d;
-            let a = b.spin[i] * h;
+            st.moved = st.moved + d;
+            let a = st.spin * h;
             b.rot[i] = turn(b.rot[i], a);
-            b.turned[i] = turn(b.turned[i], a);
+            st.turned = turn(st.turned, a);
         }
     }
 
     /// Ends a physics step: resets the step's displacements and puts still pucks to sleep.
     fn settle(&mut self) {
         let b = &mut self.bodies;
-        for i in 0..b.kind.len() {
-            b.moved[i] = Vec2::new(0.0, 0.0);
-            b.turned[i] = (1.0, 0.0);
+        for st in &mut b.state {
+            st.moved = Vec2::new(0.0, 0.0);
+            st.turned = (1.0, 0.0);
         }
         for &p in &self.pucks {
             let p = p as usize;
@@ -503,8 +555,7 @@ impl DiscEngine {
                 b.still_for[p] += self.dt;
                 if b.still_for[p] >= TIME_TO_SLEEP {
                     b.asleep[p] = true;
-                    b.vel[p] = Vec2::new(0.0, 0.0);
-                    b.spin[p] = 0.0;
+                    b.state[p] = State::REST;
                 }
             }
         }
@@ -520,8 +571,8 @@ impl Frame {
 }
 
 fn moving(b: &Bodies, i: usize) -> bool {
-    let v = b.vel[i];
-    v.x * v.x + v.y * v.y > SLEEP_SPEED * SLEEP_SPEED || b.spin[i].abs() > SLEEP_SPIN
+    let State { vel: v, spin, .. } = b.state[i];
+    v.x * v.x + v.y * v.y > SLEEP_SPEED * SLEEP_SPEED || spin.abs() > SLEEP_SPIN
 }
 
 /// A rotation `(cos, sin)` turned by the small angle `a`, kept a unit vector.

@@ -427,8 +427,9 @@ fn reference_contacts(
     (out.count > 0).then_some(out)
 }
 
-/// The gradient of the arena's signed distance at `p`: the outward normal of the nearest wall.
-fn wall_normal(arena: &Arena, p: Vec2) -> Vec2 {
+/// How far `p` is inside the arena's wall (negative outside) and the wall's outward
+/// normal nearest it: the arena's signed distance and its gradient, by `sqrt` alone.
+pub(crate) fn wall_gap(arena: &Arena, p: Vec2) -> (f64, Vec2) {
     let (hw, hh, r) = (
         arena.half_width(),
         arena.half_height(),
@@ -436,14 +437,15 @@ fn wall_normal(arena: &Arena, p: Vec2) -> Vec2 {
     );
     let qx = p.x.abs() - (hw - r);
     let qy = p.y.abs() - (hh - r);
-    let n = if qx > 0.0 && qy > 0.0 {
-        normalized(Vec2::new(qx, qy)).unwrap_or(Vec2::new(1.0, 0.0))
+    let (gap, n) = if qx > 0.0 && qy > 0.0 {
+        let l = (qx * qx + qy * qy).sqrt();
+        (r - l, Vec2::new(qx / l, qy / l))
     } else if qx > qy {
-        Vec2::new(1.0, 0.0)
+        (r - qx, Vec2::new(1.0, 0.0))
     } else {
-        Vec2::new(0.0, 1.0)
+        (r - qy, Vec2::new(0.0, 1.0))
     };
-    Vec2::new(n.x.copysign(p.x), n.y.copysign(p.y))
+    (gap, Vec2::new(n.x.copysign(p.x), n.y.copysign(p.y)))
 }
 
 /// The contacts of a shape (world frame) with the arena's wall, the normal pointing into
@@ -454,16 +456,15 @@ pub(crate) fn wall_contacts(
     margin: f64,
     mut f: impl FnMut(Vec2, Point),
 ) {
-    if -arena.signed_distance(shape.centre) - shape.bound > margin {
+    if wall_gap(arena, shape.centre).0 - shape.bound > margin {
         return;
     }
     for (i, &v) in shape.core().iter().enumerate() {
-        let gap = -arena.signed_distance(v);
+        let (gap, n) = wall_gap(arena, v);
         let separation = gap - shape.radius;
         if separation > margin {
             continue;
         }
-        let n = wall_normal(arena, v);
         let at = v + n * (shape.radius + separation / 2.0);
         f(
             n,

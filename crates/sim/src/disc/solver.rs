@@ -10,7 +10,7 @@ use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
 use super::shape::{cross, dot};
-use super::Bodies;
+use super::{Bodies, State};
 use crate::types::Vec2;
 
 /// Stiffness of a contact's spring, Hz, at most (Box2D: 30, and a quarter of the substep rate).
@@ -34,6 +34,10 @@ pub(crate) struct Contact {
     base: f64,
     point: Vec2,
     separation: f64,
+    /// Each body's inverse mass and inverse moment of inertia (zero for the wall and
+    /// for a sleeper, which stands still).
+    inv_a: (f64, f64),
+    inv_b: (f64, f64),
     normal_mass: f64,
     tangent_mass: f64,
     friction: f64,
@@ -54,6 +58,8 @@ impl Contact {
             base: 0.0,
             point,
             separation,
+            inv_a: (0.0, 0.0),
+            inv_b: (0.0, 0.0),
             normal_mass: 0.0,
             tangent_mass: 0.0,
             friction: 0.0,
@@ -137,6 +143,8 @@ pub(crate) fn prepare(
         let (a, bb) = (c.a as usize, c.b as usize);
         let (ma, ia) = masses(b, a);
         let (mb, ib) = masses(b, bb);
+        c.inv_a = (ma, ia);
+        c.inv_b = (mb, ib);
         c.ra = c.point - b.pos[a];
         c.rb = c.point - b.pos[bb];
         c.base = c.separation - dot(c.rb - c.ra, c.normal);
@@ -164,18 +172,19 @@ fn spin_cross(w: f64, r: Vec2) -> Vec2 {
     Vec2::new(-w * r.y, w * r.x)
 }
 
-fn apply(b: &mut Bodies, c: &Contact, impulse: Vec2) {
-    let (a, bb) = (c.a as usize, c.b as usize);
-    let (ma, ia) = masses(b, a);
-    let (mb, ib) = masses(b, bb);
-    b.vel[a] = b.vel[a] - impulse * ma;
-    b.spin[a] -= ia * cross(c.ra, impulse);
-    b.vel[bb] = b.vel[bb] + impulse * mb;
-    b.spin[bb] += ib * cross(c.rb, impulse);
+fn apply(s: &mut [State], c: &Contact, impulse: Vec2) {
+    let (ma, ia) = c.inv_a;
+    let (mb, ib) = c.inv_b;
+    let a = &mut s[c.a as usize];
+    a.vel = a.vel - impulse * ma;
+    a.spin -= ia * cross(c.ra, impulse);
+    let b = &mut s[c.b as usize];
+    b.vel = b.vel + impulse * mb;
+    b.spin += ib * cross(c.rb, impulse);
 }
 
 /// Applies each contact's impulses so far (a substep starts from where the last left off).
-pub(crate) fn warm_start(contacts: &[Contact], b: &mut Bodies) {
+pub(crate) fn warm_start(contacts: &[Contact], b: &mut [State]) {
     for c in contacts {
         let n = c.normal;
         let t = Vec2::new(n.y, -n.x);
@@ -185,12 +194,12 @@ pub(crate) fn warm_start(contacts: &[Contact], b: &mut Bodies) {
 
 /// One pass over the contacts: with `push`, overlaps are pushed apart; without, the pass
 /// only takes out the speed that push put in (Box2D's relax).
-pub(crate) fn solve(contacts: &mut [Contact], b: &mut Bodies, soft: &Soft, push: bool) {
+pub(crate) fn solve(contacts: &mut [Contact], b: &mut [State], soft: &Soft, push: bool) {
     for c in contacts {
         let (a, bb) = (c.a as usize, c.b as usize);
         let n = c.normal;
-        let d =
-            (b.moved[bb] - b.moved[a]) + (rotate(b.turned[bb], c.rb) - rotate(b.turned[a], c.ra));
+        let (sa, sb) = (b[a], b[bb]);
+        let d = (sb.moved - sa.moved) + (rotate(sb.turned, c.rb) - rotate(sa.turned, c.ra));
         let s = dot(d, n) + c.base;
         let (bias, mass_scale, impulse_scale) = if s > 0.0 {
             // Apart: close at most the gap in this substep.
@@ -204,8 +213,7 @@ pub(crate) fn solve(contacts: &mut [Contact], b: &mut Bodies, soft: &Soft, push:
         } else {
             (0.0, 1.0, 0.0)
         };
-        let dv =
-            (b.vel[bb] + spin_cross(b.spin[bb], c.rb)) - (b.vel[a] + spin_cross(b.spin[a], c.ra));
+        let dv = (sb.vel + spin_cross(sb.spin, c.rb)) - (sa.vel + spin_cross(sa.spin, c.ra));
         let vn = dot(dv, n);
         let impulse = -c.normal_mass * mass_scale * (vn + bias) - impulse_scale * c.normal_impulse;
         let total = (c.normal_impulse + impulse).max(0.0);
@@ -214,8 +222,8 @@ pub(crate) fn solve(contacts: &mut [Contact], b: &mut Bodies, soft: &Soft, push:
         apply(b, c, n * impulse);
 
         let t = Vec2::new(n.y, -n.x);
-        let dv =
-            (b.vel[bb] + spin_cross(b.spin[bb], c.rb)) - (b.vel[a] + spin_cross(b.spin[a], c.ra));
+        let (sa, sb) = (b[a], b[bb]);
+        let dv = (sb.vel + spin_cross(sb.spin, c.rb)) - (sa.vel + spin_cross(sa.spin, c.ra));
         let vt = dot(dv, t);
         let limit = c.friction * c.normal_impulse;
         let total = (c.tangent_impulse - c.tangent_mass * vt).clamp(-limit, limit);
