@@ -4,7 +4,9 @@
 //! or reorder any of them. A reader keeps one frame in the making: a part of another step (a
 //! newer one, or an older one after the world restarted) starts it afresh, dropping an unfinished
 //! one, and the frame is handed out only once every part is in, so a viewer never shows half a
-//! world.
+//! world. Each frame dropped so, with some of its parts in and not all, is counted
+//! ([`VisionAssembler::missing`]): a viewer shows that count, so a loss is never silent. (A frame
+//! none of whose parts arrived leaves no trace here; the hub's drop counts show those.)
 
 use super::vision::{VisionFrame, VisionPart};
 
@@ -20,6 +22,9 @@ use super::vision::{VisionFrame, VisionPart};
 #[derive(Debug, Default)]
 pub struct VisionAssembler {
     making: Option<Making>,
+    missing: u64,
+    /// The step of the frame last handed out: a late copy of one of its parts is no new frame.
+    done: Option<u64>,
 }
 
 #[derive(Debug)]
@@ -34,12 +39,19 @@ impl VisionAssembler {
         VisionAssembler::default()
     }
 
+    /// Frames dropped unfinished so far: a part of another frame came while some of this one's
+    /// parts were still missing.
+    pub fn missing(&self) -> u64 {
+        self.missing
+    }
+
     /// Takes one part; returns the whole frame once every part of its step is in, with its
     /// robots and pucks sorted by id. A part seen before is ignored; a part out of its own range
-    /// (which [`super::vision::decode`] never returns) is ignored too.
+    /// (which [`super::vision::decode`] never returns) is ignored too. A part of another frame
+    /// drops the unfinished one, counted in [`missing`](Self::missing).
     pub fn offer(&mut self, part: VisionPart) -> Option<VisionFrame> {
         let VisionPart { part, parts, frame } = part;
-        if part >= parts {
+        if part >= parts || (self.making.is_none() && self.done == Some(frame.step)) {
             return None;
         }
         let fresh = match &self.making {
@@ -47,6 +59,9 @@ impl VisionAssembler {
             None => true,
         };
         if fresh {
+            if self.making.is_some() {
+                self.missing += 1;
+            }
             self.making = Some(Making {
                 seen: vec![false; parts as usize],
                 frame: VisionFrame {
@@ -69,6 +84,7 @@ impl VisionAssembler {
             return None;
         }
         let mut done = self.making.take()?.frame;
+        self.done = Some(done.step);
         done.robots.sort_by_key(|r| r.id);
         done.pucks.sort_by_key(|p| p.id);
         Some(done)
@@ -127,6 +143,63 @@ mod tests {
         let f = a.offer(part(11, 0, 2, Some((0, 6.0)))).unwrap();
         assert_eq!((f.step, f.robots.len(), f.robots[0].pose.x), (11, 1, 6.0));
         assert_eq!(a.offer(part(12, 3, 2, None)), None, "out of range");
+        assert_eq!(a.missing(), 1, "step 10 was dropped half in");
+    }
+
+    #[test]
+    fn a_frame_with_a_lost_part_is_counted_missing_and_never_handed_out() {
+        let frame = VisionFrame {
+            step: 5,
+            robots: (0..6000)
+                .map(|id| VisionRobot {
+                    id,
+                    pose: Pose {
+                        x: 1.0,
+                        y: 2.0,
+                        theta: 0.5,
+                    },
+                    carrying: None,
+                })
+                .collect(),
+            ..VisionFrame::default()
+        };
+        let mut a = VisionAssembler::new();
+        for step in [5, 6, 7] {
+            let parts = vision::encode(&VisionFrame {
+                step,
+                ..frame.clone()
+            })
+            .unwrap();
+            assert!(parts.len() >= 3, "{}", parts.len());
+            for (i, bytes) in parts.iter().enumerate() {
+                // Step 6 loses its middle part.
+                if step == 6 && i == 1 {
+                    continue;
+                }
+                let got = a.offer(vision::decode(&Packet::parse(bytes).unwrap()).unwrap());
+                let last = i + 1 == parts.len();
+                assert_eq!(got.is_some(), last && step != 6, "step {step} part {i}");
+                if let Some(f) = got {
+                    assert_eq!((f.step, f.robots.len()), (step, 6000));
+                }
+            }
+        }
+        assert_eq!(a.missing(), 1, "step 6 only");
+        // A late copy of a part of the frame just handed out starts no frame to drop.
+        let late = vision::encode(&VisionFrame {
+            step: 7,
+            ..frame.clone()
+        })
+        .unwrap();
+        assert_eq!(
+            a.offer(vision::decode(&Packet::parse(&late[0]).unwrap()).unwrap()),
+            None
+        );
+        let next = vision::encode(&VisionFrame { step: 8, ..frame }).unwrap();
+        for bytes in &next {
+            a.offer(vision::decode(&Packet::parse(bytes).unwrap()).unwrap());
+        }
+        assert_eq!(a.missing(), 1);
     }
 
     #[test]
