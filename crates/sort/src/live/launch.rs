@@ -64,10 +64,23 @@ pub struct SwarmSpec {
     pub seed: u64,
 }
 
+/// The most robots whose controllers [`Controllers::Threads`] gives a thread (and a hub
+/// client) each; a larger swarm's controllers run [`Controllers::InWorld`].
+pub const MAX_CONTROLLER_THREADS: usize = 1024;
+
 /// Where the robots' controllers run.
 pub enum Controllers {
-    /// One thread of this process each.
+    /// One thread of this process each, up to [`MAX_CONTROLLER_THREADS`] robots; a larger
+    /// swarm's run [`InWorld`](Controllers::InWorld). (At 10,000 robots, a thread and a hub
+    /// client each means 10,000 threads on a few cores and, every step, 10,000 observations
+    /// through the hub and 20,000 commands and intentions back: the hub, not the world, would
+    /// set the pace, and the world view would starve.)
     Threads,
+    /// In the world's own step, on its thread: each robot's observation goes straight to its
+    /// controller and its command straight to the hold rule (at priority 0, so an operator's
+    /// command on `radio` still outranks it); nothing goes on `camera.N` or `debug` for them.
+    /// What a swarm of thousands needs for the world to publish its whole state every step.
+    InWorld,
     /// One child process each, started with the command this makes for a
     /// robot id (for `colony`, `colony sort robot --id N ...`). The children
     /// are killed when the swarm ends.
@@ -100,6 +113,8 @@ pub struct Swarm {
     stop: Arc<AtomicBool>,
     threads: Vec<JoinHandle<Result<(), LiveError>>>,
     children: Children,
+    /// Controllers the world steps itself ([`Controllers::InWorld`]).
+    inline: Vec<Box<dyn crate::Controller>>,
 }
 
 impl Swarm {
@@ -114,8 +129,21 @@ impl Swarm {
         let n = world.robot_count();
         let mut threads = Vec::new();
         let mut children = Children(Vec::new());
+        let mut inline = Vec::new();
+        let controllers = match controllers {
+            Controllers::Threads if n > MAX_CONTROLLER_THREADS => {
+                tracing::info!(
+                    robots = n,
+                    "{n} robots: their controllers run in the world's step, not a thread each \
+                     (at most {MAX_CONTROLLER_THREADS})"
+                );
+                Controllers::InWorld
+            }
+            c => c,
+        };
         let started = (|| {
             match &controllers {
+                Controllers::InWorld => inline = (0..n).map(|_| controller(spec)).collect(),
                 Controllers::Threads => {
                     for id in 0..n {
                         let mut controller = controller(spec);
@@ -147,6 +175,7 @@ impl Swarm {
                 stop: stop.clone(),
                 threads,
                 children,
+                inline,
             }),
             Err(e) => {
                 // Whatever started must not outlive the launch.
@@ -179,10 +208,12 @@ impl Swarm {
             metrics_every: 10,
             cluster_threshold: self.spec.params.perception.cluster_threshold_cm,
         };
-        let result = super::world::run(
+        let result = super::world::run_with_controllers(
             &mut self.world,
             &mut self.client,
             &options,
+            std::mem::take(&mut self.inline),
+            self.spec.seed,
             &self.stop,
             each_step,
         );
@@ -247,6 +278,18 @@ mod tests {
             e.to_string(),
             "--id 99 is out of range: the scene has 4 robots (0 to 3)"
         );
+    }
+
+    #[test]
+    fn a_swarm_too_big_for_a_thread_each_runs_its_controllers_in_the_world() {
+        let stop = Arc::new(AtomicBool::new(false));
+        let spec = SwarmSpec {
+            scene: SceneConfig::scaled(MAX_CONTROLLER_THREADS + 1),
+            ..spec()
+        };
+        let swarm = Swarm::launch(&spec, Controllers::Threads, &stop).unwrap();
+        assert!(swarm.threads.is_empty(), "no thread per robot");
+        assert_eq!(swarm.inline.len(), MAX_CONTROLLER_THREADS + 1);
     }
 
     #[test]

@@ -50,9 +50,7 @@ where
             robot,
             id,
             controller,
-            rng: ChaCha8Rng::seed_from_u64(
-                seed ^ (robot as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
-            ),
+            rng: robot_rng(seed, robot),
             subs: [Subject::new(&camera::camera_channel(id)).map_err(ClientError::from)?].into(),
             newest: None,
             outbox: VecDeque::new(),
@@ -107,6 +105,12 @@ where
         self.outbox.extend([command, intention]);
         Ok(())
     }
+}
+
+/// Robot `robot`'s controller's random numbers, from the swarm's `seed` and the robot's id:
+/// the same wherever the controller runs.
+pub(crate) fn robot_rng(seed: u64, robot: usize) -> ChaCha8Rng {
+    ChaCha8Rng::seed_from_u64(seed ^ (robot as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15))
 }
 
 impl<C> Node for RobotNode<C>

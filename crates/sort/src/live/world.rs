@@ -44,9 +44,23 @@ pub fn run(
     client: &mut UdpClient,
     options: &WorldOptions,
     stop: &AtomicBool,
+    each_step: impl FnMut(&World),
+) -> Result<(), LiveError> {
+    run_with_controllers(world, client, options, Vec::new(), 0, stop, each_step)
+}
+
+/// [`run`], with `controllers` (one per robot, in id order; none: every robot's controller is
+/// a hub client) stepped in the world's own step as [`WorldNode::with_controllers`] says.
+pub fn run_with_controllers(
+    world: &mut World,
+    client: &mut UdpClient,
+    options: &WorldOptions,
+    controllers: Vec<Box<dyn crate::Controller>>,
+    seed: u64,
+    stop: &AtomicBool,
     mut each_step: impl FnMut(&World),
 ) -> Result<(), LiveError> {
-    let mut node = WorldNode::new(world, options)?;
+    let mut node = WorldNode::new(world, options)?.with_controllers(controllers, seed);
     let mut seen = 0;
     let mut link = Link::new(client, Instant::now());
     colony_node::run(&mut node, &mut link, stop, |node, _| {

@@ -14,9 +14,11 @@ use colony_proto::swarm::{
 use colony_proto::CommandHold;
 use colony_sim::{RobotId, SceneConfig, WheelCommand, World};
 use colony_wire::{Packet, Subject};
+use rand_chacha::ChaCha8Rng;
 
 use super::world::{command_hold, WorldOptions};
 use super::{wire_id, LiveError};
+use crate::Controller;
 
 /// The live world: it subscribes to `radio` and holds each robot's command
 /// by the hold rule ([`command_hold`]); its timer steps the world once per
@@ -42,6 +44,9 @@ pub struct WorldNode<W> {
     outbox: VecDeque<Vec<u8>>,
     /// What stopped the world: a step it could not publish.
     error: Option<LiveError>,
+    /// Controllers stepped here, one per robot, when they run in the world's own step rather
+    /// than as hub clients ([`with_controllers`](Self::with_controllers)).
+    inline: Vec<(Box<dyn Controller>, ChaCha8Rng)>,
 }
 
 impl<W: BorrowMut<World>> WorldNode<W> {
@@ -74,7 +79,28 @@ impl<W: BorrowMut<World>> WorldNode<W> {
             subs,
             outbox: VecDeque::new(),
             error: None,
+            inline: Vec::new(),
         })
+    }
+
+    /// Runs every robot's controller in the world's own step, `controllers[i]` for robot `i`
+    /// with the random numbers a hub client of its own would draw (from `seed` and the id):
+    /// after each step every controller is given its robot's observation, and its command is
+    /// offered to the hold rule at priority 0, as its `radio` packet would be. So an operator's
+    /// command on `radio` still outranks it. Nothing goes on `camera.N` or `debug` for these
+    /// robots: at thousands of robots those packets (one each per robot per step, through the
+    /// hub and back) cost more than the world's step, and no one else reads them.
+    pub fn with_controllers(
+        mut self,
+        controllers: Vec<Box<dyn Controller>>,
+        seed: u64,
+    ) -> WorldNode<W> {
+        self.inline = controllers
+            .into_iter()
+            .enumerate()
+            .map(|(robot, c)| (c, super::robot_node::robot_rng(seed, robot)))
+            .collect();
+        self
     }
 
     /// The world as it stands.
@@ -116,8 +142,15 @@ impl<W: BorrowMut<World>> WorldNode<W> {
         let step = world.step_count();
         for rb in world.robots().iter() {
             let obs = world.observe(RobotId(rb.id.0));
-            self.outbox
-                .push_back(camera::encode(wire_id(rb.id.0)?, step, &obs)?);
+            match self.inline.get_mut(rb.id.0) {
+                Some((controller, rng)) => {
+                    let cmd = controller.step(&obs, rng);
+                    self.commands.offer(rb.id.0, cmd, 0, step);
+                }
+                None => self
+                    .outbox
+                    .push_back(camera::encode(wire_id(rb.id.0)?, step, &obs)?),
+            }
         }
         if step % self.options.metrics_every.max(1) == 0 {
             let pc = crate::metrics::percentage_completion(
@@ -289,6 +322,48 @@ mod tests {
         assert_eq!(metrics[0].step, 2);
         assert!(node.finished());
         assert_eq!(node.poll_timeout(), None);
+    }
+
+    #[test]
+    fn controllers_in_the_world_drive_it_with_no_camera_packets_and_yield_to_an_operator() {
+        let scene = SceneConfig::default();
+        let world = World::new(&scene, 3).unwrap();
+        let n = world.robot_count();
+        let controllers = (0..n)
+            .map(|_| {
+                crate::methods::build(
+                    crate::methods::Method::CacheCons,
+                    &crate::params::SortParams::default(),
+                    scene.pucks.kinds,
+                    scene.arena.width,
+                )
+            })
+            .collect();
+        let mut node = WorldNode::new(world, &options(None))
+            .unwrap()
+            .with_controllers(controllers, 1);
+        let op = radio::encode(&[radio::RadioCommand::new(0, -0.5, 0.0)], Priority(10)).unwrap();
+        node.handle_packet(Time::ZERO, &Packet::parse(&op).unwrap());
+        for k in 0..3 {
+            node.handle_timeout(Time::from_micros(50_000 * k));
+            let sent = drain(&mut node);
+            assert!(sent
+                .iter()
+                .all(|p| !Packet::parse(p).unwrap().has_subject("camera.1")));
+            assert!(sent
+                .iter()
+                .any(|p| Packet::parse(p).unwrap().has_subject("vision")));
+        }
+        assert_eq!(
+            node.applied()[0].forward,
+            -0.5,
+            "the operator holds robot 0"
+        );
+        assert!(
+            node.applied()[1..].iter().all(|c| *c != WheelCommand::STOP),
+            "every other robot is driven by its controller: {:?}",
+            node.applied()
+        );
     }
 
     #[test]
