@@ -67,6 +67,22 @@ pub type Envelope = (
     oneshot::Sender<Result<String, CommandError>>,
 );
 
+/// A world snapshot for the pages: its JSON, and the newest whole frame's robots and pucks as
+/// the binary message the page draws them from ([`crate::state::bodies`]).
+#[derive(Debug, Clone)]
+pub struct WorldSnapshot {
+    /// `{"t":"world",...}`.
+    pub json: Arc<str>,
+    /// The bodies of whole frame number `frame` (shared, not copied, by every page).
+    pub bodies: axum::body::Bytes,
+    /// Which whole frame `bodies` holds (0: none yet).
+    pub frame: u64,
+}
+
+/// The data client's receive buffer asked for: a 10,000-robot frame is some 80 datagrams of
+/// 60 kB arriving at once, and the default buffer (about 208 KiB) would drop all but a few.
+const DATA_BUFFER: usize = 32 << 20;
+
 /// The bridge's two clients and its state, ready to run on a thread.
 pub struct Bridge {
     data: UdpClient,
@@ -75,7 +91,7 @@ pub struct Bridge {
     game: GameView,
     tasks: TaskBoard,
     subscribed: BTreeSet<String>,
-    world_tx: watch::Sender<Arc<str>>,
+    world_tx: watch::Sender<WorldSnapshot>,
     hub_tx: watch::Sender<Arc<str>>,
     game_tx: watch::Sender<Arc<GameFrame>>,
     chat_tx: watch::Sender<Arc<Chats>>,
@@ -87,7 +103,7 @@ pub struct Bridge {
 
 /// The web side's ends of the bridge.
 pub struct Handles {
-    pub world: watch::Receiver<Arc<str>>,
+    pub world: watch::Receiver<WorldSnapshot>,
     pub hub: watch::Receiver<Arc<str>>,
     /// The game, cut for each page by the page's session (what a team's player may see).
     pub game: watch::Receiver<Arc<GameFrame>>,
@@ -106,6 +122,7 @@ impl Bridge {
         feed: Feed,
     ) -> Result<(Bridge, Handles), colony_client::ClientError> {
         let mut data = UdpClient::connect(hub)?;
+        enlarge_receive_buffer(&data, DATA_BUFFER);
         // Kept with every refresh; a hub that refuses it counts `too_many_taps`.
         data.set_standing(vec![Request::Tap])?;
         let mut control = UdpClient::connect(hub)?;
@@ -118,7 +135,11 @@ impl Bridge {
             .map_or(0, |d| d.as_millis() as u64);
         let state = MonitorState::new(now, wall);
         let game = GameView::new(now, wall);
-        let (world_tx, world) = watch::channel(Arc::from(state.world_json(now)));
+        let (world_tx, world) = watch::channel(WorldSnapshot {
+            json: Arc::from(state.world_json(now)),
+            bodies: state.world_bodies().into(),
+            frame: 0,
+        });
         let (hub_tx, hub) = watch::channel(Arc::from(state.hub_json(now)));
         let (game_tx, game_rx) = watch::channel(Arc::new(game.frame(now)));
         let (map_tx, map) = watch::channel(Arc::from(game.map_json()));
@@ -187,6 +208,7 @@ impl Bridge {
         let mut override_version = 0;
         let mut last_world = start;
         let mut world_version = 0;
+        let mut scene_budget = foxglove::SceneBudget::default();
         let mut next_hub_view = start;
         let mut last_game = start;
         let mut game_version = 0;
@@ -299,22 +321,36 @@ impl Bridge {
             if (self.state.frame_version() != world_version && since >= WORLD_EVERY)
                 || since >= WORLD_AT_LEAST
             {
-                if self.state.frame_version() != world_version && self.feed.wants_arena() {
-                    let world = self.state.world();
-                    let caches = world.caches().iter().map(|((r, k), p)| (*r, k.0, p.x, p.y));
-                    let scene = foxglove::scene::arena_scene(
-                        world.frame(),
-                        world.arena(),
-                        world.sizes(),
-                        caches,
-                        foxglove::now_ns(),
-                    );
-                    self.feed.on_arena(scene, foxglove::now_ns());
-                }
-                world_version = self.state.frame_version();
+                let frame = self.state.frame_version();
+                let bodies = if frame == world_version {
+                    self.world_tx.borrow().bodies.clone()
+                } else {
+                    self.state.world_bodies().into()
+                };
+                world_version = frame;
                 last_world = now;
-                self.world_tx
-                    .send_replace(Arc::from(self.state.world_json(now)));
+                self.world_tx.send_replace(WorldSnapshot {
+                    json: Arc::from(self.state.world_json(now)),
+                    bodies,
+                    frame,
+                });
+            }
+            // The arena's scene for Foxglove, within its share of this thread.
+            let frame = self.state.frame_version();
+            if self.feed.wants_arena() && scene_budget.due(frame, now) {
+                let started = Instant::now();
+                let world = self.state.world();
+                let caches = world.caches().iter().map(|((r, k), p)| (*r, k.0, p.x, p.y));
+                let scene = foxglove::scene::arena_scene(
+                    world.frame(),
+                    world.arena(),
+                    world.sizes(),
+                    caches,
+                    foxglove::now_ns(),
+                );
+                self.feed.on_arena(scene, foxglove::now_ns());
+                let skipped = scene_budget.built(frame, started, started.elapsed());
+                self.feed.on_scenes_skipped(skipped);
             }
             let since = now.saturating_duration_since(last_game);
             if (self.game.version() != game_version && since >= GAME_EVERY)
@@ -433,4 +469,16 @@ impl Bridge {
         }
         self.state.apply(now, page, command)
     }
+}
+
+/// Asks for `bytes` of receive buffer on `client`'s socket, past `net.core.rmem_max` where the
+/// process may; what the kernel grants is logged, and too little shows as frames missing.
+fn enlarge_receive_buffer(client: &UdpClient, bytes: usize) {
+    use colony_sys::buffers::{self, Buffer};
+    let _ = buffers::set_size(client, Buffer::Receive, bytes, false);
+    if buffers::size(client, Buffer::Receive).map_or(0, |b| b / 2) < bytes {
+        let _ = buffers::set_size(client, Buffer::Receive, bytes, true);
+    }
+    let got = buffers::size(client, Buffer::Receive).map_or(0, |b| b / 2);
+    tracing::debug!(asked = bytes, got, "the monitor's receive buffer");
 }

@@ -3,7 +3,9 @@
 //! browser tab.
 //!
 //! Server to browser: `{"t":"world",...}` snapshots at most 30 times a
-//! second (coalesced: a slow tab gets the newest, never a backlog),
+//! second (coalesced: a slow tab gets the newest, never a backlog), each new whole frame's
+//! robots and pucks just before its snapshot as one binary message
+//! ([`crate::state::bodies`]),
 //! `{"t":"hub",...}` about once a second, and `{"t":"reply",...}` answers.
 //! The game page opens `/ws?view=game` and gets `{"t":"game",...}` and
 //! `{"t":"map",...}` (see [`crate::game`]) instead of world and hub; the task
@@ -124,7 +126,7 @@ struct App {
     closed: Sender<PageId>,
     /// The next page's id.
     pages: Arc<AtomicU64>,
-    world: watch::Receiver<Arc<str>>,
+    world: watch::Receiver<crate::bridge::WorldSnapshot>,
     hub: watch::Receiver<Arc<str>>,
     game: watch::Receiver<Arc<crate::game::GameFrame>>,
     chat: watch::Receiver<Arc<crate::game::Chats>>,
@@ -402,6 +404,7 @@ fn monitor_json(app: &App) -> String {
             "dropped": v.dropped(),
             "refused": v.refused(),
             "not_advertised": v.not_advertised(),
+            "scenes_skipped": v.scenes_skipped(),
         },
     })
     .to_string()
@@ -749,6 +752,8 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
     map.mark_changed();
     tasks.mark_changed();
     let mut next_world = Instant::now();
+    // The whole frame whose bodies this page has (0: none; no world has none to send).
+    let mut bodies_sent = 0;
     let mut counts_tick = tokio::time::interval(COUNTS_EVERY);
     let mut counts_sent = String::new();
     let mut pinger = Pinger::new(app.liveness, std::time::Instant::now());
@@ -769,7 +774,16 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
                 // At most 30 a second; whatever arrives meanwhile replaces the snapshot.
                 tokio::time::sleep_until(next_world).await;
                 let snapshot = world.borrow_and_update().clone();
-                if let Err(e) = send_text(&mut socket, &snapshot, within).await {
+                // A new whole frame's bodies first, then the JSON that goes with them.
+                if snapshot.frame != bodies_sent && snapshot.frame != 0 {
+                    let bodies = Message::Binary(snapshot.bodies.clone());
+                    if let Err(e) = send_within(&mut socket, bodies, within).await {
+                        end = Some(e.into());
+                        break;
+                    }
+                    bodies_sent = snapshot.frame;
+                }
+                if let Err(e) = send_text(&mut socket, &snapshot.json, within).await {
                     end = Some(e);
                     break;
                 }

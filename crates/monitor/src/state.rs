@@ -24,6 +24,7 @@ use colony_proto::RADIO;
 use colony_wire::{Packet, Request, StatusReport};
 use serde::Serialize;
 
+pub mod bodies;
 pub mod command;
 pub mod forge;
 pub mod hub;
@@ -129,6 +130,11 @@ impl MonitorState {
     /// Counts complete frames; changes whenever a new one is in.
     pub fn frame_version(&self) -> u64 {
         self.world.frame_version()
+    }
+
+    /// Frames dropped with some of their parts missing (never shown).
+    pub fn frames_missing(&self) -> u64 {
+        self.world.frames_missing()
     }
 
     /// The held robots and how each is driven.
@@ -298,6 +304,11 @@ impl MonitorState {
         serde_json::to_string(&w).unwrap_or_else(|_| "{}".into())
     }
 
+    /// The newest whole frame's robots and pucks for the page ([`bodies`]).
+    pub fn world_bodies(&self) -> Vec<u8> {
+        self.world.bodies()
+    }
+
     /// The hub view as JSON for the page.
     pub fn hub_json(&self, now: Instant) -> String {
         let h = self
@@ -380,6 +391,20 @@ mod tests {
         assert_eq!(s.frame().step, 11);
         assert_eq!(s.frame().robots[0].pose.x, 6.0);
         assert_eq!(s.frame().pucks[0].pos.x, 2.0);
+        // Step 10 lost its second part: never shown, and counted for the page.
+        assert_eq!((s.frame_version(), s.frames_missing()), (2, 1));
+        let json: serde_json::Value = serde_json::from_str(&s.world_json(ms(t0, 7))).unwrap();
+        assert_eq!(
+            (&json["frames"], &json["frames_missing"], &json["nrobots"]),
+            (&2.into(), &1.into(), &1.into())
+        );
+        let bodies = s.world_bodies();
+        assert_eq!(&bodies[..4], bodies::MAGIC);
+        assert_eq!(
+            bodies.len(),
+            bodies::HEADER + 20 + 13,
+            "one robot, one puck"
+        );
     }
 
     #[test]
@@ -798,7 +823,12 @@ mod tests {
             .map(String::as_str)
             .collect();
         assert!(text.starts_with(r#"{"t":"world","now":"#), "{text}");
-        assert_eq!(keys.len(), 19, "{keys:?}");
+        // The 19 keys of old, and the frame's counts: nrobots, npucks, frames, frames_missing.
+        assert_eq!(keys.len(), 23, "{keys:?}");
+        assert_eq!(
+            (&json["nrobots"], &json["npucks"], &json["frames_missing"]),
+            (&2.into(), &1.into(), &0.into())
+        );
         // No box and no goal in a sorting arena.
         assert_eq!(json["boxes"], serde_json::json!([]));
         assert_eq!(json["goal"], serde_json::Value::Null);

@@ -1,6 +1,8 @@
 // colony monitor: the page's script. Plain JavaScript, no library.
 //
-// The server sends {"t":"world"} snapshots (at most 30 a second), {"t":"hub"}
+// The server sends {"t":"world"} snapshots (at most 30 a second), each new
+// whole frame's robots and pucks just before its snapshot as one binary
+// message (typed arrays: see decodeBodies), {"t":"hub"}
 // about once a second, {"t":"monitor"} (what the monitor itself refused or
 // dropped) on connecting and each second it changes, and {"t":"reply"}
 // answers; the page sends requests (take, release, drive, goto, publish).
@@ -25,6 +27,8 @@ const pctx = plot.getContext('2d');
 
 let world = null; // the newest snapshot
 let shown = null; // the snapshot drawn (held back while the view is paused)
+let bodies = null; // the newest frame's robots and pucks (decodeBodies)
+let shownBodies = null; // the bodies drawn (held back while the view is paused)
 let hub = null;
 let paused = false;
 let dirty = true;
@@ -39,12 +43,26 @@ let serverLostSince = Date.now();
 const api = {
   robots: 0, pucks: 0, step: null, fps: 0, frames: 0, drawMs: 0,
   drawn: { step: null, robots: 0, pucks: 0 }, // what the canvas shows now
+  // Bodies messages taken, redraws of the arena, distinct frames drawn, and whole frames
+  // the monitor dropped for a missing part (never drawn) and put together.
+  bodyFrames: 0, draws: 0, framesDrawn: 0, framesMissing: 0, framesWhole: 0, raster: false,
   connected: false, hubStale: false, visionStale: false, serverLostSince: null,
   hubStaleSince: null, visionStaleSince: null,
-  held: [], all: false, selected: [], poses: {}, states: {}, pc: null,
+  held: [], all: false, selected: [], states: {}, pc: null,
   channels: {}, minPriority: null, paused: false, worlds: 0, hubs: 0, lastReply: null, monitor: null,
   worldToClient, select, send,
 };
+// Each robot's [x, y, theta] by id, from the newest bodies (built when asked: 10,000 a frame
+// would cost every frame for a reader that is rarely there).
+Object.defineProperty(api, 'poses', {
+  enumerable: true,
+  get() {
+    const out = {};
+    const b = bodies;
+    if (b) for (let i = 0; i < b.n; i++) out[b.ids[i]] = [b.pose[3 * i], b.pose[3 * i + 1], b.pose[3 * i + 2]];
+    return out;
+  },
+});
 window.colony = api;
 
 // ---- the connection ---------------------------------------------------
@@ -61,6 +79,10 @@ function connect() {
       else if (msg.t === 'monitor') onMonitor(msg);
       else if (msg.t === 'reply') onReply(msg);
     },
+    onBinary(buf) {
+      const b = decodeBodies(buf);
+      if (b) onBodies(b);
+    },
     onClose(wasConnected) {
       if (wasConnected || serverLostSince === null) serverLostSince = Date.now();
       connected = false;
@@ -76,22 +98,67 @@ function send(obj) {
 }
 
 // ---- incoming ----------------------------------------------------------
+// The bodies message (crates/monitor/src/state/bodies.rs): a 24-byte header
+// ('CWB1', robots n, pucks m, frame number, step as f64), then typed arrays,
+// each at a multiple of 4 bytes: robot poses f32 [x, y, theta] * n, robot ids
+// u32 * n, carried puck ids u32 * n (0xffffffff: none), puck positions f32
+// [x, y] * m, puck ids u32 * m, puck kinds u8 * m. Sorted by id. Views, not copies.
+const BODIES_MAGIC = 0x31425743; // 'CWB1' read as a little-endian u32
+const NOT_CARRYING = 0xffffffff;
+function decodeBodies(buf) {
+  if (buf.byteLength < 24) return null;
+  const dv = new DataView(buf);
+  if (dv.getUint32(0, true) !== BODIES_MAGIC) return null;
+  const n = dv.getUint32(4, true);
+  const m = dv.getUint32(8, true);
+  if (buf.byteLength !== 24 + 20 * n + 13 * m) return null;
+  let o = 24;
+  const take = (Type, count, size) => { const a = new Type(buf, o, count); o += count * size; return a; };
+  return {
+    n, m, frame: dv.getUint32(12, true), step: dv.getFloat64(16, true),
+    pose: take(Float32Array, 3 * n, 4), ids: take(Uint32Array, n, 4), carrying: take(Uint32Array, n, 4),
+    puckPos: take(Float32Array, 2 * m, 4), puckIds: take(Uint32Array, m, 4), kinds: take(Uint8Array, m, 1),
+  };
+}
+
+// The index of id in a sorted Uint32Array, or -1.
+function indexOf(ids, id) {
+  if (id < ids.length && ids[id] === id) return id; // ids 0..n-1, the usual case
+  let lo = 0;
+  let hi = ids.length - 1;
+  while (lo <= hi) {
+    const mid = (lo + hi) >> 1;
+    if (ids[mid] === id) return mid;
+    if (ids[mid] < id) lo = mid + 1; else hi = mid - 1;
+  }
+  return -1;
+}
+
+function onBodies(b) {
+  bodies = b;
+  api.bodyFrames += 1;
+  api.robots = b.n;
+  api.pucks = b.m;
+  api.step = b.step;
+  if (!paused) { shownBodies = b; dirty = true; }
+  if (!view.fitted) fit();
+  $('step').textContent = String(b.step);
+  $('nrobots').textContent = String(b.n);
+  $('npucks').textContent = String(b.m);
+}
+
 function onWorld(w) {
   world = w;
   api.worlds += 1;
-  api.robots = w.robots.length;
-  api.pucks = w.pucks.length;
+  api.framesMissing = w.frames_missing ?? 0;
+  api.framesWhole = w.frames ?? 0;
   api.boxes = (w.boxes ?? []).map((b) => [b[1], b[2]]);
   api.goal = w.goal ?? null;
-  api.step = w.step;
   api.held = w.held;
   api.all = w.all;
   api.hubStaleSince = w.hub_stale_since;
   api.visionStaleSince = w.vision_stale_since;
   api.worldPhase = w.world_phase ?? 'live';
-  const poses = {};
-  for (const r of w.robots) poses[r[0]] = [r[1], r[2], r[3]];
-  api.poses = poses;
   const states = {};
   for (const i of w.intents) states[i[0]] = i[1];
   api.states = states;
@@ -103,9 +170,11 @@ function onWorld(w) {
   }
   if (!paused) { shown = w; dirty = true; }
   if (!view.fitted) fit();
-  $('step').textContent = w.step === null ? '–' : String(w.step);
-  $('nrobots').textContent = String(api.robots);
-  $('npucks').textContent = String(api.pucks);
+  if (w.step === null) $('step').textContent = '–';
+  $('missing').textContent = String(api.framesMissing);
+  $('missing-chip').classList.toggle('bad', api.framesMissing > 0);
+  $('missing-chip').title = `${api.framesWhole} whole frames of the world taken, ${api.framesMissing} dropped `
+    + 'for a part lost on the way (never drawn)';
   $('pcnow').textContent = w.pc ? `${w.pc[1].toFixed(1)} %` : '–';
   $('held-line').textContent = w.held.length
     ? `Holding ${w.all ? 'all: ' : ''}${listIds(w.held)}${w.min_raised ? ' (hub minimum priority raised)' : ''}`
@@ -200,14 +269,16 @@ function extent() {
   const w = shown || world;
   if (w && w.arena) return [w.arena.width, w.arena.height];
   let m = 50;
-  if (w) for (const r of w.robots) m = Math.max(m, Math.abs(r[1]), Math.abs(r[2]));
-  if (w) for (const p of w.pucks) m = Math.max(m, Math.abs(p[2]), Math.abs(p[3]));
+  const b = shownBodies || bodies;
+  if (b) for (const v of b.pose) m = Math.max(m, Math.abs(v));
+  if (b) for (const v of b.puckPos) m = Math.max(m, Math.abs(v));
   return [2 * m, 2 * m];
 }
 
 function fit() {
   const w = shown || world;
-  if (!w || (!w.arena && !w.robots.length)) return;
+  const b = shownBodies || bodies;
+  if (!w || (!w.arena && !(b && b.n))) return;
   const [ew, eh] = extent();
   const r = canvas.getBoundingClientRect();
   if (r.width < 10 || r.height < 10) return;
@@ -264,6 +335,8 @@ function draw() {
     label('waiting for the world on <vision>…', canvas.width / 2, canvas.height / 2, '#4a5563', 16 * dpr, 'center');
     return;
   }
+  // The bodies drawn: the newest frame's (an empty one before any came).
+  const b = shownBodies || EMPTY_BODIES;
   const s = sizes();
   const px = 1 / k; // one device pixel, in cm
   ctx.setTransform(k, 0, 0, -k, ox, oy);
@@ -278,22 +351,31 @@ function draw() {
   ctx.strokeStyle = '#3a3f47';
   ctx.stroke();
 
-  // Pucks, one path per kind.
+  // Pucks and robots: when a robot is only a few pixels long, as pixels written straight into
+  // an image (a path of 100,000 arcs takes the software canvas far longer than a frame);
+  // otherwise as shapes, only those in view.
+  const held = new Set(w.held);
+  const raster = s.robot_length * k < RASTER_BELOW_PX;
+  api.raster = raster;
   const pr = Math.max(s.puck_diameter / 2, 1.2 * px);
-  const byKind = new Map();
-  for (const p of w.pucks) {
-    let list = byKind.get(p[1]);
-    if (!list) byKind.set(p[1], (list = []));
-    list.push(p);
-  }
-  for (const [kind, list] of byKind) {
-    ctx.beginPath();
-    for (const p of list) {
-      ctx.moveTo(p[2] + pr, p[3]);
-      ctx.arc(p[2], p[3], pr, 0, 2 * Math.PI);
+  const inView = viewBox(t, Math.max(s.robot_length, s.puck_diameter) * 2);
+  if (raster) {
+    rasterBodies(b, k, ox, oy, held);
+  } else {
+    const byKind = [];
+    for (let i = 0; i < b.m; i++) {
+      const x = b.puckPos[2 * i];
+      const y = b.puckPos[2 * i + 1];
+      if (!inView(x, y)) continue;
+      const kind = b.kinds[i];
+      const path = byKind[kind] || (byKind[kind] = new Path2D());
+      path.moveTo(x + pr, y);
+      path.arc(x, y, pr, 0, 2 * Math.PI);
     }
-    ctx.fillStyle = KIND_COLOURS[kind % KIND_COLOURS.length];
-    ctx.fill();
+    byKind.forEach((path, kind) => {
+      ctx.fillStyle = KIND_COLOURS[kind % KIND_COLOURS.length];
+      ctx.fill(path);
+    });
   }
 
   // A goal (box pushing): a ringed cross.
@@ -333,17 +415,19 @@ function draw() {
     ctx.setLineDash([]);
   }
 
-  const poses = new Map();
-  for (const r of w.robots) poses.set(r[0], r);
-  const held = new Set(w.held);
+  // A robot's [x, y] by id, if it is in the frame.
+  const at = (id) => {
+    const i = indexOf(b.ids, id);
+    return i < 0 ? null : [b.pose[3 * i], b.pose[3 * i + 1]];
+  };
 
   // Each controller's target: a dashed line from the robot.
   if (showIntents) {
     ctx.beginPath();
     for (const i of w.intents) {
-      const r = poses.get(i[0]);
+      const r = at(i[0]);
       if (!r || i[2] === null || held.has(i[0])) continue;
-      ctx.moveTo(r[1], r[2]);
+      ctx.moveTo(r[0], r[1]);
       ctx.lineTo(i[2], i[3]);
       ctx.moveTo(i[2] - 2, i[3] - 2); ctx.lineTo(i[2] + 2, i[3] + 2);
       ctx.moveTo(i[2] - 2, i[3] + 2); ctx.lineTo(i[2] + 2, i[3] - 2);
@@ -358,8 +442,8 @@ function draw() {
   if (w.targets.length) {
     ctx.beginPath();
     for (const [id, tx, ty] of w.targets) {
-      const r = poses.get(id);
-      if (r) { ctx.moveTo(r[1], r[2]); ctx.lineTo(tx, ty); }
+      const r = at(id);
+      if (r) { ctx.moveTo(r[0], r[1]); ctx.lineTo(tx, ty); }
       ctx.moveTo(tx + 4, ty);
       ctx.arc(tx, ty, 4, 0, 2 * Math.PI);
     }
@@ -373,20 +457,24 @@ function draw() {
   const W = s.robot_width;
   const gr = s.gripper_radius || s.puck_diameter * 0.57;
   const mouth = (130 / 2) * Math.PI / 180; // half the gripper's mouth
-  const bodies = { normal: new Path2D(), held: new Path2D() };
+  const shapes = { normal: new Path2D(), held: new Path2D() };
   const grippers = new Path2D();
   const heads = new Path2D();
-  for (const r of w.robots) {
-    const [id, x, y, th] = r;
+  for (let i = 0; i < b.n && !raster; i++) {
+    const x = b.pose[3 * i];
+    const y = b.pose[3 * i + 1];
+    if (!inView(x, y)) continue;
+    const th = b.pose[3 * i + 2];
+    const id = b.ids[i];
     const c = Math.cos(th);
     const sn = Math.sin(th);
     const pt = (fx, fy) => [x + fx * c - fy * sn, y + fx * sn + fy * c];
-    const path = held.has(id) ? bodies.held : bodies.normal;
-    const a = pt(-L / 2, -W / 2);
-    const b = pt(L / 2, -W / 2);
-    const d = pt(L / 2, W / 2);
-    const e = pt(-L / 2, W / 2);
-    path.moveTo(a[0], a[1]); path.lineTo(b[0], b[1]); path.lineTo(d[0], d[1]); path.lineTo(e[0], e[1]); path.closePath();
+    const path = held.has(id) ? shapes.held : shapes.normal;
+    const c0 = pt(-L / 2, -W / 2);
+    const c1 = pt(L / 2, -W / 2);
+    const c2 = pt(L / 2, W / 2);
+    const c3 = pt(-L / 2, W / 2);
+    path.moveTo(c0[0], c0[1]); path.lineTo(c1[0], c1[1]); path.lineTo(c2[0], c2[1]); path.lineTo(c3[0], c3[1]); path.closePath();
     // The C-shaped gripper: straight jaws from the body's front to the
     // pocket's centre, then lips following the pocket round to the mouth.
     const g = pt(L / 2 + gr, 0);
@@ -403,9 +491,9 @@ function draw() {
     heads.moveTo(h1[0], h1[1]); heads.lineTo(h2[0], h2[1]); heads.lineTo(h3[0], h3[1]); heads.closePath();
   }
   ctx.fillStyle = '#3c4651';
-  ctx.fill(bodies.normal);
+  ctx.fill(shapes.normal);
   ctx.fillStyle = '#c2185b';
-  ctx.fill(bodies.held);
+  ctx.fill(shapes.held);
   ctx.fillStyle = 'rgba(255,255,255,0.85)';
   ctx.fill(heads);
   ctx.strokeStyle = '#1d232b';
@@ -414,15 +502,13 @@ function draw() {
   ctx.stroke(grippers);
 
   // Carried pucks, ringed so they stand out in the gripper.
-  const pucks = new Map();
-  for (const p of w.pucks) pucks.set(p[0], p);
-  for (const r of w.robots) {
-    if (r[4] < 0) continue;
-    const p = pucks.get(r[4]);
-    if (!p) continue;
+  for (let i = 0; i < b.n && !raster; i++) {
+    if (b.carrying[i] === NOT_CARRYING || !inView(b.pose[3 * i], b.pose[3 * i + 1])) continue;
+    const j = indexOf(b.puckIds, b.carrying[i]);
+    if (j < 0) continue;
     ctx.beginPath();
-    ctx.arc(p[2], p[3], pr, 0, 2 * Math.PI);
-    ctx.fillStyle = KIND_COLOURS[p[1] % KIND_COLOURS.length];
+    ctx.arc(b.puckPos[2 * j], b.puckPos[2 * j + 1], pr, 0, 2 * Math.PI);
+    ctx.fillStyle = KIND_COLOURS[b.kinds[j] % KIND_COLOURS.length];
     ctx.fill();
     ctx.lineWidth = Math.max(1, 1.5 * px);
     ctx.strokeStyle = '#fff';
@@ -432,11 +518,12 @@ function draw() {
   // Selection rings.
   if (selected.size) {
     ctx.beginPath();
+    const ring = Math.max(L * 0.85, 6 * px);
     for (const id of selected) {
-      const r = poses.get(id);
+      const r = at(id);
       if (!r) continue;
-      ctx.moveTo(r[1] + L * 0.85, r[2]);
-      ctx.arc(r[1], r[2], L * 0.85, 0, 2 * Math.PI);
+      ctx.moveTo(r[0] + ring, r[1]);
+      ctx.arc(r[0], r[1], ring, 0, 2 * Math.PI);
     }
     ctx.strokeStyle = '#f2b705';
     ctx.lineWidth = Math.max(2, 3 * px);
@@ -445,21 +532,25 @@ function draw() {
 
   // Labels, in screen space: id and FSM state.
   ctx.setTransform(1, 0, 0, 1, 0, 0);
-  const showLabels = $('show-labels').checked && (w.robots.length <= 64 || view.scale * dpr > 6);
+  const showLabels = $('show-labels').checked && (b.n <= 64 || view.scale * dpr > 6);
   if (showLabels) {
     const states = new Map();
     for (const i of w.intents) states.set(i[0], i[1]);
     ctx.font = `${11 * dpr}px system-ui, sans-serif`;
     ctx.textAlign = 'center';
-    for (const r of w.robots) {
-      const sx = ox + r[1] * k;
-      const sy = oy - r[2] * k - (L * 0.9) * k - 3 * dpr;
-      const st = held.has(r[0]) ? 'OPERATOR' : (showIntents && states.get(r[0])) || '';
-      const text = st ? `${r[0]} ${st}` : String(r[0]);
+    for (let i = 0; i < b.n; i++) {
+      const x = b.pose[3 * i];
+      const y = b.pose[3 * i + 1];
+      if (!inView(x, y)) continue;
+      const id = b.ids[i];
+      const sx = ox + x * k;
+      const sy = oy - y * k - (L * 0.9) * k - 3 * dpr;
+      const st = held.has(id) ? 'OPERATOR' : (showIntents && states.get(id)) || '';
+      const text = st ? `${id} ${st}` : String(id);
       ctx.fillStyle = 'rgba(255,255,255,0.8)';
       const tw = ctx.measureText(text).width;
       ctx.fillRect(sx - tw / 2 - 2 * dpr, sy - 10 * dpr, tw + 4 * dpr, 13 * dpr);
-      ctx.fillStyle = held.has(r[0]) ? '#c2185b' : '#1d232b';
+      ctx.fillStyle = held.has(id) ? '#c2185b' : '#1d232b';
       ctx.fillText(text, sx, sy);
     }
   }
@@ -477,8 +568,77 @@ function draw() {
     label(`STALE since ${clock(since || Date.now())}`, canvas.width / 2, 40 * dpr, '#7a1f17', 22 * dpr, 'center');
   }
   if (paused) label('view paused', 10 * dpr, 22 * dpr, '#a8322b', 14 * dpr, 'left');
-  api.drawn = { step: w.step, robots: w.robots.length, pucks: w.pucks.length };
+  api.drawn = { step: shownBodies ? b.step : w.step, robots: b.n, pucks: b.m };
+  api.draws += 1;
+  if (b !== lastDrawn) { api.framesDrawn += 1; lastDrawn = b; }
   api.drawMs = performance.now() - t0;
+}
+
+const EMPTY_BODIES = decodeBodies(new Uint32Array([BODIES_MAGIC, 0, 0, 0, 0, 0]).buffer);
+let lastDrawn = null;
+// Below this many device pixels to a robot's length, bodies are drawn as pixels.
+const RASTER_BELOW_PX = 4;
+
+// Whether a world point is within `margin` cm of the canvas.
+function viewBox(t, margin) {
+  const x0 = (0 - t.ox) / t.k - margin;
+  const x1 = (canvas.width - t.ox) / t.k + margin;
+  const y1 = (t.oy - 0) / t.k + margin;
+  const y0 = (t.oy - canvas.height) / t.k - margin;
+  return (x, y) => x >= x0 && x <= x1 && y >= y0 && y <= y1;
+}
+
+// Colours as little-endian RGBA words, for an ImageData's Uint32Array.
+function rgba(hex) {
+  const v = parseInt(hex.slice(1), 16);
+  return (0xff000000 | ((v & 0xff) << 16) | (v & 0xff00) | ((v >> 16) & 0xff)) >>> 0;
+}
+const KIND_WORDS = KIND_COLOURS.map(rgba);
+const ROBOT_WORD = rgba('#3c4651');
+const HELD_WORD = rgba('#c2185b');
+const rasterLayer = { canvas: document.createElement('canvas'), ctx: null, image: null, words: null };
+
+// Pucks and robots as small squares written into an image the size of the canvas, then drawn
+// over the floor in one go: pucks at least 2 pixels across, robots 3, in their colours.
+function rasterBodies(b, k, ox, oy, held) {
+  const W = canvas.width;
+  const H = canvas.height;
+  if (!rasterLayer.image || rasterLayer.image.width !== W || rasterLayer.image.height !== H) {
+    rasterLayer.canvas.width = W;
+    rasterLayer.canvas.height = H;
+    rasterLayer.ctx = rasterLayer.canvas.getContext('2d');
+    rasterLayer.image = rasterLayer.ctx.createImageData(W, H);
+    rasterLayer.words = new Uint32Array(rasterLayer.image.data.buffer);
+  }
+  const px = rasterLayer.words;
+  px.fill(0);
+  const square = (cx, cy, side, word) => {
+    const x0 = Math.max(0, Math.round(cx - side / 2));
+    const y0 = Math.max(0, Math.round(cy - side / 2));
+    const x1 = Math.min(W, x0 + side);
+    const y1 = Math.min(H, y0 + side);
+    for (let y = y0; y < y1; y++) {
+      const row = y * W;
+      for (let x = x0; x < x1; x++) px[row + x] = word;
+    }
+  };
+  const s = sizes();
+  const puckSide = Math.max(2, Math.round(s.puck_diameter * k));
+  for (let i = 0; i < b.m; i++) {
+    square(ox + b.puckPos[2 * i] * k, oy - b.puckPos[2 * i + 1] * k, puckSide,
+      KIND_WORDS[b.kinds[i] % KIND_WORDS.length]);
+  }
+  const robotSide = Math.max(3, Math.round(s.robot_length * k));
+  const anyHeld = held.size > 0;
+  for (let i = 0; i < b.n; i++) {
+    const word = anyHeld && held.has(b.ids[i]) ? HELD_WORD : ROBOT_WORD;
+    square(ox + b.pose[3 * i] * k, oy - b.pose[3 * i + 1] * k, robotSide, word);
+  }
+  rasterLayer.ctx.putImageData(rasterLayer.image, 0, 0);
+  ctx.save();
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  ctx.drawImage(rasterLayer.canvas, 0, 0);
+  ctx.restore();
 }
 
 function label(text, x, y, colour, px, align) {
@@ -617,7 +777,8 @@ function onMonitor(m) {
   const lines = [
     `web requests refused (another site, another host name, no token): ${m.refused}`,
     `Foxglove viewers: ${f.viewers} connected, ${f.refused} refused past the cap, `
-      + `${f.dropped} messages dropped for slow ones, ${f.not_advertised} packets of topics past the channel list`,
+      + `${f.dropped} messages dropped for slow ones, ${f.not_advertised} packets of topics past the channel list, `
+      + `${f.scenes_skipped ?? 0} world frames whose arena scene was skipped to keep the monitor's time budget`,
   ];
   $('monitor-counts').innerHTML = lines.map((l) => `<div>${esc(l)}</div>`).join('');
 }
@@ -728,9 +889,10 @@ function click(cx, cy, additive) {
   const reach = Math.max(sizes().robot_length * 0.8, 8 / view.scale);
   let hit = null;
   let best = Infinity;
-  for (const r of w.robots) {
-    const d = Math.hypot(r[1] - at.x, r[2] - at.y);
-    if (d < reach && d < best) { best = d; hit = r[0]; }
+  const b = bodies || EMPTY_BODIES;
+  for (let i = 0; i < b.n; i++) {
+    const d = Math.hypot(b.pose[3 * i] - at.x, b.pose[3 * i + 1] - at.y);
+    if (d < reach && d < best) { best = d; hit = b.ids[i]; }
   }
   if (hit !== null) {
     if (additive) {
@@ -801,7 +963,7 @@ $('pause').onclick = () => {
   $('pause').textContent = paused ? 'Resume view' : 'Pause view';
   $('pause').classList.toggle('on', paused);
   $('paused-note').hidden = !paused;
-  if (!paused) shown = world;
+  if (!paused) { shown = world; shownBodies = bodies; }
   dirty = true;
 };
 $('fit').onclick = () => { view.auto = true; fit(); };

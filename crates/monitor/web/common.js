@@ -45,12 +45,15 @@ export function withToken(path) {
  * RETRY_MAX_MS), so a monitor that comes back finds its tabs back (a new
  * monitor has a new token: its tabs are refused until opened at its address).
  *
- * `onMessage(msg)` gets each message that parses as a JSON object (anything
- * else is dropped: the page has nothing to do with it); `onOpen()` and
+ * `onMessage(msg)` gets each text message that parses as a JSON object (any
+ * other text is dropped: the page has nothing to do with it), `onBinary(buf)`
+ * each binary message as an ArrayBuffer (dropped without it); `onOpen()` and
  * `onClose()` report the link going up and down. Returns
  * `{ send(obj) -> bool, connected }`: `send` is false when the link is down.
  */
-export function serverLink(path, { onOpen = () => {}, onMessage, onClose = () => {} }) {
+export function serverLink(path, {
+  onOpen = () => {}, onMessage, onBinary = null, onClose = () => {},
+}) {
   let socket = null;
   let retryMs = RETRY_MIN_MS;
   const link = {
@@ -78,7 +81,13 @@ export function serverLink(path, { onOpen = () => {}, onMessage, onClose = () =>
       retryMs = RETRY_MIN_MS;
       onOpen();
     };
+    // Binary messages (the world's bodies) come as ArrayBuffers, for typed arrays over them.
+    socket.binaryType = 'arraybuffer';
     socket.onmessage = (ev) => {
+      if (ev.data instanceof ArrayBuffer) {
+        if (onBinary) onBinary(ev.data);
+        return;
+      }
       let msg;
       try { msg = JSON.parse(ev.data); } catch (e) { return; }
       if (msg && typeof msg === 'object') onMessage(msg);

@@ -137,6 +137,43 @@ struct Counters {
     not_advertised: AtomicU64,
     /// Connections refused past [`MAX_VIEWERS`].
     refused_viewers: AtomicU64,
+    /// World frames whose arena scene was never built: a newer frame came while the scene
+    /// budget ([`SceneBudget`]) was spent.
+    scenes_skipped: AtomicU64,
+}
+
+/// The share of the bridge thread that building arena scenes may take: a scene of 10,000
+/// robots and 100,000 pucks takes the bridge some 100 ms, and at every world frame it would
+/// leave too little time to read the hub's datagrams.
+pub const SCENE_SHARE: f64 = 0.25;
+/// Scenes are built at most this often, however cheap.
+pub const SCENE_EVERY: Duration = Duration::from_millis(33);
+
+/// When the bridge may build the next arena scene: a build that took `t` is followed by none
+/// for `t / SCENE_SHARE` (at least [`SCENE_EVERY`]). World frames that come meanwhile are not
+/// built at all, only the newest once the budget allows; the ones passed over are counted
+/// ([`Viewers::scenes_skipped`]). No clock: the bridge passes the times.
+#[derive(Debug, Default)]
+pub struct SceneBudget {
+    next: Option<std::time::Instant>,
+    /// The world frame the last scene was built from.
+    built: u64,
+}
+
+impl SceneBudget {
+    /// Whether the scene of world frame `frame` (the newest) should be built at `now`.
+    pub fn due(&self, frame: u64, now: std::time::Instant) -> bool {
+        frame != self.built && self.next.is_none_or(|t| now >= t)
+    }
+
+    /// The scene of world frame `frame` was built from `started`, taking `took`; returns how
+    /// many frames since the last built one were passed over.
+    pub fn built(&mut self, frame: u64, started: std::time::Instant, took: Duration) -> u64 {
+        let skipped = frame.saturating_sub(self.built).saturating_sub(1);
+        self.built = frame;
+        self.next = Some(started + took.div_f64(SCENE_SHARE).max(SCENE_EVERY));
+        skipped
+    }
 }
 
 /// The bridge's end: where received packets and scenes are written.
@@ -335,6 +372,11 @@ impl Feed {
         });
     }
 
+    /// World frames whose arena scene was passed over for the budget ([`SceneBudget`]).
+    pub fn on_scenes_skipped(&mut self, n: u64) {
+        self.counters.scenes_skipped.fetch_add(n, Ordering::Relaxed);
+    }
+
     /// The arena's newest scene (see [`scene::arena_scene`]), and the frames with its time.
     pub fn on_arena(&mut self, json: Vec<u8>, receive_ns: u64) {
         self.send_scene(self.arena, receive_ns, json);
@@ -362,6 +404,11 @@ impl Viewers {
     /// Messages dropped for slow viewers so far, all connections together.
     pub fn dropped(&self) -> u64 {
         self.counters.dropped.load(Ordering::Relaxed)
+    }
+
+    /// World frames whose arena scene was never built, for the budget ([`SceneBudget`]).
+    pub fn scenes_skipped(&self) -> u64 {
+        self.counters.scenes_skipped.load(Ordering::Relaxed)
     }
 
     /// Packets whose topic found no room in the channel list, so far.
@@ -489,6 +536,10 @@ pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
     };
     let mut rx = viewers.tx.subscribe();
     let mut s: Session<Payload> = Session::new("colony monitor", &viewers.session_id);
+    // Each scene is a whole frame: a slow viewer gets the newest, older ones dropped, counted.
+    for c in viewers.scenes {
+        s.newest_only(c);
+    }
     s.on_channels(&viewers.channels());
     let mut tick = tokio::time::interval(Duration::from_millis(500));
     let mut reported = 0;
@@ -678,6 +729,72 @@ fn on_event(e: Event, s: &mut Session<Payload>, viewers: &Viewers) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn scenes_keep_to_their_share_of_the_bridge_and_passed_over_frames_are_counted() {
+        let t0 = std::time::Instant::now();
+        let ms = |n| t0 + Duration::from_millis(n);
+        let mut b = SceneBudget::default();
+        assert!(b.due(1, t0));
+        // A 100 ms scene: none for the next 400 ms.
+        assert_eq!(b.built(1, t0, Duration::from_millis(100)), 0);
+        assert!(!b.due(1, ms(500)), "that frame's scene is built already");
+        for frame in 2..=5 {
+            assert!(!b.due(frame, ms(100 * frame - 150)), "frame {frame}");
+        }
+        assert!(b.due(5, ms(400)));
+        assert_eq!(
+            b.built(5, ms(400), Duration::from_millis(1)),
+            3,
+            "frames 2 to 4"
+        );
+        assert!(!b.due(6, ms(420)), "at most every 33 ms");
+        assert!(b.due(6, ms(433)));
+    }
+
+    #[test]
+    fn a_scene_of_2000_robots_and_20000_pucks_is_whole() {
+        use colony_proto::swarm::{PuckKind, VisionFrame, VisionPuck, VisionRobot};
+        use colony_proto::{Pose, Vec2};
+        let frame = VisionFrame {
+            step: 1,
+            robots: (0..2000)
+                .map(|id| VisionRobot {
+                    id,
+                    pose: Pose {
+                        x: f64::from(id),
+                        y: 0.0,
+                        theta: 0.0,
+                    },
+                    carrying: None,
+                })
+                .collect(),
+            pucks: (0..20_000)
+                .map(|id| VisionPuck {
+                    id,
+                    kind: PuckKind(1),
+                    pos: Vec2::new(0.0, f64::from(id)),
+                })
+                .collect(),
+            ..VisionFrame::default()
+        };
+        let json = scene::arena_scene(&frame, None, None, [], 1);
+        let v: serde_json::Value = serde_json::from_slice(&json).unwrap();
+        let by_id = |id: &str| {
+            v["entities"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|e| e["id"] == id)
+                .unwrap()
+                .clone()
+        };
+        assert_eq!(by_id("robots")["cubes"].as_array().unwrap().len(), 2000);
+        assert_eq!(
+            by_id("pucks")["cylinders"].as_array().unwrap().len(),
+            20_000
+        );
+    }
 
     fn packet(text: &str) -> Packet<'_> {
         Packet::parse(text.as_bytes()).unwrap()

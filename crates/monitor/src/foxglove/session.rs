@@ -7,8 +7,10 @@
 //! newest data and every message dropped before it went out is counted ([`Session::dropped`]);
 //! a status message tells the viewer how many, at most every [`DROP_REPORT_EVERY`]. (A few per
 //! channel, not one: several publishers share a channel, such as each robot's `debug`, and their
-//! packets of one step arrive together.) Waiting channels are sent in turn, so one busy channel
-//! cannot starve the others.
+//! packets of one step arrive together.) A scene channel ([`Session::newest_only`]) keeps only
+//! its newest message: each is a whole frame of the world (megabytes for 10,000 robots), so a
+//! slow viewer has older frames dropped whole, counted, and never a backlog of them. Waiting
+//! channels are sent in turn, so one busy channel cannot starve the others.
 //!
 //! A viewer may publish only the operator's override: on [`OVERRIDE_TOPIC`] (the monitor page's
 //! own override requests as JSON, such as `{"t":"drive","ids":[3],"forward":0.5,"turn":0}`) or
@@ -84,6 +86,8 @@ pub struct Session<P> {
     dropped: u64,
     reported: u64,
     next_report: Option<Instant>,
+    /// Channels that keep only their newest message waiting (scenes: each a whole frame).
+    newest_only: std::collections::BTreeSet<u32>,
 }
 
 impl<P> Default for Session<P> {
@@ -97,6 +101,7 @@ impl<P> Default for Session<P> {
             waiting: 0,
             last_sent: None,
             texts: VecDeque::new(),
+            newest_only: std::collections::BTreeSet::new(),
             dropped: 0,
             reported: 0,
             next_report: None,
@@ -143,17 +148,26 @@ impl<P: Clone> Session<P> {
         self.texts.push_back(protocol::advertise(&new));
     }
 
+    /// Keeps at most one message of `channel` waiting, the newest: a channel whose every
+    /// message is a whole frame (a scene), where an older one is of no use once a newer is in.
+    pub fn newest_only(&mut self, channel: u32) {
+        self.newest_only.insert(channel);
+    }
+
     /// A message on `channel`, received at `receive_ns`: kept if the viewer subscribed. When
-    /// its channel already has [`PER_CHANNEL`] waiting, the oldest of them is dropped; when the
-    /// connection has [`MAX_PENDING`], the oldest of the longest queue.
+    /// its channel already has [`PER_CHANNEL`] waiting (one, for a [`newest_only`](Self::newest_only)
+    /// channel), the oldest of them is dropped; when the connection has [`MAX_PENDING`], the
+    /// oldest of the longest queue.
     pub fn on_message(&mut self, channel: u32, receive_ns: u64, payload: P) {
         if !self.by_channel.contains_key(&channel) {
             return;
         }
-        let full = self
-            .pending
-            .get(&channel)
-            .is_some_and(|q| q.len() >= PER_CHANNEL);
+        let room = if self.newest_only.contains(&channel) {
+            1
+        } else {
+            PER_CHANNEL
+        };
+        let full = self.pending.get(&channel).is_some_and(|q| q.len() >= room);
         let victim = if full {
             Some(channel)
         } else if self.waiting >= MAX_PENDING {
@@ -501,6 +515,34 @@ mod tests {
         s.handle_text(r#"{"op":"unsubscribe","subscriptionIds":[9]}"#);
         s.on_message(1, 7, 102);
         assert_eq!(s.poll_transmit(), None);
+    }
+
+    #[test]
+    fn a_slow_viewer_of_a_scene_has_whole_frames_dropped_for_the_newest_and_counted() {
+        let mut s = session();
+        texts(&mut s);
+        s.newest_only(1);
+        s.handle_text(
+            r#"{"op":"subscribe","subscriptions":[{"id":0,"channelId":1},{"id":1,"channelId":2}]}"#,
+        );
+        // Ten frames of the scene while the viewer sends nothing; the other channel keeps its few.
+        for i in 0..10 {
+            s.on_message(1, i, i as u32);
+            s.on_message(2, i, 100 + i as u32);
+        }
+        assert_eq!(s.dropped(), 9 + (10 - PER_CHANNEL as u64));
+        let mut scenes = Vec::new();
+        while let Some(out) = s.poll_transmit() {
+            if let Out::Message {
+                subscription: 0,
+                payload,
+                ..
+            } = out
+            {
+                scenes.push(payload);
+            }
+        }
+        assert_eq!(scenes, [9], "the newest frame, whole, and no backlog");
     }
 
     #[test]

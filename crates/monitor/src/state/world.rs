@@ -28,6 +28,10 @@ const MAX_STATE_CHARS: usize = 40;
 const MAX_INTENTS: usize = MAX_HELD * 4;
 /// Cache points kept, at most.
 const MAX_CACHES: usize = MAX_HELD * 16;
+/// A frame of at most this many robots and pucks together is also written into the world's
+/// JSON (for tools and tests that read it); the page draws from the binary bodies
+/// ([`super::bodies`]) whatever the size, and a larger frame is there only.
+pub const JSON_BODIES_MAX: usize = 4096;
 
 /// What the swarm channels have shown of the world.
 #[derive(Debug, Default)]
@@ -49,6 +53,14 @@ pub struct WorldView {
 #[derive(Serialize)]
 pub(super) struct WorldJson<'a> {
     step: Option<u64>,
+    /// Robots and pucks in the newest whole frame (in `robots` and `pucks` too when the frame
+    /// has at most [`JSON_BODIES_MAX`] bodies, and always in the binary bodies message).
+    nrobots: usize,
+    npucks: usize,
+    /// Whole frames put together so far.
+    frames: u64,
+    /// Frames dropped with some of their parts missing: never drawn, counted.
+    frames_missing: u64,
     arena: Option<Arena>,
     sizes: Option<Sizes>,
     /// `[id, x, y, theta, carrying or -1]`
@@ -75,6 +87,16 @@ impl WorldView {
     /// Counts complete frames; changes whenever a new one is in.
     pub fn frame_version(&self) -> u64 {
         self.frame_version
+    }
+
+    /// Frames dropped with some of their parts in and not all: never shown, counted.
+    pub fn frames_missing(&self) -> u64 {
+        self.assembler.missing()
+    }
+
+    /// The newest whole frame's robots and pucks as the page's binary message.
+    pub fn bodies(&self) -> Vec<u8> {
+        super::bodies::encode(&self.frame, self.frame_version)
     }
 
     /// The arena's walls, once a vision part has said them.
@@ -179,13 +201,19 @@ impl WorldView {
 
     pub(super) fn json(&self) -> WorldJson<'_> {
         let f = &self.frame;
+        let small = f.robots.len() + f.pucks.len() <= JSON_BODIES_MAX;
         WorldJson {
             step: self.frame_at.map(|_| f.step),
+            nrobots: f.robots.len(),
+            npucks: f.pucks.len(),
+            frames: self.frame_version,
+            frames_missing: self.frames_missing(),
             arena: self.arena,
             sizes: self.sizes,
             robots: f
                 .robots
                 .iter()
+                .take(if small { usize::MAX } else { 0 })
                 .map(|r| {
                     let p = r.pose;
                     (r.id, p.x, p.y, p.theta, r.carrying.map_or(-1, i64::from))
@@ -194,6 +222,7 @@ impl WorldView {
             pucks: f
                 .pucks
                 .iter()
+                .take(if small { usize::MAX } else { 0 })
                 .map(|p| (p.id, p.kind.0, p.pos.x, p.pos.y))
                 .collect(),
             intents: self
@@ -252,6 +281,51 @@ mod tests {
             w.pc_series().count(),
             1,
             "a restarted world starts a new plot"
+        );
+    }
+
+    #[test]
+    fn a_big_frame_goes_to_the_page_as_bodies_not_json() {
+        use colony_proto::swarm::{VisionPuck, VisionRobot};
+        use colony_proto::Pose;
+        let frame = VisionFrame {
+            step: 3,
+            robots: (0..500)
+                .map(|id| VisionRobot {
+                    id,
+                    pose: Pose {
+                        x: 1.0,
+                        y: 2.0,
+                        theta: 0.0,
+                    },
+                    carrying: None,
+                })
+                .collect(),
+            pucks: (0..5000)
+                .map(|id| VisionPuck {
+                    id,
+                    kind: PuckKind(1),
+                    pos: Vec2::new(3.0, 4.0),
+                })
+                .collect(),
+            ..VisionFrame::default()
+        };
+        let mut w = WorldView::default();
+        let now = Instant::now();
+        for bytes in vision::encode(&frame).unwrap() {
+            w.on_vision(now, &Packet::parse(&bytes).unwrap());
+        }
+        assert_eq!(w.frame_version(), 1);
+        let json = serde_json::to_value(w.json()).unwrap();
+        assert_eq!(
+            (&json["nrobots"], &json["npucks"]),
+            (&500.into(), &5000.into())
+        );
+        assert_eq!(json["robots"], serde_json::json!([]), "too many for JSON");
+        assert_eq!(json["pucks"], serde_json::json!([]));
+        assert_eq!(
+            w.bodies().len(),
+            super::super::bodies::HEADER + 500 * 20 + 5000 * 13
         );
     }
 

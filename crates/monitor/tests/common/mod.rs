@@ -89,6 +89,12 @@ pub fn get(addr: SocketAddr, path: &str) -> String {
 
 /// Just enough of a WebSocket client (RFC 6455) for a test: text frames
 /// out (masked, as a client must), text frames in, pings answered.
+/// A message from the monitor: text (JSON) or binary.
+pub enum Message {
+    Text(Value),
+    Binary(Vec<u8>),
+}
+
 pub struct Ws {
     stream: TcpStream,
 }
@@ -170,18 +176,35 @@ impl Ws {
         let _ = self.stream.shutdown(std::net::Shutdown::Both);
     }
 
-    /// The next text message, as JSON.
+    /// The next text message, as JSON (binary messages, the world's bodies, are skipped).
     pub fn recv(&mut self) -> Value {
+        loop {
+            if let Message::Text(v) = self.recv_any() {
+                return v;
+            }
+        }
+    }
+
+    /// The next message: text as JSON, or binary as its bytes.
+    pub fn recv_any(&mut self) -> Message {
         let mut message = Vec::new();
+        let mut text = true;
         loop {
             let mut first = [0u8];
             self.stream.read_exact(&mut first).unwrap();
             let (fin, opcode, payload) = self.rest_of_frame(first[0]);
             match opcode {
                 0x0..=0x2 => {
+                    if opcode != 0x0 {
+                        text = opcode == 0x1;
+                    }
                     message.extend_from_slice(&payload);
                     if fin {
-                        return serde_json::from_slice(&message).unwrap();
+                        return if text {
+                            Message::Text(serde_json::from_slice(&message).unwrap())
+                        } else {
+                            Message::Binary(message)
+                        };
                     }
                 }
                 _ => self.control(opcode, &payload),
