@@ -46,6 +46,7 @@ const api = {
   // Bodies messages taken, redraws of the arena, distinct frames drawn, and whole frames
   // the monitor dropped for a missing part (never drawn) and put together.
   bodyFrames: 0, draws: 0, framesDrawn: 0, framesMissing: 0, framesWhole: 0, raster: false,
+  redrawEveryFrame: false,
   connected: false, hubStale: false, visionStale: false, serverLostSince: null,
   hubStaleSince: null, visionStaleSince: null,
   held: [], all: false, selected: [], states: {}, pc: null,
@@ -720,7 +721,9 @@ function frame(now) {
     fpsFrames = 0;
     fpsSince = now;
   }
-  if (dirty) { dirty = false; draw(); }
+  // redrawEveryFrame (for a benchmark at the console): the whole arena each animation frame,
+  // new data or not, to measure what drawing alone can hold.
+  if (dirty || api.redrawEveryFrame) { dirty = false; draw(); }
   if (plotDirty) { plotDirty = false; drawPlot(); }
   requestAnimationFrame(frame);
 }
