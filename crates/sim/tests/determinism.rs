@@ -46,7 +46,7 @@ fn a_recorded_trial_replays_bit_for_bit() {
 }
 
 const RAPIER_DIGEST: u64 = 0x9a9f37f8b78ac699;
-const DISC_DIGEST: u64 = 0x98fe8837379c816b;
+const DISC_DIGEST: u64 = 0x3d37afc955f23cf0;
 
 /// The disc engine finds contacts on rayon's threads, in chunks of a fixed size: a
 /// world of more bodies than one chunk steps to the same bits on one thread and on two.

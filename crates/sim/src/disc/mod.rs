@@ -27,6 +27,7 @@
 
 mod shape;
 mod solver;
+mod strips;
 
 use std::collections::HashMap;
 
@@ -40,6 +41,7 @@ use crate::types::{Pose, Vec2};
 
 use shape::{collide, dist, norm, wall_contacts, Convex, Frame, Manifold};
 use solver::{Contact, Soft};
+use strips::Strips;
 
 /// Solver substeps per physics step (Box2D v3's default is 4 per 1/60 s; ours are 1/56 s).
 const SUBSTEPS: u32 = 4;
@@ -60,7 +62,7 @@ const CHUNK: usize = 512;
 const WALL: u32 = 0;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Kind {
+pub(crate) enum Kind {
     Wall,
     Robot,
     Puck,
@@ -133,6 +135,9 @@ pub(crate) struct DiscEngine {
     bodies: Bodies,
     robots: Vec<u32>,
     pucks: Vec<u32>,
+    /// The pucks awake in this physics step, in id order (found once the robots' touch
+    /// has woken theirs).
+    awake: Vec<u32>,
     /// A robot's solid parts and its bow, robot frame.
     solid: Vec<Convex>,
     bow: Convex,
@@ -142,6 +147,7 @@ pub(crate) struct DiscEngine {
     puck_grid: Grid,
     robot_grid: Grid,
     contacts: Vec<Contact>,
+    strips: Strips,
     /// Last step's impulses by contact key, to start this step's from.
     impulses: HashMap<u64, (f64, f64), solver::KeyHash>,
     /// Seconds spent in each stage since the engine was made (see [`STAGES`]).
@@ -195,6 +201,7 @@ impl DiscEngine {
             bodies,
             robots: Vec::new(),
             pucks: Vec::new(),
+            awake: Vec::new(),
             solid,
             bow,
             robot_bound,
@@ -203,9 +210,12 @@ impl DiscEngine {
                 keep(cfg.pucks.linear_damping),
                 keep(cfg.pucks.angular_damping),
             ),
-            puck_grid: Grid::new(half, cell(2.0 * puck_radius + MARGIN)),
+            // Cells two pucks wide: fewer cells to clear and sum each step, at a few more
+            // pucks per query (BENCHMARKS.md, "Choosing the contact engine").
+            puck_grid: Grid::new(half, cell(2.0 * (2.0 * puck_radius + MARGIN))),
             robot_grid: Grid::new(half, cell(2.0 * robot_bound + MARGIN)),
             contacts: Vec::new(),
+            strips: Strips::new(arena.half_width()),
             impulses: HashMap::default(),
             stage_seconds: [0.0; STAGES.len()],
         }
@@ -312,12 +322,43 @@ impl DiscEngine {
         let h = self.dt / SUBSTEPS as f64;
         let soft = Soft::new(h);
         solver::prepare(&mut self.contacts, &self.bodies, &self.impulses);
+        let moving: Vec<u32> = self.robots.iter().chain(&self.awake).copied().collect();
+        self.strips
+            .arrange(&self.bodies, &moving, &mut self.contacts);
+        let strips = &self.strips;
+        let mut states = strips.gather(&self.bodies);
+        let keep: Vec<(f64, f64)> = strips
+            .order
+            .iter()
+            .map(|&i| self.bodies.keep[i as usize])
+            .collect();
         for _ in 0..SUBSTEPS {
-            self.damp();
-            solver::warm_start(&self.contacts, &mut self.bodies.state);
-            solver::solve(&mut self.contacts, &mut self.bodies.state, &soft, true);
-            self.integrate(h);
-            solver::solve(&mut self.contacts, &mut self.bodies.state, &soft, false);
+            // Floor friction (a robot keeps all: its speed is set each physics step).
+            for (st, &(lin, ang)) in states.iter_mut().zip(&keep) {
+                st.vel = st.vel * lin;
+                st.spin *= ang;
+            }
+            strips.run(&mut self.contacts, &mut states, &|c, s, o| {
+                solver::warm_start(c, s, o)
+            });
+            strips.run(&mut self.contacts, &mut states, &|c, s, o| {
+                solver::solve(c, s, o, &soft, true)
+            });
+            for st in &mut states {
+                st.moved = st.moved + st.vel * h;
+                st.turned = turn(st.turned, st.spin * h);
+            }
+            strips.run(&mut self.contacts, &mut states, &|c, s, o| {
+                solver::solve(c, s, o, &soft, false)
+            });
+        }
+        let b = &mut self.bodies;
+        for (&i, st) in strips.order.iter().zip(&states) {
+            let i = i as usize;
+            b.pos[i] = b.pos[i] + st.moved;
+            let ((c1, s1), (c0, s0)) = (st.turned, b.rot[i]);
+            b.rot[i] = turn((c1 * c0 - s1 * s0, s1 * c0 + c1 * s0), 0.0);
+            b.state[i] = *st;
         }
         self.impulses.clear();
         self.impulses.extend(
@@ -396,14 +437,13 @@ impl DiscEngine {
     /// Every awake puck's contacts with later or sleeping pucks and the wall, after the
     /// robots'.
     fn find_puck_contacts(&mut self) {
-        let awake: Vec<u32> = self
-            .pucks
-            .iter()
-            .copied()
-            .filter(|&p| !self.bodies.asleep[p as usize])
-            .collect();
+        let asleep = &self.bodies.asleep;
+        self.awake.clear();
+        self.awake
+            .extend(self.pucks.iter().copied().filter(|&p| !asleep[p as usize]));
         let this = &*self;
-        let found: Vec<Vec<Contact>> = awake
+        let found: Vec<Vec<Contact>> = this
+            .awake
             .par_chunks(CHUNK)
             .map(|chunk| {
                 let mut out = Vec::new();
@@ -506,49 +546,16 @@ impl DiscEngine {
         });
     }
 
-    /// Floor friction on the awake pucks (robots' speeds are set each physics step).
-    fn damp(&mut self) {
-        let b = &mut self.bodies;
-        for &p in &self.pucks {
-            let p = p as usize;
-            if !b.asleep[p] {
-                let (lin, ang) = b.keep[p];
-                let st = &mut b.state[p];
-                st.vel = st.vel * lin;
-                st.spin *= ang;
-            }
-        }
-    }
-
-    /// Moves every awake body by its velocity for `h`.
-    fn integrate(&mut self, h: f64) {
-        let b = &mut self.bodies;
-        for i in 1..b.kind.len() {
-            if b.asleep[i] {
-                continue;
-            }
-            let st = &mut b.state[i];
-            let d = st.vel * h;
-            b.pos[i] = b.pos[i] + d;
-            st.moved = st.moved + d;
-            let a = st.spin * h;
-            b.rot[i] = turn(b.rot[i], a);
-            st.turned = turn(st.turned, a);
-        }
-    }
-
     /// Ends a physics step: resets the step's displacements and puts still pucks to sleep.
     fn settle(&mut self) {
         let b = &mut self.bodies;
-        for st in &mut b.state {
+        for &i in self.robots.iter().chain(&self.awake) {
+            let st = &mut b.state[i as usize];
             st.moved = Vec2::new(0.0, 0.0);
             st.turned = (1.0, 0.0);
         }
-        for &p in &self.pucks {
+        for &p in &self.awake {
             let p = p as usize;
-            if b.asleep[p] {
-                continue;
-            }
             if moving(b, p) {
                 b.still_for[p] = 0.0;
             } else {

@@ -10,6 +10,7 @@ use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
 use super::shape::{cross, dot};
+use super::strips::STATIC;
 use super::{Bodies, State};
 use crate::types::Vec2;
 
@@ -25,6 +26,10 @@ const MAX_PUSH: f64 = 30.0;
 pub(crate) struct Contact {
     pub a: u32,
     pub b: u32,
+    /// The bodies' places among the step's moving bodies (`strips::STATIC` for the wall
+    /// and for sleepers).
+    pub sa: u32,
+    pub sb: u32,
     pub key: u64,
     normal: Vec2,
     /// The contact point's offsets from each body's centre at the step's start.
@@ -51,6 +56,8 @@ impl Contact {
         Contact {
             a,
             b,
+            sa: STATIC,
+            sb: STATIC,
             key,
             normal,
             ra: zero,
@@ -172,33 +179,51 @@ fn spin_cross(w: f64, r: Vec2) -> Vec2 {
     Vec2::new(-w * r.y, w * r.x)
 }
 
-fn apply(s: &mut [State], c: &Contact, impulse: Vec2) {
+/// A body's state, read from the slice that begins at place `offset` (a still body's is rest).
+fn read(s: &[State], place: u32, offset: usize) -> State {
+    if place == STATIC {
+        State::REST
+    } else {
+        s[place as usize - offset]
+    }
+}
+
+fn apply(s: &mut [State], offset: usize, c: &Contact, impulse: Vec2) {
     let (ma, ia) = c.inv_a;
     let (mb, ib) = c.inv_b;
-    let a = &mut s[c.a as usize];
-    a.vel = a.vel - impulse * ma;
-    a.spin -= ia * cross(c.ra, impulse);
-    let b = &mut s[c.b as usize];
-    b.vel = b.vel + impulse * mb;
-    b.spin += ib * cross(c.rb, impulse);
+    if c.sa != STATIC {
+        let a = &mut s[c.sa as usize - offset];
+        a.vel = a.vel - impulse * ma;
+        a.spin -= ia * cross(c.ra, impulse);
+    }
+    if c.sb != STATIC {
+        let b = &mut s[c.sb as usize - offset];
+        b.vel = b.vel + impulse * mb;
+        b.spin += ib * cross(c.rb, impulse);
+    }
 }
 
 /// Applies each contact's impulses so far (a substep starts from where the last left off).
-pub(crate) fn warm_start(contacts: &[Contact], b: &mut [State]) {
+pub(crate) fn warm_start(contacts: &[Contact], s: &mut [State], offset: usize) {
     for c in contacts {
         let n = c.normal;
         let t = Vec2::new(n.y, -n.x);
-        apply(b, c, n * c.normal_impulse + t * c.tangent_impulse);
+        apply(s, offset, c, n * c.normal_impulse + t * c.tangent_impulse);
     }
 }
 
 /// One pass over the contacts: with `push`, overlaps are pushed apart; without, the pass
 /// only takes out the speed that push put in (Box2D's relax).
-pub(crate) fn solve(contacts: &mut [Contact], b: &mut [State], soft: &Soft, push: bool) {
+pub(crate) fn solve(
+    contacts: &mut [Contact],
+    b: &mut [State],
+    offset: usize,
+    soft: &Soft,
+    push: bool,
+) {
     for c in contacts {
-        let (a, bb) = (c.a as usize, c.b as usize);
         let n = c.normal;
-        let (sa, sb) = (b[a], b[bb]);
+        let (sa, sb) = (read(b, c.sa, offset), read(b, c.sb, offset));
         let d = (sb.moved - sa.moved) + (rotate(sb.turned, c.rb) - rotate(sa.turned, c.ra));
         let s = dot(d, n) + c.base;
         let (bias, mass_scale, impulse_scale) = if s > 0.0 {
@@ -219,16 +244,16 @@ pub(crate) fn solve(contacts: &mut [Contact], b: &mut [State], soft: &Soft, push
         let total = (c.normal_impulse + impulse).max(0.0);
         let impulse = total - c.normal_impulse;
         c.normal_impulse = total;
-        apply(b, c, n * impulse);
+        apply(b, offset, c, n * impulse);
 
         let t = Vec2::new(n.y, -n.x);
-        let (sa, sb) = (b[a], b[bb]);
+        let (sa, sb) = (read(b, c.sa, offset), read(b, c.sb, offset));
         let dv = (sb.vel + spin_cross(sb.spin, c.rb)) - (sa.vel + spin_cross(sa.spin, c.ra));
         let vt = dot(dv, t);
         let limit = c.friction * c.normal_impulse;
         let total = (c.tangent_impulse - c.tangent_mass * vt).clamp(-limit, limit);
         let impulse = total - c.tangent_impulse;
         c.tangent_impulse = total;
-        apply(b, c, t * impulse);
+        apply(b, offset, c, t * impulse);
     }
 }
