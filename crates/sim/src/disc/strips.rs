@@ -20,6 +20,10 @@ use rayon::prelude::*;
 use super::solver::Contact;
 use super::{Bodies, State};
 
+/// Work on one group: its contacts, the states of its strip and their neighbours, and
+/// where that slice begins among all the states.
+pub(crate) type GroupWork<'a> = dyn Fn(&mut [Contact], &mut [State], usize) + Sync + 'a;
+
 /// A body that does not move in this step (the wall, a sleeping puck).
 pub(crate) const STATIC: u32 = u32::MAX;
 
@@ -177,7 +181,7 @@ impl Strips {
         &self,
         contacts: &mut [Contact],
         states: &mut [State],
-        f: &(dyn Fn(&mut [Contact], &mut [State], usize) + Sync),
+        f: &GroupWork,
     ) {
         for p in 0..3 {
             let groups = &self.groups[self.phase_start[p]..self.phase_start[p + 1]];
