@@ -131,6 +131,27 @@ fn reproduce_writes_a_report_with_figures_and_tests() {
         let bytes = std::fs::read(dir.path().join(png)).unwrap_or_else(|e| panic!("{png}: {e}"));
         assert_eq!(&bytes[1..4], b"PNG", "{png}");
     }
+    // `compare` reads a run's CSV directory: a run agrees with itself in every respect.
+    let csv = dir.path().join("csv");
+    let o = colony()
+        .args(["sort", "compare", "--names", "first,again"])
+        .arg(&csv)
+        .arg(&csv)
+        .output()
+        .unwrap();
+    let md = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        md.contains("| method | first: mean STC (95 % CI) | again: mean STC"),
+        "{md}"
+    );
+    assert!(md.contains("Method orders the same: 4 of 4."), "{md}");
+    assert!(!md.contains("**no**"), "{md}");
+    let (ok, e) = stderr_of(&["sort", "compare", "/nonexistent/run", csv.to_str().unwrap()]);
+    assert!(
+        !ok && e.contains("cannot read the run in /nonexistent/run"),
+        "{e}"
+    );
 }
 
 #[test]

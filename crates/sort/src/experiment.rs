@@ -390,6 +390,16 @@ pub fn write_csv(dir: &Path, results: &[TrialResult]) -> Result<(), ExperimentEr
 /// Reads back what [`write_csv`] wrote into `dir`: every trial in the summary's order,
 /// with its samples (snapshots are not kept in CSV files, so there are none).
 pub fn read_csv(dir: &Path) -> Result<Vec<TrialResult>, ExperimentError> {
+    read_results(dir, true)
+}
+
+/// The trials of `summary.csv` in `dir` alone, without their samples (what a committed
+/// report keeps: enough for STC, TWC and the tests).
+pub fn read_summary(dir: &Path) -> Result<Vec<TrialResult>, ExperimentError> {
+    read_results(dir, false)
+}
+
+fn read_results(dir: &Path, with_samples: bool) -> Result<Vec<TrialResult>, ExperimentError> {
     let bad = |path: &Path, line: usize, what: &str| {
         ExperimentError::Invalid(format!("{}:{line}: {what}", path.display()))
     };
@@ -425,7 +435,11 @@ pub fn read_csv(dir: &Path) -> Result<Vec<TrialResult>, ExperimentError> {
             .parse()
             .map_err(|_| bad(&summary_path, n + 1, "TWC is not a number"))?;
         let path = dir.join(format!("{method}-types{types}-trial{trial:02}.csv"));
-        let text = read(&path)?;
+        let text = if with_samples {
+            read(&path)?
+        } else {
+            String::new()
+        };
         let mut samples = Vec::new();
         for (k, row) in text.lines().enumerate().skip(1) {
             let mut cells = row.split(',');

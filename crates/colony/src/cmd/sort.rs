@@ -26,6 +26,9 @@ pub enum SortCommand {
     /// Run the paper's other experiments (k2, physical robots, pucks, arena size,
     /// robots, cluster shifts, re-insertion) and write a report section for each.
     Supplementary(SupplementaryArgs),
+    /// Compare two runs of `reproduce` (say, under two contact engines): each mean
+    /// against the first run's 95 % confidence interval, the methods' order, the tests.
+    Compare(CompareArgs),
     /// Run the simulator live over the hub, each robot's controller a hub client.
     Live(LiveArgs),
     /// Run one robot's controller over the hub (started by `colony sort live`).
@@ -113,6 +116,56 @@ pub struct RunArgs {
     /// At this step, put every puck at a new random place.
     #[arg(long, value_name = "STEP")]
     pub reinsert_at: Vec<u64>,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct CompareArgs {
+    /// The reference run's CSV directory (its `summary.csv` is enough).
+    pub reference: PathBuf,
+    /// The run compared with it.
+    pub candidate: PathBuf,
+    /// What to call the two runs in the tables.
+    #[arg(long, value_name = "A,B", default_value = "reference,candidate")]
+    pub names: String,
+    /// Write the comparison here (Markdown) instead of to standard output.
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+}
+
+fn compare(a: CompareArgs) -> anyhow::Result<()> {
+    let read = |dir: &PathBuf| {
+        colony_sort::experiment::read_summary(dir)
+            .with_context(|| format!("cannot read the run in {}", dir.display()))
+    };
+    let (reference, candidate) = (read(&a.reference)?, read(&a.candidate)?);
+    let Some((first, second)) = a.names.split_once(',') else {
+        anyhow::bail!(
+            "--names takes two names with a comma between, not {:?}",
+            a.names
+        );
+    };
+    let (md, tally) = colony_sort::compare::compare(&reference, &candidate, (first, second));
+    if tally.means == 0 {
+        anyhow::bail!("the two runs share no method and puck-type count: nothing to compare");
+    }
+    match &a.out {
+        Some(path) => {
+            std::fs::write(path, &md)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+            eprintln!(
+                "colony: wrote {} ({} of {} means inside the reference's intervals, {} of {} orders and {} of {} tests agree)",
+                path.display(),
+                tally.means_inside,
+                tally.means,
+                tally.orders_same,
+                tally.orders,
+                tally.tests_same,
+                tally.tests
+            );
+        }
+        None => print!("{md}"),
+    }
+    Ok(())
 }
 
 #[derive(clap::Args, Debug)]
@@ -205,6 +258,7 @@ pub fn run(cmd: SortCommand) -> anyhow::Result<()> {
         SortCommand::Run(a) => run_cmd(a),
         SortCommand::Reproduce(a) => reproduce(a),
         SortCommand::Supplementary(a) => supplementary(a),
+        SortCommand::Compare(a) => compare(a),
         SortCommand::Live(a) => live(a),
         SortCommand::Robot(a) => robot(a),
     }
