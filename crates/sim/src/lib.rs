@@ -15,12 +15,17 @@
 //! # The model
 //!
 //! It reproduces the simulator behind the cache-consensus paper (Vardy, Vorobyev
-//! and Banzhaf 2014) on rapier2d: a rounded-square arena (187 cm, corner radius
+//! and Banzhaf 2014) on a contact engine chosen per world ([`Engine`]: colony's own
+//! `disc` engine, the default, or rapier2d, the reference): a rounded-square arena (187 cm, corner radius
 //! 15), SRV-1 robots (12.5 x 10.8 cm) with a passive C-shaped gripper that holds
 //! one puck, and pucks 6.3 cm across whose floor friction is modelled as damping.
 //! A control step is 3 physics steps of 1/14 s. [`SceneConfig`] holds every value
 //! with its source; `configs/scene.toml` is the standard configuration written out.
 //!
+//! - **Engines.** Both step the same bodies with the same masses, frictions and
+//!   damping; the `disc` engine is written for exactly these shapes (see the `disc`
+//!   module) and is several times faster on large swarms. `tests/fidelity.rs` holds it to
+//!   rapier's behaviour where the sorting science rests on it.
 //! - **Units.** Centimetres, seconds, grams, everywhere, rapier included: its
 //!   `length_unit` is 100 (units per metre), which scales its tolerances. Two of
 //!   those tolerances are changed for bodies this small: contact recycling keeps a
@@ -38,10 +43,13 @@
 //!   when it covers more than 0.4 of the pocket's disc and stays carried while it
 //!   covers more than 0.1 ([`CarryingConfig`]).
 //! - **Determinism.** rapier's `enhanced-determinism` feature is on (libm and scalar
-//!   maths in rapier, parry and glam; it cost about 1 % here) and this crate's own
-//!   trigonometry uses `libm`, so a seed fixes a trial bit for bit across machines.
+//!   maths in rapier, parry and glam; it cost about 1 % here), the disc engine uses
+//!   only arithmetic IEEE rounds exactly, and this crate's own trigonometry uses `libm`,
+//!   so a seed fixes a trial bit for bit across machines and thread counts.
 //!   All randomness comes from `ChaCha8Rng::seed_from_u64(seed)`.
-//! - **Threads.** By default rapier steps on the calling thread. The `parallel-physics`
+//! - **Threads.** The disc engine finds contacts and solves strips of the arena on
+//!   rayon's threads, in an order fixed by the world alone. By default rapier steps on
+//!   the calling thread. The `parallel-physics`
 //!   feature turns on rapier's `parallel` feature, each control step's physics running in
 //!   a thread pool lent to that world for the step (the caller's rayon context's threads,
 //!   shared among the steps in flight). That pays for one sorting swarm of a few hundred
