@@ -185,6 +185,30 @@ impl Ws {
         }
     }
 
+    /// The next message if one starts within `within` (else `None`).
+    pub fn recv_within(&mut self, within: Duration) -> Option<Message> {
+        self.stream
+            .set_read_timeout(Some(within.max(Duration::from_millis(1))))
+            .unwrap();
+        let started = self.stream.peek(&mut [0u8]);
+        self.stream
+            .set_read_timeout(Some(Duration::from_secs(5)))
+            .unwrap();
+        match started {
+            Ok(0) => panic!("the server closed the connection"),
+            Ok(_) => Some(self.recv_any()),
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
+                None
+            }
+            Err(e) => panic!("{e}"),
+        }
+    }
+
     /// The next message: text as JSON, or binary as its bytes.
     pub fn recv_any(&mut self) -> Message {
         let mut message = Vec::new();
