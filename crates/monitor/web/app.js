@@ -46,6 +46,7 @@ const api = {
   // Bodies messages taken, redraws of the arena, distinct frames drawn, and whole frames
   // the monitor dropped for a missing part (never drawn) and put together.
   bodyFrames: 0, draws: 0, framesDrawn: 0, framesMissing: 0, framesWhole: 0, raster: false,
+  shapes: { robots: 0, pucks: 0 }, // bodies drawn as shapes, in view (none as pixels)
   redrawEveryFrame: false,
   connected: false, hubStale: false, visionStale: false, serverLostSince: null,
   hubStaleSince: null, visionStaleSince: null,
@@ -360,6 +361,8 @@ function draw() {
   api.raster = raster;
   const pr = Math.max(s.puck_diameter / 2, 1.2 * px);
   const inView = viewBox(t, Math.max(s.robot_length, s.puck_diameter) * 2);
+  // Bodies drawn as shapes (those in view; none when drawn as pixels).
+  const asShapes = { robots: 0, pucks: 0 };
   if (raster) {
     rasterBodies(b, k, ox, oy, held);
   } else {
@@ -368,6 +371,7 @@ function draw() {
       const x = b.puckPos[2 * i];
       const y = b.puckPos[2 * i + 1];
       if (!inView(x, y)) continue;
+      asShapes.pucks += 1;
       const kind = b.kinds[i];
       const path = byKind[kind] || (byKind[kind] = new Path2D());
       path.moveTo(x + pr, y);
@@ -465,6 +469,7 @@ function draw() {
     const x = b.pose[3 * i];
     const y = b.pose[3 * i + 1];
     if (!inView(x, y)) continue;
+    asShapes.robots += 1;
     const th = b.pose[3 * i + 2];
     const id = b.ids[i];
     const c = Math.cos(th);
@@ -571,6 +576,7 @@ function draw() {
   if (paused) label('view paused', 10 * dpr, 22 * dpr, '#a8322b', 14 * dpr, 'left');
   api.drawn = { step: shownBodies ? b.step : w.step, robots: b.n, pucks: b.m };
   api.draws += 1;
+  api.shapes = asShapes;
   if (b !== lastDrawn) { api.framesDrawn += 1; lastDrawn = b; }
   api.drawMs = performance.now() - t0;
 }
