@@ -480,5 +480,14 @@ fn enlarge_receive_buffer(client: &UdpClient, bytes: usize) {
         let _ = buffers::set_size(client, Buffer::Receive, bytes, true);
     }
     let got = buffers::size(client, Buffer::Receive).map_or(0, |b| b / 2);
-    tracing::debug!(asked = bytes, got, "the monitor's receive buffer");
+    if got < bytes / 4 {
+        tracing::warn!(
+            asked = bytes,
+            got,
+            "the monitor's receive buffer is small: a big swarm's frames may go missing \
+             (raise net.core.rmem_max)"
+        );
+    } else {
+        tracing::debug!(asked = bytes, got, "the monitor's receive buffer");
+    }
 }
