@@ -554,3 +554,27 @@ fn long_work_shows_progress_lines_when_stderr_is_not_a_terminal() {
     // Nothing drawn for a terminal: no bar, no carriage returns.
     assert!(!e.contains('\r') && !e.contains('\u{1b}'), "{e}");
 }
+
+#[test]
+fn a_process_for_each_of_thousands_of_robots_is_refused_before_any_starts() {
+    let (code, _, e) = common::run_bounded(
+        &[
+            "sort",
+            "live",
+            "--scale-robots",
+            "2000",
+            "--controllers",
+            "process",
+            "--steps",
+            "1",
+            "--hub",
+            "127.0.0.1:9",
+        ],
+        "warn",
+    );
+    assert_eq!(code, Some(1), "{e}");
+    assert!(
+        e.contains("would start 2000 processes") && e.contains("in-world"),
+        "{e}"
+    );
+}

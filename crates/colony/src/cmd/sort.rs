@@ -225,18 +225,28 @@ pub struct LiveArgs {
     /// Stop after this many steps (default: until Ctrl-C).
     #[arg(long)]
     pub steps: Option<u64>,
-    /// Where the robots' controllers run: one child process per robot, threads of
-    /// this process, or nowhere (`external`: start them with `colony sort robot`).
-    #[arg(long, value_enum, default_value_t = Controllers::Process)]
+    /// Where the robots' controllers run: one child process per robot, threads of this
+    /// process (in the world's own step above 1,024 robots), in the world's step, or
+    /// nowhere (`external`: start them with `colony sort robot`). `auto`: a process each
+    /// up to 64 robots, threads above.
+    #[arg(long, value_enum, default_value_t = Controllers::Auto)]
     pub controllers: Controllers,
 }
 
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Controllers {
+    Auto,
     Process,
     Thread,
+    InWorld,
     External,
 }
+
+/// The most robots `auto` gives a process each.
+const AUTO_PROCESSES: usize = 64;
+
+/// The most robots `process` will start a process for.
+const MAX_PROCESSES: usize = 1024;
 
 #[derive(clap::Args, Debug)]
 pub struct RobotArgs {
@@ -479,10 +489,20 @@ fn swarm_spec(hub: &HubAddr, setup: &Setup, method: &str, seed: u64) -> anyhow::
 fn live(a: LiveArgs) -> anyhow::Result<()> {
     let spec = swarm_spec(&a.hub, &a.setup, &a.method, a.seed)?;
     let stop = super::stop_flag()?;
-    let controllers = match a.controllers {
+    let robots = spec.scene.robots.count;
+    let choice = match a.controllers {
+        Controllers::Auto if robots <= AUTO_PROCESSES => Controllers::Process,
+        Controllers::Auto => Controllers::Thread,
+        Controllers::Process if robots > MAX_PROCESSES => anyhow::bail!(
+            "--controllers process would start {robots} processes, more than the {MAX_PROCESSES} it allows: use --controllers thread or in-world"
+        ),
+        other => other,
+    };
+    let controllers = match choice {
         Controllers::Thread => launch::Controllers::Threads,
+        Controllers::InWorld => launch::Controllers::InWorld,
         Controllers::External => launch::Controllers::External,
-        Controllers::Process => {
+        Controllers::Auto | Controllers::Process => {
             let exe = std::env::current_exe()
                 .context("cannot find the colony executable to start robot processes")?;
             let (hub, method, seed) = (a.hub.addr.clone(), a.method.clone(), a.seed);
