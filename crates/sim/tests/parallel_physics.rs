@@ -10,14 +10,15 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 use colony_sim::field::{Field, FieldConfig, RobotSpec, TileMap};
-use colony_sim::{SceneConfig, WheelCommand, World};
+use colony_sim::{Engine, SceneConfig, WheelCommand, World};
 use common::{bits, digest, pose, RandomDriver};
 use rayon::prelude::*;
 
-/// A sorting world of `robots` robots (ten pucks each) after `steps` control steps of
-/// random driving.
+/// A sorting world of `robots` robots (ten pucks each) on rapier, after `steps` control
+/// steps of random driving.
 fn sorting(robots: usize, seed: u64, steps: usize) -> World {
-    let cfg = SceneConfig::scaled(robots);
+    let mut cfg = SceneConfig::scaled(robots);
+    cfg.physics.engine = Engine::Rapier;
     let mut world = World::new(&cfg, seed).unwrap();
     let mut driver = RandomDriver::new(seed, cfg.robots.count);
     for _ in 0..steps {

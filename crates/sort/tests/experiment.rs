@@ -1,6 +1,6 @@
 //! Whole trials: the simulator, the controllers and the metrics together.
 
-use colony_sim::{SceneConfig, World};
+use colony_sim::{Engine, SceneConfig, World};
 use colony_sort::experiment::{read_csv, run_trial, run_trials, write_csv, Disturbance, TrialSpec};
 use colony_sort::methods::Method;
 use colony_sort::params::SortParams;
@@ -53,9 +53,18 @@ fn results_do_not_depend_on_the_thread_count() {
 
 #[test]
 fn a_large_swarm_steps_the_same_on_one_thread_and_on_two() {
+    // Each engine: rapier (its own threads in the `parallel-physics` build) and the disc
+    // engine (contacts and strips of the solver on rayon's).
+    for engine in Engine::ALL {
+        a_large_swarm_on(engine);
+    }
+}
+
+fn a_large_swarm_on(engine: Engine) {
     // Enough robots that sensing and control are spread over both threads of one world.
     let mut s = spec(Method::CacheCons, 9, 60);
     s.scene = SceneConfig::scaled(150);
+    s.scene.physics.engine = engine;
     s.sample_every = 20;
     s.snapshot_at = vec![60];
     let on = |threads| {
@@ -67,7 +76,7 @@ fn a_large_swarm_steps_the_same_on_one_thread_and_on_two() {
             .unwrap()
     };
     let (one, two) = (on(1), on(2));
-    assert_eq!(one, two);
+    assert_eq!(one, two, "{engine}");
     // The robots did move: the comparison is of a trial, not of a frozen world.
     let start = World::new(&s.scene, 9).unwrap().robots();
     let moved = one.snapshots[0]
@@ -76,7 +85,7 @@ fn a_large_swarm_steps_the_same_on_one_thread_and_on_two() {
         .zip(&start)
         .filter(|((x, y, _), r)| (x - r.pose.x).hypot(y - r.pose.y) > 5.0)
         .count();
-    assert!(moved > 100, "only {moved} robots moved");
+    assert!(moved > 100, "{engine}: only {moved} robots moved");
 }
 
 #[test]
