@@ -177,12 +177,7 @@ impl Strips {
 
     /// Runs `f` on every group, phase by phase, with the group's contacts and the states
     /// of its strip and their neighbours (and where that slice begins in `states`).
-    pub fn run(
-        &self,
-        contacts: &mut [Contact],
-        states: &mut [State],
-        f: &GroupWork,
-    ) {
+    pub fn run(&self, contacts: &mut [Contact], states: &mut [State], f: &GroupWork) {
         for p in 0..3 {
             let groups = &self.groups[self.phase_start[p]..self.phase_start[p + 1]];
             let (Some(first), Some(last)) = (groups.first(), groups.last()) else {
