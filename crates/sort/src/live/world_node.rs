@@ -15,9 +15,11 @@ use colony_proto::CommandHold;
 use colony_sim::{RobotId, SceneConfig, WheelCommand, World};
 use colony_wire::{Packet, Subject};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 
 use super::world::{command_hold, WorldOptions};
 use super::{wire_id, LiveError};
+use crate::experiment::ROBOTS_PER_TASK;
 use crate::Controller;
 
 /// The live world: it subscribes to `radio` and holds each robot's command
@@ -140,17 +142,23 @@ impl<W: BorrowMut<World>> WorldNode<W> {
         let world = self.world.borrow();
         self.outbox.extend(vision::encode(&vision_frame(world)?)?);
         let step = world.step_count();
-        for rb in world.robots().iter() {
-            let obs = world.observe(RobotId(rb.id.0));
-            match self.inline.get_mut(rb.id.0) {
-                Some((controller, rng)) => {
-                    let cmd = controller.step(&obs, rng);
-                    self.commands.offer(rb.id.0, cmd, 0, step);
-                }
-                None => self
-                    .outbox
-                    .push_back(camera::encode(wire_id(rb.id.0)?, step, &obs)?),
-            }
+        // Controllers in the world sense and decide on rayon's threads, as in a batch trial:
+        // each from the same world and with its own stream, so the threads change nothing;
+        // their commands are offered in robot order.
+        let decided: Vec<WheelCommand> = self
+            .inline
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(ROBOTS_PER_TASK)
+            .map(|(i, (controller, rng))| controller.step(&world.observe(RobotId(i)), rng))
+            .collect();
+        for (i, cmd) in decided.into_iter().enumerate() {
+            self.commands.offer(i, cmd, 0, step);
+        }
+        for i in self.inline.len()..world.robot_count() {
+            let obs = world.observe(RobotId(i));
+            self.outbox
+                .push_back(camera::encode(wire_id(i)?, step, &obs)?);
         }
         if step % self.options.metrics_every.max(1) == 0 {
             let pc = crate::metrics::percentage_completion(
