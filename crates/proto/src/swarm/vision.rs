@@ -142,8 +142,47 @@ pub struct VisionPart {
 /// `frame` as one packet, or several when it would not fit in a datagram; the arena and sizes go
 /// in the first. Values are rounded to 0.01.
 pub fn encode(frame: &VisionFrame) -> Result<Vec<Vec<u8>>, ParseError> {
+    let robots = frame.robots.iter().map(robot_line).collect();
+    let pucks = frame.pucks.iter().map(puck_line).collect();
+    encode_with_lines(frame, robots, pucks)
+}
+
+/// A robot's line in a vision frame.
+pub fn robot_line(rb: &VisionRobot) -> String {
+    let mut l = format!(
+        "robot id {} x {} y {} theta {}",
+        rb.id,
+        r(rb.pose.x),
+        r(rb.pose.y),
+        r(rb.pose.theta)
+    );
+    if let Some(c) = rb.carrying {
+        l.push_str(&format!(" carrying {c}"));
+    }
+    l
+}
+
+/// A puck's line in a vision frame.
+pub fn puck_line(pk: &VisionPuck) -> String {
+    format!(
+        "puck id {} kind {} x {} y {}",
+        pk.id,
+        pk.kind.0,
+        r(pk.pos.x),
+        r(pk.pos.y)
+    )
+}
+
+/// [`encode`], the robots' and pucks' lines already written ([`robot_line`] and [`puck_line`]
+/// of `frame.robots` and `frame.pucks`, in order): for a caller that writes a swarm's
+/// lines on several threads.
+pub fn encode_with_lines(
+    frame: &VisionFrame,
+    robot_lines: Vec<String>,
+    puck_lines: Vec<String>,
+) -> Result<Vec<Vec<u8>>, ParseError> {
     // Lines are written as text first, so that each part's size is known before it is cut.
-    let mut lines: Vec<String> = Vec::with_capacity(frame.robots.len() + frame.pucks.len() + 2);
+    let mut lines: Vec<String> = Vec::with_capacity(robot_lines.len() + puck_lines.len() + 2);
     if let Some(a) = &frame.arena {
         lines.push(format!(
             "arena width {} height {} corner {}",
@@ -161,28 +200,8 @@ pub fn encode(frame: &VisionFrame) -> Result<Vec<Vec<u8>>, ParseError> {
             r(s.puck_diameter)
         ));
     }
-    for rb in &frame.robots {
-        let mut l = format!(
-            "robot id {} x {} y {} theta {}",
-            rb.id,
-            r(rb.pose.x),
-            r(rb.pose.y),
-            r(rb.pose.theta)
-        );
-        if let Some(c) = rb.carrying {
-            l.push_str(&format!(" carrying {c}"));
-        }
-        lines.push(l);
-    }
-    for pk in &frame.pucks {
-        lines.push(format!(
-            "puck id {} kind {} x {} y {}",
-            pk.id,
-            pk.kind.0,
-            r(pk.pos.x),
-            r(pk.pos.y)
-        ));
-    }
+    lines.extend(robot_lines);
+    lines.extend(puck_lines);
     for b in &frame.boxes {
         lines.push(format!(
             "box id {} x {} y {} theta {} length {} width {}",

@@ -140,7 +140,12 @@ impl<W: BorrowMut<World>> WorldNode<W> {
         self.applied = self.commands.for_step(step);
         world.step(&self.applied);
         let world = self.world.borrow();
-        self.outbox.extend(vision::encode(&vision_frame(world)?)?);
+        // A swarm's lines are written on rayon's threads (in order, so the packets are the same).
+        let frame = vision_frame(world)?;
+        let robots = frame.robots.par_iter().map(vision::robot_line).collect();
+        let pucks = frame.pucks.par_iter().map(vision::puck_line).collect();
+        self.outbox
+            .extend(vision::encode_with_lines(&frame, robots, pucks)?);
         let step = world.step_count();
         // Controllers in the world sense and decide on rayon's threads, as in a batch trial:
         // each from the same world and with its own stream, so the threads change nothing;
