@@ -99,6 +99,21 @@ mod tests {
     use crate::{Pose, Vec2};
     use colony_wire::Packet;
 
+    /// `n` robots, all at the same pose.
+    fn robots(n: u32) -> Vec<VisionRobot> {
+        (0..n)
+            .map(|id| VisionRobot {
+                id,
+                pose: Pose {
+                    x: 1.0,
+                    y: 2.0,
+                    theta: 0.5,
+                },
+                carrying: None,
+            })
+            .collect()
+    }
+
     fn part(step: u64, part: u32, parts: u32, robot: Option<(u32, f64)>) -> VisionPart {
         VisionPart {
             part,
@@ -150,17 +165,7 @@ mod tests {
     fn a_frame_with_a_lost_part_is_counted_missing_and_never_handed_out() {
         let frame = VisionFrame {
             step: 5,
-            robots: (0..6000)
-                .map(|id| VisionRobot {
-                    id,
-                    pose: Pose {
-                        x: 1.0,
-                        y: 2.0,
-                        theta: 0.5,
-                    },
-                    carrying: None,
-                })
-                .collect(),
+            robots: robots(6000),
             ..VisionFrame::default()
         };
         let mut a = VisionAssembler::new();
@@ -208,17 +213,7 @@ mod tests {
             step: 3,
             arena: None,
             sizes: None,
-            robots: (0..300)
-                .map(|id| VisionRobot {
-                    id,
-                    pose: Pose {
-                        x: 1.0,
-                        y: 2.0,
-                        theta: 0.5,
-                    },
-                    carrying: None,
-                })
-                .collect(),
+            robots: robots(300),
             pucks: (0..3000)
                 .map(|id| VisionPuck {
                     id,

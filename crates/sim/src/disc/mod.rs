@@ -71,7 +71,6 @@ pub(crate) enum Kind {
 /// Every body's state, one array per quantity.
 #[derive(Debug, Default)]
 pub(crate) struct Bodies {
-    kind: Vec<Kind>,
     pos: Vec<Vec2>,
     /// Heading as (cos, sin).
     rot: Vec<(f64, f64)>,
@@ -107,7 +106,6 @@ impl State {
 
 impl Bodies {
     fn push(&mut self, kind: Kind, pos: Vec2, rot: (f64, f64), inv: (f64, f64), friction: f64) {
-        self.kind.push(kind);
         self.pos.push(pos);
         self.rot.push(rot);
         self.state.push(State::REST);
@@ -227,7 +225,7 @@ impl DiscEngine {
         let (l, w) = (cfg.robots.length, cfg.robots.width);
         let inertia = m * (l * l + w * w) / 12.0;
         let (s, c) = libm::sincos(pose.theta);
-        let i = self.bodies.kind.len();
+        let i = self.bodies.pos.len();
         self.bodies.push(
             Kind::Robot,
             pose.position(),
@@ -243,7 +241,7 @@ impl DiscEngine {
     pub fn add_puck(&mut self, cfg: &SceneConfig, pos: Vec2) -> usize {
         let m = cfg.pucks.mass;
         let r = self.puck_radius;
-        let i = self.bodies.kind.len();
+        let i = self.bodies.pos.len();
         self.bodies.push(
             Kind::Puck,
             pos,
@@ -567,14 +565,6 @@ impl DiscEngine {
             }
         }
     }
-}
-
-impl Frame {
-    const IDENTITY: Frame = Frame {
-        origin: Vec2 { x: 0.0, y: 0.0 },
-        cos: 1.0,
-        sin: 0.0,
-    };
 }
 
 fn moving(b: &Bodies, i: usize) -> bool {

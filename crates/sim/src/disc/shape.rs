@@ -52,6 +52,12 @@ pub(crate) struct Frame {
 }
 
 impl Frame {
+    pub const IDENTITY: Frame = Frame {
+        origin: Vec2 { x: 0.0, y: 0.0 },
+        cos: 1.0,
+        sin: 0.0,
+    };
+
     pub fn apply(&self, p: Vec2) -> Vec2 {
         Vec2::new(
             self.origin.x + self.cos * p.x - self.sin * p.y,

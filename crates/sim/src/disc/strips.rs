@@ -149,8 +149,6 @@ impl Strips {
         contacts.extend(sorted.into_iter().flatten());
 
         self.groups.clear();
-        let mut phase = 0;
-        self.phase_start = [0; 4];
         for p in 0..3 {
             self.phase_start[p] = self.groups.len();
             let mut k = p;
@@ -161,9 +159,7 @@ impl Strips {
                 }
                 k += 3;
             }
-            phase = p;
         }
-        debug_assert_eq!(phase, 2);
         self.phase_start[3] = self.groups.len();
     }
 
