@@ -147,6 +147,23 @@ fn reproduce_writes_a_report_with_figures_and_tests() {
     );
     assert!(md.contains("Method orders the same: 4 of 4."), "{md}");
     assert!(!md.contains("**no**"), "{md}");
+    // A summary written by hand with a TWC of NaN is refused, naming its line.
+    let forged = tempfile::tempdir().unwrap();
+    std::fs::write(
+        forged.path().join("summary.csv"),
+        "method,types,trial,seed,steps,stc,twc,final_pc\ncachecons,2,0,1,100,5,nan,1\n",
+    )
+    .unwrap();
+    let (ok, e) = stderr_of(&[
+        "sort",
+        "compare",
+        forged.path().to_str().unwrap(),
+        csv.to_str().unwrap(),
+    ]);
+    assert!(
+        !ok && e.contains("summary.csv:2: TWC is not a finite number"),
+        "{e}"
+    );
     let (ok, e) = stderr_of(&["sort", "compare", "/nonexistent/run", csv.to_str().unwrap()]);
     assert!(
         !ok && e.contains("cannot read the run in /nonexistent/run"),

@@ -433,7 +433,9 @@ fn read_results(dir: &Path, with_samples: bool) -> Result<Vec<TrialResult>, Expe
         };
         let twc: f64 = twc
             .parse()
-            .map_err(|_| bad(&summary_path, n + 1, "TWC is not a number"))?;
+            .ok()
+            .filter(|t: &f64| t.is_finite())
+            .ok_or_else(|| bad(&summary_path, n + 1, "TWC is not a finite number"))?;
         let path = dir.join(format!("{method}-types{types}-trial{trial:02}.csv"));
         let text = if with_samples {
             read(&path)?
