@@ -43,7 +43,7 @@ pub use control::{
     StatusReport, HUB_SUBJECT, MAX_ABOUT, MIN_LEASE_MS,
 };
 pub use error::{ErrorKind, FieldError, FieldErrorKind, ParseError};
-pub use packet::{Field, Fields, Group, Line, Lines, Packet, Quoted, Subjects, Value};
+pub use packet::{Field, Fields, Group, Line, Lines, Packet, Picked, Quoted, Subjects, Value};
 pub use split::{split_blocks, split_packets, starts_with_packet, Block, BlockError, BlockWriter};
 pub use subject::{parse_subject_set, Priority, Subject, SubjectError, SubjectSetError};
 pub use terminal::{is_unsafe_for_terminal, terminal_line, terminal_text};

@@ -10,16 +10,15 @@ use crate::Priority;
 /// The typed getters lines and groups share: both are a list of fields
 /// with a [`Context`] that places errors.
 macro_rules! typed_getters {
-    ($ty:ident, $what:literal) => {
-        impl<'a> $ty<'a> {
+    ([$($generics:tt)*] $ty:ty, $what:literal) => {
+        impl<'a $($generics)*> $ty {
             #[doc = concat!("The value of the field called `name`, if the ", $what, " has one.")]
             pub fn get(&self, name: &str) -> Option<Value<'a>> {
-                self.fields().find(|f| f.name == name).map(|f| f.value)
+                self.lookup(name).map(|f| f.value)
             }
 
             fn field(&self, name: &str) -> Result<Field<'a>, FieldError> {
-                self.fields()
-                    .find(|f| f.name == name)
+                self.lookup(name)
                     .ok_or_else(|| self.context().missing(name))
             }
 
@@ -265,6 +264,34 @@ impl<'a> Line<'a> {
         }
     }
 
+    fn lookup(&self, name: &str) -> Option<Field<'a>> {
+        self.fields().find(|f| f.name == name)
+    }
+
+    /// The fields called `names`, found in one pass over the line, to be read with the same
+    /// getters as the line's own. Each getter of a line scans its fields from the start; a
+    /// reader of many short lines (a swarm's vision) picks its fields once instead. A name
+    /// not picked reads as missing.
+    pub fn pick<const N: usize>(&self, names: [&'static str; N]) -> Picked<'a, N> {
+        let mut fields = [None; N];
+        let mut left = N;
+        for f in self.fields() {
+            // A valid line names each field once, so the first match is the only one.
+            if let Some(i) = names.iter().position(|n| *n == f.name) {
+                fields[i] = Some(f);
+                left -= 1;
+                if left == 0 {
+                    break;
+                }
+            }
+        }
+        Picked {
+            line: *self,
+            names,
+            fields,
+        }
+    }
+
     fn context(&self) -> Context<'a> {
         Context {
             label: self.label,
@@ -281,13 +308,47 @@ impl<'a> Line<'a> {
     }
 }
 
-typed_getters!(Line, "line");
+typed_getters!([] Line<'a>, "line");
+typed_getters!([, const N: usize] Picked<'a, N>, "line");
 
 impl fmt::Debug for Line<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("Line")
             .field("label", &self.label)
             .field("number", &self.number)
+            .finish()
+    }
+}
+
+/// Some of a line's fields, found in one pass: [`Line::pick`].
+#[derive(Clone, Copy)]
+pub struct Picked<'a, const N: usize> {
+    line: Line<'a>,
+    names: [&'static str; N],
+    fields: [Option<Field<'a>>; N],
+}
+
+impl<'a, const N: usize> Picked<'a, N> {
+    /// The line the fields were picked from.
+    pub fn line(&self) -> &Line<'a> {
+        &self.line
+    }
+
+    fn lookup(&self, name: &str) -> Option<Field<'a>> {
+        let i = self.names.iter().position(|n| *n == name)?;
+        self.fields[i]
+    }
+
+    fn context(&self) -> Context<'a> {
+        self.line.context()
+    }
+}
+
+impl<const N: usize> fmt::Debug for Picked<'_, N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Picked")
+            .field("line", &self.line)
+            .field("names", &self.names)
             .finish()
     }
 }
@@ -473,6 +534,10 @@ impl<'a> Group<'a> {
         }
     }
 
+    fn lookup(&self, name: &str) -> Option<Field<'a>> {
+        self.fields().find(|f| f.name == name)
+    }
+
     fn context(&self) -> Context<'a> {
         Context {
             label: self.label,
@@ -483,7 +548,7 @@ impl<'a> Group<'a> {
     }
 }
 
-typed_getters!(Group, "group");
+typed_getters!([] Group<'a>, "group");
 
 impl fmt::Debug for Group<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

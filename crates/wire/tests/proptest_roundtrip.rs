@@ -225,7 +225,66 @@ fn mutate(bytes: &mut Vec<u8>, m: &Mutation) {
     }
 }
 
+/// A body line's text with names from a small set, in any order and any subset: what `Line::pick` reads.
+fn repeating_line() -> impl Strategy<Value = String> {
+    let value = prop_oneof![
+        any::<i64>().prop_map(|i| i.to_string()),
+        any::<f64>().prop_map(|x| format!("{x:?}")),
+        prop::sample::select(vec![
+            "NaN",
+            "inf",
+            "-0",
+            "1e999",
+            "x",
+            "\"q\"",
+            "\"a\\\"b\"",
+            "(a 1 b (c 2))"
+        ])
+        .prop_map(str::to_owned),
+    ];
+    let field = (
+        prop::sample::select(vec!["a", "b", "c", "d", "e"]).prop_map(str::to_owned),
+        value,
+    );
+    prop::collection::vec(field, 0..8).prop_map(|fs| {
+        let fields: String = unique(fs)
+            .iter()
+            .map(|(n, v)| format!(" {n} {v}"))
+            .collect();
+        format!("l{fields}")
+    })
+}
+
+/// What a getter answered, comparable across readers.
+fn answer<T: std::fmt::Debug, E: std::fmt::Display>(r: Result<T, E>) -> String {
+    match r {
+        Ok(v) => format!("ok {v:?}"),
+        Err(e) => format!("error {e}"),
+    }
+}
+
 proptest! {
+    #[test]
+    fn picked_fields_read_as_the_lines_own(lines in prop::collection::vec(repeating_line(), 1..4)) {
+        let text = format!("@ <a> 0\n{}\n", lines.join("\n"));
+        let p = Packet::parse(text.as_bytes()).unwrap_or_else(|e| panic!("{e}: {text}"));
+        for line in p.lines() {
+            let picked = line.pick(["a", "b", "c", "d"]);
+            prop_assert_eq!(picked.line().number(), line.number());
+            for name in ["a", "b", "c", "d"] {
+                prop_assert_eq!(format!("{:?}", picked.get(name)), format!("{:?}", line.get(name)));
+                prop_assert_eq!(answer(picked.f64(name).map(f64::to_bits)), answer(line.f64(name).map(f64::to_bits)));
+                prop_assert_eq!(answer(picked.i64(name)), answer(line.i64(name)));
+                prop_assert_eq!(answer(picked.str(name)), answer(line.str(name)));
+                prop_assert_eq!(answer(picked.group(name).map(|g| g.get("a").is_some())),
+                    answer(line.group(name).map(|g| g.get("a").is_some())));
+            }
+            // A name not picked reads as missing, placed like the line's own missing field.
+            prop_assert!(picked.get("e").is_none());
+            prop_assert_eq!(answer(picked.f64("e")), answer(line.f64("zz").map_err(|e| e.to_string().replace("zz", "e"))));
+        }
+    }
+
     #[test]
     fn built_packets_read_back_field_for_field(m in model_packet()) {
         let bytes = build(&m);

@@ -51,9 +51,7 @@
 //!
 //! [`Skimmed`]: crate::error::Skimmed
 
-use colony_wire::Line;
-
-use crate::fields::bad;
+use crate::fields::{bad, Source};
 use crate::DecodeError;
 
 pub mod assemble;
@@ -77,7 +75,7 @@ pub use vision::{
 pub struct PuckKind(pub u8);
 
 /// A puck kind (0 to 255).
-pub(crate) fn puck_kind(line: &Line<'_>, name: &str) -> Result<PuckKind, DecodeError> {
+pub(crate) fn puck_kind(line: &impl Source, name: &str) -> Result<PuckKind, DecodeError> {
     let v = line.i64(name)?;
     u8::try_from(v)
         .map(PuckKind)

@@ -25,11 +25,13 @@
 //! raising the hub's minimum priority to silence the controllers (the Broker paper's override)
 //! still sees the world.
 
+use std::fmt::Write;
+
 use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 
 use super::{puck_kind, PuckKind};
 use crate::error::{LinePolicy, Skimmed};
-use crate::fields::{bad, coord, count, finite, puck_id, r, robot_id, within, MAX_COORD};
+use crate::fields::{bad, coord, count, finite, puck_id, push_r, r, robot_id, within, MAX_COORD};
 use crate::{DecodeError, Pose, Vec2};
 
 /// The channel the world's global state is published on.
@@ -149,28 +151,27 @@ pub fn encode(frame: &VisionFrame) -> Result<Vec<Vec<u8>>, ParseError> {
 
 /// A robot's line in a vision frame.
 pub fn robot_line(rb: &VisionRobot) -> String {
-    let mut l = format!(
-        "robot id {} x {} y {} theta {}",
-        rb.id,
-        r(rb.pose.x),
-        r(rb.pose.y),
-        r(rb.pose.theta)
-    );
+    let mut l = String::with_capacity(64);
+    let _ = write!(l, "robot id {} x ", rb.id);
+    push_r(&mut l, rb.pose.x);
+    l.push_str(" y ");
+    push_r(&mut l, rb.pose.y);
+    l.push_str(" theta ");
+    push_r(&mut l, rb.pose.theta);
     if let Some(c) = rb.carrying {
-        l.push_str(&format!(" carrying {c}"));
+        let _ = write!(l, " carrying {c}");
     }
     l
 }
 
 /// A puck's line in a vision frame.
 pub fn puck_line(pk: &VisionPuck) -> String {
-    format!(
-        "puck id {} kind {} x {} y {}",
-        pk.id,
-        pk.kind.0,
-        r(pk.pos.x),
-        r(pk.pos.y)
-    )
+    let mut l = String::with_capacity(48);
+    let _ = write!(l, "puck id {} kind {} x ", pk.id, pk.kind.0);
+    push_r(&mut l, pk.pos.x);
+    l.push_str(" y ");
+    push_r(&mut l, pk.pos.y);
+    l
 }
 
 /// [`encode`], the robots' and pucks' lines already written ([`robot_line`] and [`puck_line`]
@@ -305,7 +306,9 @@ fn read(packet: &Packet<'_>, policy: &mut LinePolicy) -> Result<VisionPart, Deco
     })
 }
 
+// A swarm's frame has a line per body, so robots' and pucks' fields are picked in one pass.
 fn robot(line: &colony_wire::Line<'_>) -> Result<VisionRobot, DecodeError> {
+    let line = &line.pick(["id", "x", "y", "theta", "carrying"]);
     Ok(VisionRobot {
         id: robot_id(line, "id")?,
         pose: Pose {
@@ -321,6 +324,7 @@ fn robot(line: &colony_wire::Line<'_>) -> Result<VisionRobot, DecodeError> {
 }
 
 fn puck(line: &colony_wire::Line<'_>) -> Result<VisionPuck, DecodeError> {
+    let line = &line.pick(["id", "kind", "x", "y"]);
     Ok(VisionPuck {
         id: puck_id(line, "id")?,
         kind: puck_kind(line, "kind")?,
