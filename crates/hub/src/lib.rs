@@ -15,6 +15,7 @@
 #![warn(missing_docs)]
 
 mod access;
+mod broker;
 mod config;
 mod cookie;
 mod counters;
@@ -22,12 +23,11 @@ mod local;
 pub mod log;
 mod rate;
 pub mod replay;
-mod routing;
 mod server;
 
 pub use access::{is_bad_source, Cidr, CidrError};
+pub use broker::{Hub, Outcome, Transmit, MAX_TAPS};
 pub use config::{HubConfig, MIN_LEASE};
 pub use counters::DropReason;
 pub use local::{HubSite, HubSpec, HubThread, HubThreadError, StartError};
-pub use routing::{Hub, Outcome, Transmit, MAX_TAPS};
 pub use server::Server;
