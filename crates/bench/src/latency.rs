@@ -125,7 +125,7 @@ pub fn raw_udp(warmup: usize, samples: usize, cpu: Option<usize>) -> anyhow::Res
             })?;
     let mut packet = Packet::new();
     let mut buf = [0u8; 2048];
-    let result = measure(crate::report::RAW, warmup, samples, |seq| {
+    let result = measure(crate::names::RAW, warmup, samples, |seq| {
         publisher.send(packet.stamp(seq))?;
         await_udp(&subscriber, &mut buf, seq)
     });
@@ -152,7 +152,7 @@ pub fn hub_raw(
     subscriber.set_read_timeout(Some(LOST_AFTER))?;
     let mut packet = Packet::new();
     let mut buf = [0u8; 2048];
-    let result = measure(crate::report::HUB, warmup, samples, |seq| {
+    let result = measure(crate::names::HUB, warmup, samples, |seq| {
         publisher.send(packet.stamp(seq))?;
         await_udp(&subscriber, &mut buf, seq)
     });

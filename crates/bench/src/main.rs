@@ -7,6 +7,7 @@
 mod hub;
 mod latency;
 mod mqtt;
+mod names;
 mod payload;
 mod relay;
 mod report;
@@ -291,27 +292,27 @@ fn main() -> anyhow::Result<()> {
             if !args.no_relay {
                 eprintln!("throughput ({tag}): raw UDP relay");
                 let f = relay_fanout(&ctx, n, false)?;
-                runs.push(report::Run::new(report::RELAY, report::Kind::Relay, f));
+                runs.push(report::Run::new(names::RELAY, report::Kind::Relay, f));
             }
             if args.relay_gso {
                 eprintln!("throughput ({tag}): raw UDP relay with GSO");
                 let f = relay_fanout(&ctx, n, true)?;
                 runs.push(report::Run::new(
-                    report::RELAY_GSO,
+                    names::RELAY_GSO,
                     report::Kind::Experiment,
                     f,
                 ));
             }
             eprintln!("throughput ({tag}): colony hub");
             let (hub, mut hub_drops) = hub_fanout(&ctx, &config, n, 0)?;
-            runs.push(report::Run::new(report::HUB, report::Kind::Hub, hub));
+            runs.push(report::Run::new(names::HUB, report::Kind::Hub, hub));
             if !args.no_batching {
                 eprintln!("throughput ({tag}): colony hub, batching subscribers");
                 let bytes = usize::from(args.batch_bytes);
                 let (joined, drops) = hub_fanout(&ctx, &config, n, bytes)?;
                 hub_drops.add(&drops);
                 runs.push(report::Run::new(
-                    &report::hub_batching(bytes),
+                    &names::hub_batching(bytes),
                     report::Kind::HubBatching,
                     joined,
                 ));

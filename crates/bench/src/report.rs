@@ -6,26 +6,13 @@ use std::process::Command;
 
 use crate::hub::HubDrops;
 use crate::latency::Latency;
+use crate::names::{HUB, RAW, RELAY_GSO};
 use crate::payload::Lengths;
 use crate::throughput::Fanout;
 
 pub const HEADING: &str = "## Hub on loopback";
 /// The heading of the section a mixed-length run writes.
 pub const HEADING_MIXED: &str = "## Hub on loopback, mixed lengths";
-/// The name of the floor row in the latency table.
-pub const RAW: &str = "raw UDP relay (floor)";
-/// The name of the hub row that the latency target is judged on.
-pub const HUB: &str = "colony hub";
-/// The name of the floor row in the throughput table.
-pub const RELAY: &str = "raw UDP relay (floor)";
-/// The name of the row of the hub whose subscribers ask for several packets
-/// a datagram, of at most `bytes`.
-pub fn hub_batching(bytes: usize) -> String {
-    format!("colony hub, batching subscribers ({bytes} B)")
-}
-/// The name of the GSO experiment's row.
-pub const RELAY_GSO: &str = "raw UDP relay with GSO (experiment)";
-
 /// Targets from the issue.
 const ADDED_P99_TARGET_US: f64 = 5.0;
 /// Over the better Mosquitto, with fixed-length packets...
@@ -283,9 +270,24 @@ fn verdict(met: bool) -> &'static str {
 }
 
 pub fn render(r: &Report<'_>) -> String {
-    let m = r.machine;
     let mut s = String::new();
     let w = &mut s;
+    preamble(w, r);
+    if !r.latency.is_empty() {
+        latency_table(w, r);
+    }
+    throughput_table(w, r);
+    let _ = writeln!(w, "### Targets\n");
+    latency_target(w, r);
+    throughput_targets(w, r);
+    let _ = writeln!(w);
+    limits(w, r);
+    s
+}
+
+/// How the run was made and on what machine.
+fn preamble(w: &mut String, r: &Report<'_>) {
+    let m = r.machine;
     let _ = writeln!(w, "{}\n", heading(r.lengths));
     let _ = writeln!(
         w,
@@ -325,11 +327,10 @@ pub fn render(r: &Report<'_>) -> String {
         "- colony hub: `colony_hub::Server::run` on its own thread of the benchmark process \
          (the code the `colony hub` binary runs), release build\n"
     );
+}
 
-    if !r.latency.is_empty() {
-        latency_table(w, r);
-    }
-
+/// The delivered throughput table, what its rows are, and what was lost.
+fn throughput_table(w: &mut String, r: &Report<'_>) {
     let _ = writeln!(w, "### Delivered throughput, {}\n", r.lengths.describe());
     let _ = writeln!(
         w,
@@ -449,8 +450,10 @@ pub fn render(r: &Report<'_>) -> String {
          {send_failed} other failed sends); the publisher wrote off a window of lost packets \
          {stalls} times (all rounds).\n"
     );
+}
 
-    let _ = writeln!(w, "### Targets\n");
+/// The added latency at p99, judged against its target.
+fn latency_target(w: &mut String, r: &Report<'_>) {
     let mut placements: Vec<&str> = Vec::new();
     for l in r.latency {
         if !placements.contains(&l.placement.as_str()) {
@@ -483,6 +486,10 @@ pub fn render(r: &Report<'_>) -> String {
             verdict(all_met)
         );
     }
+}
+
+/// Delivered throughput and work per packet, judged against Mosquitto's.
+fn throughput_targets(w: &mut String, r: &Report<'_>) {
     let target = match r.lengths {
         Lengths::Fixed => THROUGHPUT_RATIO_TARGET,
         Lengths::Mixed => THROUGHPUT_RATIO_TARGET_MIXED,
@@ -572,9 +579,6 @@ pub fn render(r: &Report<'_>) -> String {
             }
         }
     }
-    let _ = writeln!(w);
-    limits(w, r);
-    s
 }
 
 fn latency_table(w: &mut String, r: &Report<'_>) {

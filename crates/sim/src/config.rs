@@ -5,11 +5,8 @@
 //! gaps the paper leaves filled from the authors' own simulator (PuckSwarm).
 //! `configs/scene.toml` lists every value with its source.
 
-use std::path::Path;
-
 use serde::{Deserialize, Serialize};
 
-use crate::config_load::parse;
 use crate::error::SimError;
 use crate::types::Vec2;
 
@@ -310,21 +307,6 @@ impl SceneConfig {
         cfg.arena.width *= k;
         cfg.arena.height *= k;
         cfg
-    }
-
-    /// Parses and validates a TOML text. Errors name the line and the field.
-    pub fn from_toml_str(text: &str) -> Result<SceneConfig, SimError> {
-        parse(text, "<string>")
-    }
-
-    /// Reads, parses and validates a TOML file. Errors name the file, the line and the field.
-    pub fn from_file(path: impl AsRef<Path>) -> Result<SceneConfig, SimError> {
-        let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| SimError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        parse(&text, &path.display().to_string())
     }
 
     /// The configuration as TOML text (every field written out).

@@ -1,7 +1,26 @@
 //! Reading a [`SceneConfig`] from TOML, with errors that say where.
 
+use std::path::Path;
+
 use crate::config::SceneConfig;
 use crate::error::{ConfigError, SimError};
+
+impl SceneConfig {
+    /// Parses and validates a TOML text. Errors name the line and the field.
+    pub fn from_toml_str(text: &str) -> Result<SceneConfig, SimError> {
+        parse(text, "<string>")
+    }
+
+    /// Reads, parses and validates a TOML file. Errors name the file, the line and the field.
+    pub fn from_file(path: impl AsRef<Path>) -> Result<SceneConfig, SimError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| SimError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        parse(&text, &path.display().to_string())
+    }
+}
 
 /// Parses and validates `text`; errors carry `origin` (a file name), the line and
 /// the dotted field name.

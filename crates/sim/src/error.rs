@@ -35,7 +35,7 @@ pub enum SimError {
         /// The asked position, world frame, cm.
         y: f64,
         /// What is in the way.
-        reason: crate::field::Refusal,
+        reason: crate::types::Refusal,
     },
     /// An id that names no robot or box of a [`crate::field::Field`].
     #[error("no {what} with id {id}")]

@@ -58,33 +58,15 @@ use rapier2d::prelude::RigidBodyHandle;
 
 pub use config::{BoxSpec, FieldConfig, RobotSpec};
 pub use map::{Terrain, TileMap, MAX_MAP_CELLS, MAX_MAP_SIDE_CM};
-pub use place::Refusal;
+// The ids and a placement's refusal are shared with the crate's error type, so they live in
+// `types`, which names no module of the crate.
+pub use crate::types::{FieldBoxId, FieldRobotId, Refusal};
 pub use sense::{FieldSense, SonarEcho};
 
 use crate::error::SimError;
 use crate::grid::Grid;
 use crate::types::{Pose, Vec2, WheelCommand};
 use physics::FieldPhysics;
-
-/// Index of a robot in a [`Field`] (0-based, in the order added, never reused).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct FieldRobotId(pub usize);
-
-/// Index of a box in a [`Field`] (0-based, in the order added, never reused).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct FieldBoxId(pub usize);
-
-impl fmt::Display for FieldRobotId {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "robot {}", self.0)
-    }
-}
-
-impl fmt::Display for FieldBoxId {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "box {}", self.0)
-    }
-}
 
 /// A robot as the field knows it.
 #[derive(Debug, Clone, Copy, PartialEq)]

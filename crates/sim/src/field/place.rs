@@ -5,52 +5,9 @@ use std::fmt;
 
 use super::geom::Obb;
 use super::map::Terrain;
-use super::{BoxSpec, Field, FieldBoxId, FieldRobotId, RobotSpec};
+use super::{BoxSpec, Field, FieldBoxId, FieldRobotId, Refusal, RobotSpec};
 use crate::error::SimError;
 use crate::types::{Pose, Vec2};
-
-/// Why a robot or box cannot be put somewhere: the first obstacle found.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Refusal {
-    /// The pose holds a NaN or an infinity.
-    NotFinite,
-    /// The body would stick out of the map.
-    OffMap,
-    /// The body would overlap this blocked cell (map coordinates, row from the top).
-    Blocked {
-        /// Column.
-        x: usize,
-        /// Row from the top.
-        y: usize,
-    },
-    /// A land robot or a box would overlap this water cell.
-    Water {
-        /// Column.
-        x: usize,
-        /// Row from the top.
-        y: usize,
-    },
-    /// The body would overlap this active robot.
-    Robot(FieldRobotId),
-    /// The body would overlap this box.
-    Box(FieldBoxId),
-}
-
-impl fmt::Display for Refusal {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Refusal::NotFinite => write!(f, "the pose is not finite"),
-            Refusal::OffMap => write!(f, "it would stick out of the map"),
-            Refusal::Blocked { x, y } => write!(f, "it would overlap blocked cell ({x}, {y})"),
-            Refusal::Water { x, y } => write!(
-                f,
-                "it would overlap water cell ({x}, {y}) and cannot enter water"
-            ),
-            Refusal::Robot(id) => write!(f, "it would overlap {id}"),
-            Refusal::Box(id) => write!(f, "it would overlap {id}"),
-        }
-    }
-}
 
 /// The error for a refused place, naming what was placed and where.
 fn placement(
