@@ -27,12 +27,14 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use colony_client::UdpClient;
 use colony_wire::{Packet, Reply, Request, HUB_SUBJECT};
-use tokio::sync::{oneshot, watch};
+use tokio::sync::watch;
 
 use crate::foxglove::{self, Feed};
 use crate::game::{Chats, GameFrame, GameView, Listeners, GAME_CHANNELS};
 use crate::state::{Command, CommandError, MonitorState, PageId, CORE_CHANNELS};
 use crate::tasks::TaskBoard;
+
+use crate::request::Envelope;
 
 /// The channel the control client leases, so the hub will answer `status`.
 pub const LEASE_CHANNEL: &str = "colony-monitor";
@@ -59,13 +61,6 @@ const TASKS_AT_LEAST: Duration = Duration::from_secs(1);
 const OVERRIDE_EVERY: Duration = Duration::from_millis(80);
 /// The longest the loop sleeps, so browser requests are taken promptly.
 const TICK: Duration = Duration::from_millis(10);
-
-/// A browser's request on its way to the bridge: the page it came from, and where the answer goes.
-pub type Envelope = (
-    PageId,
-    Command,
-    oneshot::Sender<Result<String, CommandError>>,
-);
 
 /// A world snapshot for the pages: its JSON, and the newest whole frame's robots and pucks as
 /// the binary message the page draws them from ([`crate::state::bodies`]).

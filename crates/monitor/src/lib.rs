@@ -69,6 +69,7 @@ pub mod game;
 pub mod gate;
 mod liveness;
 pub mod protocol;
+mod request;
 mod server;
 pub mod state;
 pub mod tasks;

@@ -33,10 +33,11 @@ use axum::Router;
 use tokio::sync::{oneshot, watch};
 use tokio::time::Instant;
 
-use crate::bridge::{Bridge, Envelope};
+use crate::bridge::Bridge;
 use crate::gate::{Gate, RefusalLog};
 use crate::liveness::{ping_if_due, ready, send_within, End, Liveness, Pinger, MAX_READY};
 use crate::protocol::{kind_of, parse_message, ReplyJson, MAX_MESSAGE};
+use crate::request::Envelope;
 use crate::state::PageId;
 
 const INDEX_HTML: &str = include_str!("../web/index.html");

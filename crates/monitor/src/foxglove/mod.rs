@@ -38,8 +38,8 @@ use axum::extract::ws::{Message, WebSocket};
 use colony_wire::Packet;
 use tokio::sync::{broadcast, oneshot, watch};
 
-use crate::bridge::Envelope;
 use crate::liveness::{ping_if_due, ready, send_within, End, Pinger, MAX_READY};
+use crate::request::Envelope;
 use crate::state::PageId;
 use protocol::{Channel, Level};
 use session::{Out, Session};
