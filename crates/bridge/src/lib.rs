@@ -26,9 +26,12 @@ pub mod config;
 pub mod interest;
 pub mod keys;
 mod run;
+mod stats;
 pub mod track;
 pub mod wants;
+mod zenoh_io;
 
 pub use config::{BridgeConfig, ConfigError, Mode, Pattern};
 pub use keys::Site;
-pub use run::{Bridge, BridgeError, Stats};
+pub use run::Bridge;
+pub use stats::{BridgeError, Stats};

@@ -17,14 +17,14 @@
 
 use std::collections::{BTreeSet, HashMap};
 use std::io;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, Receiver};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use colony_client::{ClientConfig, Delivery, HubState, UdpClient};
 use colony_wire::auth::Key;
-use colony_wire::{Packet, Reply, Request, Subject};
+use colony_wire::{Reply, Request, Subject};
 use mio::unix::SourceFd;
 use mio::{Events, Interest, Poll, Token, Waker};
 use std::os::fd::AsRawFd;
@@ -35,9 +35,11 @@ use zenoh::{Session, Wait};
 
 use crate::config::{any_matches, BridgeConfig};
 use crate::interest::LocalInterest;
-use crate::keys::{self, Site};
-use crate::track::{Stamp, Tracker, Verdict};
+use crate::keys;
+use crate::stats::{zerr, BridgeError, Stats};
+use crate::track::{Tracker, Verdict};
 use crate::wants::{Offer, Wants};
+use crate::zenoh_io::{export, zenoh_config, Data, Inbox, Want};
 
 /// How long the bridge waits for its hub's first answer before it says none came.
 const FIRST_ANSWER: Duration = Duration::from_secs(3);
@@ -49,8 +51,6 @@ const QUEUE: usize = 16_384;
 /// samples cannot lose one; should even these overflow, the bridge asks
 /// Zenoh for every live token again.
 const WANT_QUEUE: usize = 65_536;
-/// The most distinct keys numbered at once (a new stamp run starts afresh).
-const MAX_KEYS: usize = 65_536;
 /// The most channels kept subscribed on the hub for other sites: the hub
 /// grants a client 256 subscriptions, and one is the bridge's own.
 const MAX_EXPORTS: usize = 255;
@@ -67,141 +67,8 @@ const RELOOK_EVERY: Duration = Duration::from_secs(1);
 /// Datagrams taken from the hub per step, so the Zenoh side and the timers
 /// are served under any flood.
 const HUB_BATCH: usize = 1_024;
-/// The longest key a sample may have to be looked at.
-const MAX_KEY: usize = 4_096;
 /// How often the about text (and the log line) is brought up to date.
 const REPORT_EVERY: Duration = Duration::from_secs(1);
-
-/// Why a bridge could not start or stopped.
-#[derive(Debug, thiserror::Error)]
-pub enum BridgeError {
-    /// The hub's address or socket.
-    #[error("hub {hub}: {source}")]
-    Hub {
-        /// The hub as given.
-        hub: String,
-        /// Why.
-        source: colony_client::ClientError,
-    },
-    /// Zenoh refused the configuration or could not open.
-    #[error("zenoh: {0}")]
-    Zenoh(String),
-    /// The bridge's own socket or wake-up.
-    #[error(transparent)]
-    Io(#[from] io::Error),
-}
-
-fn zerr(e: impl std::fmt::Display) -> BridgeError {
-    BridgeError::Zenoh(e.to_string())
-}
-
-/// What a bridge has done, readable from any thread while it runs.
-#[derive(Debug, Default)]
-pub struct Stats {
-    /// Packets put on Zenoh.
-    pub exported: AtomicU64,
-    /// Packets from other sites published into the hub.
-    pub imported: AtomicU64,
-    /// Packets of other sites that never arrived (gaps in their numbering).
-    pub lost: AtomicU64,
-    /// Packets that arrived twice, dropped.
-    pub duplicates: AtomicU64,
-    /// Samples that were no colony packet, or whose key did not match the
-    /// packet, or that addressed the hub: dropped.
-    pub rejected: AtomicU64,
-    /// Samples dropped because the bridge's thread was behind by [`QUEUE`].
-    pub overflow: AtomicU64,
-    /// Puts Zenoh refused.
-    pub put_failed: AtomicU64,
-    /// Packets whose number was far from their stream's, or taken already
-    /// by other bytes (forged, or the real one after a forgery): passed on,
-    /// and counted here rather than in `lost`.
-    pub suspect: AtomicU64,
-    /// Wants of other sites refused (beyond a site's share of the table, see
-    /// [`crate::wants`]) or let go for another site's, and channels left
-    /// out of the exports beyond [`MAX_EXPORTS`]: each counted once when it
-    /// happens.
-    pub refused_wants: AtomicU64,
-    /// Errors talking to the hub (it may be down, or unreachable for a while).
-    pub hub_errors: AtomicU64,
-}
-
-impl Stats {
-    fn add(counter: &AtomicU64, n: u64) {
-        counter.fetch_add(n, Ordering::Relaxed);
-    }
-
-    /// A counter's value now.
-    pub fn get(counter: &AtomicU64) -> u64 {
-        counter.load(Ordering::Relaxed)
-    }
-}
-
-struct Data {
-    key: String,
-    payload: Vec<u8>,
-    priority: u8,
-    stamp: Option<Stamp>,
-}
-
-struct Want {
-    key: String,
-    alive: bool,
-    /// From a fresh listing of the live tokens: refused again, it is not
-    /// counted again.
-    again: bool,
-}
-
-/// Passes Zenoh's callbacks to the bridge's thread and wakes it.
-#[derive(Clone)]
-struct Inbox {
-    data: SyncSender<Data>,
-    wants: SyncSender<Want>,
-    wants_lost: Arc<AtomicBool>,
-    waker: Arc<Waker>,
-    stats: Arc<Stats>,
-    /// `colony/<this site>/`: this session's own puts, which Zenoh hands its
-    /// own subscribers too.
-    own_prefix: String,
-}
-
-impl Inbox {
-    fn data(&self, sample: &zenoh::sample::Sample) {
-        let key = sample.key_expr().as_str();
-        if key.starts_with(&self.own_prefix) {
-            return;
-        }
-        // Checked before anything is copied: Zenoh delivers samples of any size.
-        if key.len() > MAX_KEY || sample.payload().len() > colony_wire::MAX_PACKET {
-            Stats::add(&self.stats.rejected, 1);
-            return;
-        }
-        let data = Data {
-            key: key.to_owned(),
-            payload: sample.payload().to_bytes().into_owned(),
-            priority: sample.priority() as u8,
-            stamp: sample
-                .attachment()
-                .and_then(|a| Stamp::from_bytes(&a.to_bytes())),
-        };
-        match self.data.try_send(data) {
-            Ok(()) => {
-                let _ = self.waker.wake();
-            }
-            Err(TrySendError::Full(_)) => Stats::add(&self.stats.overflow, 1),
-            Err(TrySendError::Disconnected(_)) => {}
-        }
-    }
-
-    fn want(&self, want: Want) {
-        match self.wants.try_send(want) {
-            Ok(()) => {}
-            Err(TrySendError::Full(_)) => self.wants_lost.store(true, Ordering::Relaxed),
-            Err(TrySendError::Disconnected(_)) => return,
-        }
-        let _ = self.waker.wake();
-    }
-}
 
 /// A running bridge between one hub and Zenoh.
 pub struct Bridge {
@@ -755,90 +622,5 @@ fn counted(names: &BTreeSet<Subject>) -> String {
         0 => "nothing".to_owned(),
         n if n > 4 => format!("{n} ({} ...)", first_names(names.iter())),
         n => format!("{n} ({})", first_names(names.iter())),
-    }
-}
-
-/// Puts one packet from the hub on its key, numbered per key and priority.
-fn export(
-    session: &Session,
-    site: &Site,
-    stamp_run: &mut u64,
-    seqs: &mut HashMap<(String, u8), u64>,
-    stats: &Stats,
-    packet: &Packet<'_>,
-) {
-    let key = keys::data_key(site, packet.subjects());
-    let (priority, congestion) = keys::zenoh_qos(packet.priority());
-    let stream = (key, priority as u8);
-    if seqs.len() >= MAX_KEYS && !seqs.contains_key(&stream) {
-        // Numbering afresh under the same run would read as repeats.
-        seqs.clear();
-        *stamp_run = rand::random();
-    }
-    let seq = seqs.entry(stream.clone()).or_insert(0);
-    *seq += 1;
-    let stamp = Stamp {
-        run: *stamp_run,
-        seq: *seq,
-    };
-    let put = session
-        .put(stream.0, packet.as_str().as_bytes().to_vec())
-        .priority(priority)
-        .congestion_control(congestion)
-        .express(priority == zenoh::qos::Priority::RealTime)
-        .attachment(stamp.to_bytes().to_vec())
-        .wait();
-    match put {
-        Ok(()) => Stats::add(&stats.exported, 1),
-        Err(e) => {
-            tracing::debug!(error = %e, "zenoh refused a put");
-            Stats::add(&stats.put_failed, 1);
-        }
-    }
-}
-
-/// Zenoh's configuration for this bridge: no multicast scouting (explicit
-/// endpoints only), and connections retried every 250 ms to 1 s, forever, so
-/// a restarted router or peer is found again within a second or two.
-fn zenoh_config(c: &BridgeConfig) -> Result<zenoh::Config, BridgeError> {
-    let mut z = zenoh::Config::default();
-    let json = |v: &[String]| {
-        let quoted: Vec<String> = v.iter().map(|e| format!("{e:?}")).collect();
-        format!("[{}]", quoted.join(","))
-    };
-    let set = |z: &mut zenoh::Config, key: &str, value: &str| {
-        z.insert_json5(key, value)
-            .map_err(|e| BridgeError::Zenoh(format!("{key} = {value}: {e}")))
-    };
-    set(&mut z, "mode", &format!("{:?}", c.mode.as_str()))?;
-    set(&mut z, "connect/endpoints", &json(&c.connect))?;
-    set(&mut z, "listen/endpoints", &json(&c.listen))?;
-    set(&mut z, "scouting/multicast/enabled", "false")?;
-    // A colony packet fits a datagram; Zenoh would otherwise reassemble
-    // messages of up to 1 GiB from anyone on the link.
-    set(&mut z, "transport/link/rx/max_message_size", "1048576")?;
-    // A zero timeout would mean one try and no retry.
-    set(&mut z, "connect/timeout_ms", "-1")?;
-    set(&mut z, "connect/exit_on_failure", "false")?;
-    set(
-        &mut z,
-        "connect/retry",
-        "{period_init_ms: 250, period_max_ms: 1000, period_increase_factor: 2}",
-    )?;
-    Ok(z)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_bad_endpoint_is_a_clear_error() {
-        let mut c = BridgeConfig::new("127.0.0.1:7400", Site::new("lab").unwrap());
-        c.connect = vec!["nonsense".into()];
-        let Err(e) = zenoh_config(&c) else {
-            panic!("a bad endpoint was taken")
-        };
-        assert!(e.to_string().contains("connect/endpoints"), "{e}");
     }
 }
