@@ -437,7 +437,25 @@ mod imp {
                 iov_len: d.len(),
             }
         }));
-        let joins = |d: usize| framing.filter(|_| plan.joins[d] > 0);
+        let (messages, runs) = plan_units(s, *gso, framing, plan);
+        write_headers(s, framing, plan, messages, runs);
+        transmit(s, gso, sock, plan, messages)
+    }
+
+    /// The framing of joined datagrams, if destination `d` takes them.
+    fn joins<'f>(framing: Option<&'f Framing>, plan: &SendPlan, d: usize) -> Option<&'f Framing> {
+        framing.filter(|_| plan.joins[d] > 0)
+    }
+
+    /// Cuts the plan into units, the messages the kernel is handed: returns how many messages
+    /// they make and how many of them are GSO runs.
+    fn plan_units(
+        s: &mut Scratch,
+        gso: bool,
+        framing: Option<&Framing>,
+        plan: &SendPlan,
+    ) -> (usize, usize) {
+        let joins = |d: usize| joins(framing, plan, d);
         // Units: one datagram each, or with GSO a run of datagrams of one
         // group (`gso_run`), which the kernel splits at delivery; then, for
         // each destination of the group that takes them, runs joined behind
@@ -452,7 +470,7 @@ mod imp {
             let plain = group.dests.clone().filter(|&d| joins(d).is_none()).count();
             let mut i = group.payloads.start;
             while plain > 0 && i < group.payloads.end {
-                let end = if *gso {
+                let end = if gso {
                     i + gso_run(&s.iovs[i..group.payloads.end])
                 } else {
                     i + 1
@@ -514,6 +532,19 @@ mod imp {
                 }
             }
         }
+        (messages, runs)
+    }
+
+    /// Writes a header for each message, pointing into the scratch buffers, which must not
+    /// change again until the send.
+    fn write_headers(
+        s: &mut Scratch,
+        framing: Option<&Framing>,
+        plan: &SendPlan,
+        messages: usize,
+        runs: usize,
+    ) {
+        let joins = |d: usize| joins(framing, plan, d);
         // The joined messages' iovecs, now that no head moves any more: a
         // lone datagram goes without a head.
         s.joined.clear();
@@ -603,6 +634,16 @@ mod imp {
                 }
             }
         }
+    }
+
+    /// Hands the kernel the headers written, and counts what it refused.
+    fn transmit(
+        s: &mut Scratch,
+        gso: &mut bool,
+        sock: &UdpSocket,
+        plan: &SendPlan,
+        messages: usize,
+    ) -> SendReport {
         let mut report = SendReport::default();
         let segments = &s.segments;
         let fd = sock.as_raw_fd();
