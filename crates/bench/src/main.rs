@@ -195,64 +195,10 @@ fn main() -> anyhow::Result<()> {
         ..HubConfig::default()
     };
 
-    // Mosquitto twice: as shipped (Nagle on, so its writes to a busy
-    // subscriber coalesce) and tuned for latency (`set_tcp_nodelay true`).
-    // Each comparison is with whichever does better on it.
-    let brokers: Vec<(&str, mqtt::Mosquitto)> = if args.no_mosquitto {
-        Vec::new()
-    } else {
-        let program = find_program(&args.mosquitto).with_context(|| {
-            format!(
-                "mosquitto not found (`{}`): install it with `apt-get install mosquitto`, \
-                 or pass --no-mosquitto",
-                args.mosquitto.display()
-            )
-        })?;
-        vec![
-            (MQTT_DEFAULT, mqtt::Mosquitto::start(&program, false)?),
-            (MQTT_NODELAY, mqtt::Mosquitto::start(&program, true)?),
-        ]
-    };
-
-    // Where threads run changes latency more than any broker does on a VM
-    // (waking an idle vCPU costs tens of µs), so every path is measured with
-    // the same explicit placement: all on one core, then broker on its own core.
-    let mut placements = vec![("one core", 0usize)];
-    if machine.cores >= 2 {
-        placements.push(("two cores", 1));
-    }
+    let brokers = start_brokers(&args)?;
     let pids: Vec<u32> = brokers.iter().map(|(_, b)| b.pid()).collect();
     let foreign = sys::Foreign::start(&pids);
-    let mut lat = Vec::new();
-    if args.no_latency {
-        placements.clear();
-    }
-    for &(placement, broker_cpu) in &placements {
-        sys::pin_self(Some(&[0]))?;
-        for (_, b) in &brokers {
-            sys::pin_process(b.pid(), Some(&[broker_cpu]))?;
-        }
-        let cpu = Some(broker_cpu);
-        eprintln!("latency ({placement}): raw UDP relay");
-        let mut runs = vec![latency::raw_udp(args.warmup, args.samples, cpu)?];
-        eprintln!("latency ({placement}): colony hub");
-        runs.push(latency::hub_raw(args.warmup, args.samples, &config, cpu)?);
-        eprintln!("latency ({placement}): colony hub via colony-client");
-        runs.push(latency::hub_client(
-            args.warmup,
-            args.samples,
-            &config,
-            cpu,
-        )?);
-        for (name, b) in &brokers {
-            eprintln!("latency ({placement}): {name}");
-            runs.push(latency::mosquitto(name, args.warmup, args.samples, b.addr)?);
-        }
-        for r in &mut runs {
-            r.placement = placement.to_owned();
-        }
-        lat.extend(runs);
-    }
+    let lat = latency_runs(&args, &machine, &config, &brokers)?;
     let foreign_latency = foreign.percent(&pids);
     // Throughput: as configured (by default the scheduler places everything).
     let (bench_cpus, broker_cpus): (Option<Vec<usize>>, Option<Vec<usize>>) =
@@ -270,7 +216,6 @@ fn main() -> anyhow::Result<()> {
     let foreign = sys::Foreign::start(&pids);
     let settle = Duration::from_secs_f64(args.settle);
     let duration = Duration::from_secs_f64(args.duration);
-    let mut rows = Vec::new();
     let fanouts = if args.latency_only {
         &[][..]
     } else {
@@ -283,57 +228,7 @@ fn main() -> anyhow::Result<()> {
         broker_cpu,
         pids: &pids,
     };
-    // Rounds interleave the systems, so a disturbance from outside hits all of
-    // them alike; each system keeps its best round (losses: its worst).
-    for round in 1..=args.rounds {
-        for (k, &n) in fanouts.iter().enumerate() {
-            let tag = format!("round {round}/{}, fan-out {n}", args.rounds);
-            let mut runs = Vec::new();
-            if !args.no_relay {
-                eprintln!("throughput ({tag}): raw UDP relay");
-                let f = relay_fanout(&ctx, n, false)?;
-                runs.push(report::Run::new(names::RELAY, report::Kind::Relay, f));
-            }
-            if args.relay_gso {
-                eprintln!("throughput ({tag}): raw UDP relay with GSO");
-                let f = relay_fanout(&ctx, n, true)?;
-                runs.push(report::Run::new(
-                    names::RELAY_GSO,
-                    report::Kind::Experiment,
-                    f,
-                ));
-            }
-            eprintln!("throughput ({tag}): colony hub");
-            let (hub, mut hub_drops) = hub_fanout(&ctx, &config, n, 0)?;
-            runs.push(report::Run::new(names::HUB, report::Kind::Hub, hub));
-            if !args.no_batching {
-                eprintln!("throughput ({tag}): colony hub, batching subscribers");
-                let bytes = usize::from(args.batch_bytes);
-                let (joined, drops) = hub_fanout(&ctx, &config, n, bytes)?;
-                hub_drops.add(&drops);
-                runs.push(report::Run::new(
-                    &names::hub_batching(bytes),
-                    report::Kind::HubBatching,
-                    joined,
-                ));
-            }
-            for (name, b) in &brokers {
-                eprintln!("throughput ({tag}): {name}");
-                let f = mqtt_fanout(&ctx, b, n)?;
-                runs.push(report::Run::new(name, report::Kind::Mqtt, f));
-            }
-            let row = report::Row {
-                subscribers: n,
-                runs,
-                hub_drops,
-            };
-            if round == 1 {
-                rows.push(row);
-            } else {
-                rows[k].merge(row);
-            }
-        }
-    }
+    let rows = throughput_rows(&ctx, &config, &brokers, fanouts)?;
 
     let foreign_throughput = foreign.percent(&pids);
     let load_after = report::loadavg();
@@ -371,6 +266,144 @@ fn main() -> anyhow::Result<()> {
         eprintln!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// Mosquitto twice, unless told not to: as shipped (Nagle on, so its writes to a busy
+/// subscriber coalesce) and tuned for latency (`set_tcp_nodelay true`). Each comparison is
+/// with whichever does better on it.
+fn start_brokers(args: &Args) -> anyhow::Result<Vec<(&'static str, mqtt::Mosquitto)>> {
+    Ok(if args.no_mosquitto {
+        Vec::new()
+    } else {
+        let program = find_program(&args.mosquitto).with_context(|| {
+            format!(
+                "mosquitto not found (`{}`): install it with `apt-get install mosquitto`, \
+                 or pass --no-mosquitto",
+                args.mosquitto.display()
+            )
+        })?;
+        vec![
+            (MQTT_DEFAULT, mqtt::Mosquitto::start(&program, false)?),
+            (MQTT_NODELAY, mqtt::Mosquitto::start(&program, true)?),
+        ]
+    })
+}
+
+/// Latency, path by path, with each placement of the threads.
+fn latency_runs(
+    args: &Args,
+    machine: &report::Machine,
+    config: &HubConfig,
+    brokers: &[(&str, mqtt::Mosquitto)],
+) -> anyhow::Result<Vec<latency::Latency>> {
+    // Where threads run changes latency more than any broker does on a VM
+    // (waking an idle vCPU costs tens of µs), so every path is measured with
+    // the same explicit placement: all on one core, then broker on its own core.
+    let mut placements = vec![("one core", 0usize)];
+    if machine.cores >= 2 {
+        placements.push(("two cores", 1));
+    }
+    let mut lat = Vec::new();
+    if args.no_latency {
+        placements.clear();
+    }
+    for &(placement, broker_cpu) in &placements {
+        sys::pin_self(Some(&[0]))?;
+        for (_, b) in brokers {
+            sys::pin_process(b.pid(), Some(&[broker_cpu]))?;
+        }
+        let cpu = Some(broker_cpu);
+        eprintln!("latency ({placement}): raw UDP relay");
+        let mut runs = vec![latency::raw_udp(args.warmup, args.samples, cpu)?];
+        eprintln!("latency ({placement}): colony hub");
+        runs.push(latency::hub_raw(args.warmup, args.samples, config, cpu)?);
+        eprintln!("latency ({placement}): colony hub via colony-client");
+        runs.push(latency::hub_client(args.warmup, args.samples, config, cpu)?);
+        for (name, b) in brokers {
+            eprintln!("latency ({placement}): {name}");
+            runs.push(latency::mosquitto(name, args.warmup, args.samples, b.addr)?);
+        }
+        for r in &mut runs {
+            r.placement = placement.to_owned();
+        }
+        lat.extend(runs);
+    }
+    Ok(lat)
+}
+
+/// Delivered throughput at each fan-out, over the rounds.
+fn throughput_rows(
+    ctx: &Ctx<'_>,
+    config: &HubConfig,
+    brokers: &[(&str, mqtt::Mosquitto)],
+    fanouts: &[usize],
+) -> anyhow::Result<Vec<report::Row>> {
+    let args = ctx.args;
+    let mut rows: Vec<report::Row> = Vec::new();
+    // Rounds interleave the systems, so a disturbance from outside hits all of
+    // them alike; each system keeps its best round (losses: its worst).
+    for round in 1..=args.rounds {
+        for (k, &n) in fanouts.iter().enumerate() {
+            let row = throughput_row(ctx, config, brokers, round, n)?;
+            if round == 1 {
+                rows.push(row);
+            } else {
+                rows[k].merge(row);
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// One round at fan-out `n`: each system in turn.
+fn throughput_row(
+    ctx: &Ctx<'_>,
+    config: &HubConfig,
+    brokers: &[(&str, mqtt::Mosquitto)],
+    round: usize,
+    n: usize,
+) -> anyhow::Result<report::Row> {
+    let args = ctx.args;
+    let tag = format!("round {round}/{}, fan-out {n}", args.rounds);
+    let mut runs = Vec::new();
+    if !args.no_relay {
+        eprintln!("throughput ({tag}): raw UDP relay");
+        let f = relay_fanout(ctx, n, false)?;
+        runs.push(report::Run::new(names::RELAY, report::Kind::Relay, f));
+    }
+    if args.relay_gso {
+        eprintln!("throughput ({tag}): raw UDP relay with GSO");
+        let f = relay_fanout(ctx, n, true)?;
+        runs.push(report::Run::new(
+            names::RELAY_GSO,
+            report::Kind::Experiment,
+            f,
+        ));
+    }
+    eprintln!("throughput ({tag}): colony hub");
+    let (hub, mut hub_drops) = hub_fanout(ctx, config, n, 0)?;
+    runs.push(report::Run::new(names::HUB, report::Kind::Hub, hub));
+    if !args.no_batching {
+        eprintln!("throughput ({tag}): colony hub, batching subscribers");
+        let bytes = usize::from(args.batch_bytes);
+        let (joined, drops) = hub_fanout(ctx, config, n, bytes)?;
+        hub_drops.add(&drops);
+        runs.push(report::Run::new(
+            &names::hub_batching(bytes),
+            report::Kind::HubBatching,
+            joined,
+        ));
+    }
+    for (name, b) in brokers {
+        eprintln!("throughput ({tag}): {name}");
+        let f = mqtt_fanout(ctx, b, n)?;
+        runs.push(report::Run::new(name, report::Kind::Mqtt, f));
+    }
+    Ok(report::Row {
+        subscribers: n,
+        runs,
+        hub_drops,
+    })
 }
 
 /// `program` if it names a file, else the first match on `PATH`, else /usr/sbin.
