@@ -18,9 +18,12 @@
 //! - [`server`]: game logic and swarm intelligence as one part of the game.
 //! - [`world`]: the battlefield in the simulator.
 //! - [`bot`]: the built-in scripted player.
-//! - [`mod@env`]: the game as a multi-agent learning environment (the agents: one team's robots).
 //! - [`matches`]: the parts wired together in memory, fast-forwarded;
-//!   [`live`] runs them over the hub, and [`live_match`] runs and watches a whole match.
+//!   [`live`] runs them over the hub.
+//!
+//! This crate holds the rules and the behaviour. A whole live match with its supervisor and
+//! the paper's measurements of one are in colony-lab, the game as a learning environment in
+//! colony-env.
 //!
 //! Every part of a match (the [`world::GameWorld`], the [`server::Server`],
 //! each [`robot_node::RobotNode`], the [`bot::Bot`]) is a
@@ -33,15 +36,12 @@
 #![warn(missing_docs)]
 
 pub mod bot;
-pub mod env;
 pub mod formation;
 pub mod live;
-pub mod live_match;
 pub mod lobby;
 pub mod logic;
 pub mod map;
 pub mod matches;
-pub mod measure;
 pub mod nav;
 pub mod path;
 pub mod protocol;

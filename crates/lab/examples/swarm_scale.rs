@@ -8,13 +8,13 @@
 //! keeps them, and the final PC. Run one N per process so the peak is that N's.
 //!
 //! ```text
-//! cargo run --release -p colony-sort --example swarm_scale -- --robots 1024 --steps 200
+//! cargo run --release -p colony-lab --example swarm_scale -- --robots 1024 --steps 200
 //! ```
 
 use std::time::Instant;
 
+use colony_lab::sort::experiment::{run_trial_then, TrialSpec};
 use colony_sim::{Engine, SceneConfig, World};
-use colony_sort::experiment::{run_trial_then, TrialSpec};
 use colony_sort::{Method, SortParams};
 
 fn main() {

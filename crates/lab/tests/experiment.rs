@@ -1,7 +1,9 @@
 //! Whole trials: the simulator, the controllers and the metrics together.
 
+use colony_lab::sort::experiment::{
+    read_csv, run_trial, run_trials, write_csv, Disturbance, TrialSpec,
+};
 use colony_sim::{Engine, SceneConfig, World};
-use colony_sort::experiment::{read_csv, run_trial, run_trials, write_csv, Disturbance, TrialSpec};
 use colony_sort::methods::Method;
 use colony_sort::params::SortParams;
 

@@ -13,10 +13,10 @@
 
 use std::time::Instant;
 
-use colony_game::env::{Fire, GameEnv, GameEnvConfig, RobotAction};
+use colony_env::game::{Fire, GameEnv, GameEnvConfig, RobotAction};
+use colony_env::sort::{EnvConfig, SortEnv};
 use colony_game::rules::Mode;
 use colony_sim::WheelCommand;
-use colony_sort::env::{EnvConfig, SortEnv};
 
 /// Steps per run for each scene (robots; 12 is Capture the Flag).
 const STEPS: [(usize, u32); 4] = [(4, 4000), (64, 800), (256, 300), (12, 2000)];

@@ -1,10 +1,10 @@
 //! `GameCore` (one Capture the Flag or Death Match match) and `GameBatch` (many,
-//! stepped on rayon) over `colony_game::env::GameEnv`.
+//! stepped on rayon) over `colony_env::game::GameEnv`.
 
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard, PoisonError};
 
-use colony_game::env::{
+use colony_env::game::{
     Control, EnvError, Fire, GameEnv, GameEnvConfig, Opponent, RewardWeights, RobotAction,
     SquadOrder, StepInfo,
 };
@@ -407,7 +407,7 @@ impl GameCore {
 }
 
 /// The largest image side: the sorting core's limit, one rule for both.
-const MAX_RENDER_SIDE: usize = colony_sort::env::MAX_RENDER_SIDE;
+const MAX_RENDER_SIDE: usize = colony_env::sort::MAX_RENDER_SIDE;
 
 /// Many matches with one configuration, stepped together on every core.
 #[pyclass(module = "colony._native")]

@@ -1,7 +1,7 @@
 //! `colony._native`: the Rust side of colony's Python package.
 //!
 //! Each class here is a thin skin over a Rust environment core
-//! (`colony_sort::env`, `colony_game::env`): Python hands in NumPy buffers, the core
+//! (`colony_env::sort`, `colony_env::game`): Python hands in NumPy buffers, the core
 //! writes observations and rewards into them in place, and the GIL is released
 //! while worlds step, so batched worlds use every core. The PettingZoo and
 //! Gymnasium interfaces are Python (`python/colony`), where researchers read them.
@@ -26,6 +26,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<game::GameCore>()?;
     m.add_class::<game::GameBatch>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
-    m.add("MAX_RENDER_SIDE", colony_sort::env::MAX_RENDER_SIDE)?;
+    m.add("MAX_RENDER_SIDE", colony_env::sort::MAX_RENDER_SIDE)?;
     Ok(())
 }

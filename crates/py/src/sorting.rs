@@ -1,10 +1,10 @@
 //! `SortCore` (one sorting world) and `SortBatch` (many, stepped on rayon) over
-//! `colony_sort::env::SortEnv`.
+//! `colony_env::sort::SortEnv`.
 
 use std::path::PathBuf;
 
+use colony_env::sort::{EnvConfig, EnvError, RewardKind, SortEnv, DISCRETE_ACTIONS, MAX_ROBOTS};
 use colony_sim::WheelCommand;
-use colony_sort::env::{EnvConfig, EnvError, RewardKind, SortEnv, DISCRETE_ACTIONS, MAX_ROBOTS};
 use colony_sort::Method;
 use numpy::{
     PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArrayDyn, PyReadwriteArrayDyn,

@@ -10,7 +10,13 @@
 //! on [`cluster`]'s graph clusters), [`vfh`] (VFH+ and the steering law),
 //! [`deneubourg`] (pick-up and deposit probabilities), [`methods`] (BHD,
 //! PROBSEEK, CACHECONS and its variants as explicit state machines) and
-//! [`metrics`] (PC, STC, TWC, cache convergence).
+//! [`metrics`] (PC, STC, TWC, cache convergence). [`swarm`] holds the per-robot random
+//! streams every runner makes, and [`live`] the world and a robot's controller as hub nodes.
+//!
+//! This crate holds behaviour only. The experiments, statistics, figures, reports and the
+//! launcher of a whole live swarm are in colony-lab, which links the plotting and statistics
+//! libraries a controller has no use for; the Python environment's core is in colony-env, so
+//! the extension links neither.
 //!
 //! ```
 //! use colony_sim::Observation;
@@ -27,14 +33,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-pub mod compare;
-pub mod env;
-pub mod experiment;
 pub mod live;
-pub mod plot;
-pub mod report;
-pub mod stats;
-pub mod supplementary;
 
 pub mod cluster;
 pub mod deneubourg;
@@ -42,6 +41,7 @@ pub mod methods;
 pub mod metrics;
 pub mod params;
 pub mod perception;
+pub mod swarm;
 pub mod vfh;
 
 pub use methods::{build, Method, UnknownMethod};

@@ -11,9 +11,9 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use colony_hub::{HubSite, HubSpec, HubThread};
+use colony_lab::sort::launch::{Controllers, Swarm, SwarmSpec};
 use colony_monitor::{Monitor, MonitorConfig};
 use colony_sim::{Engine, SceneConfig};
-use colony_sort::live::launch::{Controllers, Swarm, SwarmSpec};
 use colony_sort::{Method, SortParams};
 
 #[derive(clap::Args, Debug)]

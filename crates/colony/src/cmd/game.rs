@@ -7,10 +7,10 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant, SystemTime};
 
 use anyhow::Context as _;
-use colony_game::live_match::{self, LiveMatch, MatchPlan};
 use colony_game::rules::{Mode, Rules, TeamSetup};
 use colony_hub::log::{LogSink, LogWriter};
 use colony_hub::{HubSite, HubSpec, HubThread};
+use colony_lab::game::live_match::{self, LiveMatch, MatchPlan};
 use colony_mcap::McapLogWriter;
 use colony_monitor::{Monitor, MonitorConfig};
 

@@ -5,14 +5,14 @@ use std::process::Command;
 use std::str::FromStr as _;
 
 use anyhow::Context as _;
+use colony_env::sort::{check_counts, check_robots};
+use colony_lab::sort::experiment::{run_trials, write_csv, Disturbance, TrialSpec};
+use colony_lab::sort::launch::{self, Swarm, SwarmSpec};
+use colony_lab::sort::report;
+use colony_lab::sort::supplementary::{self, Experiment};
 use colony_sim::{Engine, SceneConfig};
-use colony_sort::env::{check_counts, check_robots};
-use colony_sort::experiment::{run_trials, write_csv, Disturbance, TrialSpec};
-use colony_sort::live::launch::{self, Swarm, SwarmSpec};
 use colony_sort::methods::Method;
 use colony_sort::params::SortParams;
-use colony_sort::report;
-use colony_sort::supplementary::{self, Experiment};
 
 use super::progress::Progress;
 use super::HubAddr;
@@ -134,7 +134,7 @@ pub struct CompareArgs {
 
 fn compare(a: CompareArgs) -> anyhow::Result<()> {
     let read = |dir: &PathBuf| {
-        colony_sort::experiment::read_summary(dir)
+        colony_lab::sort::experiment::read_summary(dir)
             .with_context(|| format!("cannot read the run in {}", dir.display()))
     };
     let (reference, candidate) = (read(&a.reference)?, read(&a.candidate)?);
@@ -144,7 +144,7 @@ fn compare(a: CompareArgs) -> anyhow::Result<()> {
             a.names
         );
     };
-    let (md, tally) = colony_sort::compare::compare(&reference, &candidate, (first, second));
+    let (md, tally) = colony_lab::sort::compare::compare(&reference, &candidate, (first, second));
     if tally.means == 0 {
         anyhow::bail!("the two runs share no method and puck-type count: nothing to compare");
     }
@@ -297,7 +297,7 @@ fn method(name: &str) -> anyhow::Result<Method> {
 fn execute(
     label: &str,
     specs: &[TrialSpec],
-) -> anyhow::Result<Vec<colony_sort::experiment::TrialResult>> {
+) -> anyhow::Result<Vec<colony_lab::sort::experiment::TrialResult>> {
     let total: u64 = specs.iter().map(|s| s.steps).sum();
     eprintln!("colony: {label}: {}", plan_text(specs, total));
     let progress = Progress::start(label, total);

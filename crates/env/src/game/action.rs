@@ -1,10 +1,9 @@
 //! Actions and squad orders, and the packets they become (how they reach the game is told in
-//! the module docs of `env`).
+//! the module docs of `colony_env::game`).
 
+use colony_game::protocol::{Action, PlayerCommand, SquadCommand, Target, Verb};
 use colony_proto::WheelCommand;
 use colony_sim::Vec2;
-
-use crate::protocol::{Action, PlayerCommand, SquadCommand, Target, Verb};
 
 /// A shot a robot asks for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

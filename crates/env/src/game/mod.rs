@@ -1,6 +1,6 @@
 //! The game as a multi-agent learning environment (PettingZoo's ParallelEnv shape, for the
 //! Python package to wrap): the agents are the robots of one team, the learner; the other team
-//! is played by the scripted [`Bot`](crate::bot::Bot) or stands idle.
+//! is played by the scripted [`Bot`](colony_game::bot::Bot) or stands idle.
 //!
 //! **The rules are the game's.** Underneath is a [`Match`]: the world on the simulator's
 //! field, the game server with its referee and squad arbitrators, every robot's brain and the
@@ -55,22 +55,22 @@ mod tests;
 use std::path::Path;
 use std::sync::Arc;
 
+use colony_game::logic::{roster, RobotTally, SetupError};
+use colony_game::map::{Battlefield, MapError, Terrain};
+use colony_game::matches::Match;
+use colony_game::protocol::Verb;
+use colony_game::rules::{Mode, RobotKind, Rules, TeamSetup};
 use colony_sim::field::FieldRobotId;
 use colony_sim::{Pose, Vec2};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 pub use action::{Fire, RobotAction, SquadOrder};
+pub use colony_game::map::shipped_map;
 pub use observation::{
     ObsLayout, FLAG_FEATURES, FLAG_TEAMS, MAX_DAMAGE, NEARBY_FEATURES, OWN_FEATURES, PATCH_CHANNELS,
 };
 pub use reward::RewardWeights;
-
-use crate::logic::{roster, RobotTally, SetupError};
-use crate::map::{Battlefield, MapError, Terrain};
-use crate::matches::Match;
-use crate::protocol::Verb;
-use crate::rules::{Mode, RobotKind, Rules, TeamSetup};
 
 /// A start is moved at most this far from its spawn cell's centre along each axis, cm: a
 /// robot stays inside its cell, and the roster keeps a free cell around each.
@@ -85,7 +85,7 @@ const NO_ROBOT: u32 = u32::MAX;
 /// Who plays the other team.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Opponent {
-    /// The game's scripted player ([`crate::bot::Bot`]).
+    /// The game's scripted player ([`colony_game::bot::Bot`]).
     #[default]
     Scripted,
     /// No player: its squads hold where they start, though their squad behaviour still shoots
@@ -126,15 +126,6 @@ pub struct GameEnvConfig {
     pub patch: usize,
     /// What each agent is rewarded for.
     pub rewards: RewardWeights,
-}
-
-/// The text of the map shipped for a mode (`maps/ctf.map`, `maps/dm.map`), built into the
-/// library so a wheel installed anywhere has it.
-pub fn shipped_map(mode: Mode) -> &'static str {
-    match mode {
-        Mode::CaptureTheFlag => include_str!("../../../../maps/ctf.map"),
-        Mode::DeathMatch => include_str!("../../../../maps/dm.map"),
-    }
 }
 
 impl GameEnvConfig {

@@ -3,11 +3,11 @@
 //!
 //! The layout, field by field, is on [`GameEnv::observe`].
 
+use colony_game::logic::BASE_RADIUS;
+use colony_game::rules::{KindRules, RobotKind, MAX_UPGRADE, UPGRADE_STEP};
 use colony_sim::{Pose, Vec2};
 
 use super::{EnvError, GameEnv, Seen, NO_ROBOT};
-use crate::logic::BASE_RADIUS;
-use crate::rules::{KindRules, RobotKind, MAX_UPGRADE, UPGRADE_STEP};
 
 /// Numbers per agent in `own`.
 pub const OWN_FEATURES: usize = 18;

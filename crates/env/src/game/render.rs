@@ -4,13 +4,13 @@
 //! discs of their body's size in their team's colour with a line for the heading, destroyed
 //! ones grey. The picture is a pure function of the state, so equal states give equal bytes.
 
+use colony_game::logic::BASE_RADIUS;
+use colony_game::rules::KindRules;
 use colony_sim::canvas::{Canvas, View};
 use colony_sim::Vec2;
 
 use super::observation::{WALL, WATER};
 use super::GameEnv;
-use crate::logic::BASE_RADIUS;
-use crate::rules::KindRules;
 
 const GROUND: [u8; 3] = [214, 204, 170];
 const SWAMP: [u8; 3] = [176, 182, 140];
@@ -47,11 +47,11 @@ impl GameEnv {
             let colour = match *code {
                 WATER => WATER_RGB,
                 WALL => match self.field.grid.get(x as u32, y as u32) {
-                    Some(crate::map::Terrain::Tree) => TREE,
+                    Some(colony_game::map::Terrain::Tree) => TREE,
                     _ => OUTSIDE,
                 },
                 _ => match self.field.grid.get(x as u32, y as u32) {
-                    Some(crate::map::Terrain::Swamp) => SWAMP,
+                    Some(colony_game::map::Terrain::Swamp) => SWAMP,
                     _ => GROUND,
                 },
             };

@@ -99,10 +99,10 @@ fn the_default_setup_is_six_against_six_within_the_budget() {
     let most = RobotKind::ALL
         .iter()
         .map(|&kind| {
-            crate::rules::RobotBuild {
+            colony_game::rules::RobotBuild {
                 kind,
                 health: 0,
-                power: crate::rules::MAX_UPGRADE,
+                power: colony_game::rules::MAX_UPGRADE,
             }
             .damage()
         })
@@ -381,7 +381,7 @@ fn the_picture_shows_both_teams_and_recording_keeps_the_games_packets() {
 }
 
 /// The cost of a step of the default 12-robot Capture the Flag (run it optimised:
-/// `cargo test --release -p colony-game --lib env::tests::step_cost -- --ignored --nocapture`).
+/// `cargo test --release -p colony-env --lib game::tests::step_cost -- --ignored --nocapture`).
 #[test]
 #[ignore = "a measurement, not a check"]
 fn step_cost() {

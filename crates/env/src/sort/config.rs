@@ -5,9 +5,9 @@
 use std::path::Path;
 
 use colony_sim::{Engine, SceneConfig};
+use colony_sort::params::SortParams;
 
 use super::EnvError;
-use crate::params::SortParams;
 
 /// The most robots an environment accepts: 100,000, a swarm the simulator's
 /// largest arena (500 m a side) holds at the paper's densities, and few enough

@@ -21,9 +21,9 @@
 //!   [`RewardKind`].
 //! - **The built-in methods are available as reference policies**
 //!   ([`SortEnv::reference_commands`]), with the controllers and random
-//!   streams `experiment::run_trial` uses, so that driving the environment
-//!   with them reproduces a trial exactly (tested): learned and built-in
-//!   policies are measured on the same world.
+//!   streams colony-lab's `sort::experiment::run_trial` uses, so that driving
+//!   the environment with them reproduces a trial exactly (tested): learned
+//!   and built-in policies are measured on the same world.
 //! - **Commands are clamped by proto's rule** (`WheelCommand::clamped`: NaN
 //!   is 0, ±∞ is ±1), the rule `World::step` already applies, so a bad number
 //!   never poisons the world and there is one clamp rule in colony.
@@ -34,7 +34,7 @@
 //!
 //! ```
 //! use colony_sim::WheelCommand;
-//! use colony_sort::env::{EnvConfig, SortEnv};
+//! use colony_env::sort::{EnvConfig, SortEnv};
 //! use colony_sort::Method;
 //! let config = EnvConfig { max_steps: 3, ..EnvConfig::default() }.with_counts(Some(2), Some(10), Some(1));
 //! let mut env = SortEnv::new(config, 7).unwrap();
@@ -62,6 +62,10 @@ use std::collections::HashMap;
 use std::sync::{Mutex, PoisonError};
 
 use colony_sim::{Observation, RobotId, SimError, WheelCommand, World};
+use colony_sort::methods::{build, Method};
+use colony_sort::params::ParamsError;
+use colony_sort::swarm::{robot_rng, ROBOTS_PER_TASK};
+use colony_sort::{metrics, Controller};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
@@ -72,10 +76,6 @@ pub use config::{
 pub use observation::ObsLayout;
 pub use render::MAX_RENDER_SIDE;
 
-use crate::experiment::{robot_rng, ROBOTS_PER_TASK};
-use crate::methods::{build, Method};
-use crate::params::ParamsError;
-use crate::{metrics, Controller};
 use observation::Encoder;
 use reward::Progress;
 
@@ -111,7 +111,7 @@ pub enum EnvError {
     },
     /// The state cannot be written as live-mode packets.
     #[error(transparent)]
-    Live(#[from] crate::live::LiveError),
+    Live(#[from] colony_sort::live::LiveError),
 }
 
 /// What one step did, for every agent alike.
@@ -403,8 +403,9 @@ impl SortEnv {
     /// `colony sort live`'s world uses), so a hub and colony's monitor can
     /// show an environment's run as it goes.
     pub fn vision_packets(&self) -> Result<Vec<Vec<u8>>, EnvError> {
-        let frame = crate::live::vision_frame(&self.world)?;
-        Ok(colony_proto::swarm::vision::encode(&frame).map_err(crate::live::LiveError::from)?)
+        let frame = colony_sort::live::vision_frame(&self.world)?;
+        Ok(colony_proto::swarm::vision::encode(&frame)
+            .map_err(colony_sort::live::LiveError::from)?)
     }
 
     /// This state's PC as live mode's `metrics` packet, for the monitor's
@@ -414,7 +415,8 @@ impl SortEnv {
             step: self.world.step_count(),
             pc: self.progress.pc(),
         };
-        Ok(colony_proto::swarm::metrics::encode(progress).map_err(crate::live::LiveError::from)?)
+        Ok(colony_proto::swarm::metrics::encode(progress)
+            .map_err(colony_sort::live::LiveError::from)?)
     }
 }
 

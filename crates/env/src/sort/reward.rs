@@ -61,7 +61,7 @@ impl Progress {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metrics::time_weighted_completion;
+    use colony_sort::metrics::time_weighted_completion;
 
     #[test]
     fn env_reward_twc_matches_the_metric_and_its_changes_sum_to_it() {

@@ -1,11 +1,11 @@
+use colony_lab::sort::experiment::{run_trial, TrialSpec};
 use colony_proto::swarm::vision;
 use colony_sim::{SceneConfig, WheelCommand};
+use colony_sort::SortParams;
 use colony_wire::Packet;
 use rand::{Rng, SeedableRng};
 
 use super::*;
-use crate::experiment::{run_trial, TrialSpec};
-use crate::SortParams;
 
 fn small(robots: usize, pucks: usize, kinds: usize) -> EnvConfig {
     EnvConfig::default().with_counts(Some(robots), Some(pucks), Some(kinds))

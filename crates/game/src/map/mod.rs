@@ -58,10 +58,12 @@ mod battlefield;
 mod error;
 mod grid;
 mod parse;
+mod shipped;
 
 pub use battlefield::{Battlefield, TeamSite, DEFAULT_CELL_CM};
 pub use error::{MapError, Problem};
 pub use grid::{Cell, GridMap, Terrain};
+pub use shipped::shipped_map;
 
 #[cfg(test)]
 mod tests;

@@ -12,21 +12,19 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use colony_client::{ConnectError, UdpClient};
+use colony_game::bot::Bot;
+use colony_game::live::{self, LiveError};
+use colony_game::lobby::Lobby;
+use colony_game::logic::{roster, RobotEntry, SetupError};
+use colony_game::map::{shipped_map, Battlefield, MapError};
+use colony_game::matches::{Match, MatchError};
+use colony_game::protocol::{self, Event, GameState, Status};
+use colony_game::robot_node::RobotNode;
+use colony_game::rules::{Mode, Rules, TeamSetup};
+use colony_game::server::Server;
+use colony_game::world::GameWorld;
 use colony_sim::field::FieldConfig;
 use colony_sim::SimError;
-
-use crate::bot::Bot;
-use crate::env::shipped_map;
-use crate::live::{self, LiveError};
-use crate::lobby::Lobby;
-use crate::logic::{roster, RobotEntry, SetupError};
-use crate::map::{Battlefield, MapError};
-use crate::matches::{Match, MatchError};
-use crate::protocol::{self, Event, GameState, Status};
-use crate::robot_node::RobotNode;
-use crate::rules::{Mode, Rules, TeamSetup};
-use crate::server::Server;
-use crate::world::GameWorld;
 
 /// Why a match could not be set up, run or finished.
 #[derive(Debug, thiserror::Error)]

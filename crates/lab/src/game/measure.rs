@@ -1,8 +1,9 @@
 //! The paper's Tables 3 and 4 measured on a live match over the real hub: a scripted player
 //! sends squad commands, the server turns them into robot orders, the robots take them, every
 //! part on its own hub client and thread, in real time. The server and the robots record when
-//! each command and order came and went ([`crate::server::CommandTiming`],
-//! [`crate::robot_node::OrderTiming`]) on one shared clock, so each hop is measured on its own:
+//! each command and order came and went ([`colony_game::server::CommandTiming`],
+//! [`colony_game::robot_node::OrderTiming`]) on one shared clock, so each hop is measured on
+//! its own:
 //!
 //! | hop | from | to |
 //! |---|---|---|
@@ -20,16 +21,16 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
+use colony_game::live::{self, LiveError};
+use colony_game::protocol::{Formation, SquadCommand, Verb};
+use colony_game::robot_node::RobotNode;
+use colony_game::server::{Server, THINK_EVERY};
+use colony_game::world::GameWorld;
 use colony_node::Time;
 use colony_sim::field::FieldConfig;
 use colony_sim::Vec2;
 
-use crate::live::{self, LiveError};
-use crate::live_match::{LiveMatchError, MatchPlan};
-use crate::protocol::{Formation, SquadCommand, Verb};
-use crate::robot_node::RobotNode;
-use crate::server::{Server, THINK_EVERY};
-use crate::world::GameWorld;
+use crate::game::live_match::{LiveMatchError, MatchPlan};
 
 /// Mean, standard deviation and range of some durations, ms.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

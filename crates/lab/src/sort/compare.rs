@@ -6,12 +6,12 @@
 use std::collections::HashMap;
 use std::fmt::Write as _;
 
+use colony_sort::methods::Method;
 use statrs::distribution::{ContinuousCDF, StudentsT};
 
-use crate::experiment::TrialResult;
-use crate::methods::Method;
-use crate::report::{fmt_p, label, methods_for, TYPE_COUNTS};
-use crate::stats;
+use crate::sort::experiment::TrialResult;
+use crate::sort::report::{fmt_p, label, methods_for, TYPE_COUNTS};
+use crate::sort::stats;
 
 /// The significance level the tests are compared at.
 pub const ALPHA: f64 = 0.05;

@@ -7,18 +7,13 @@ use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use colony_sim::{RobotId, SceneConfig, SimError, World};
-use rand_chacha::rand_core::SeedableRng;
+use colony_sort::methods::{build, Method};
+use colony_sort::metrics;
+use colony_sort::params::SortParams;
+use colony_sort::swarm::{robot_rng, ROBOTS_PER_TASK};
+use colony_sort::Controller;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
-
-use crate::methods::{build, Method};
-use crate::metrics;
-use crate::params::SortParams;
-use crate::Controller;
-
-/// The fewest robots one thread senses and decides for in a go (rayon's minimum chunk):
-/// smaller chunks make the threads' hand-offs cost more than the work.
-pub(crate) const ROBOTS_PER_TASK: usize = 32;
 
 /// One trial to run.
 #[derive(Debug, Clone)]
@@ -63,7 +58,7 @@ fn disturb(
     match what {
         Disturbance::ShiftLargestCluster => {
             let pucks = world.pucks();
-            let Some(largest) = crate::perception::global_clusters(&pucks, threshold)
+            let Some(largest) = colony_sort::perception::global_clusters(&pucks, threshold)
                 .into_iter()
                 .max_by_key(|c| c.size())
             else {
@@ -160,14 +155,6 @@ pub enum ExperimentError {
         /// Why.
         source: std::io::Error,
     },
-}
-
-/// The per-robot random streams of a trial: independent of each other and
-/// of the world's own stream.
-pub(crate) fn robot_rng(seed: u64, robot: usize) -> ChaCha8Rng {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    rng.set_stream((robot as u64).wrapping_add(1));
-    rng
 }
 
 fn snapshot(world: &World, caches: &[Vec<(colony_sim::PuckKind, colony_sim::Vec2)>]) -> Snapshot {
@@ -421,9 +408,11 @@ fn read_results(dir: &Path, with_samples: bool) -> Result<Vec<TrialResult>, Expe
             s.parse::<u64>()
                 .map_err(|_| bad(&summary_path, n + 1, "not a whole number"))
         };
-        let method: Method = method.parse().map_err(|e: crate::methods::UnknownMethod| {
-            bad(&summary_path, n + 1, &e.to_string())
-        })?;
+        let method: Method = method
+            .parse()
+            .map_err(|e: colony_sort::methods::UnknownMethod| {
+                bad(&summary_path, n + 1, &e.to_string())
+            })?;
         let types = number(types)? as usize;
         let trial = number(trial)?;
         let stc = if stc.is_empty() {

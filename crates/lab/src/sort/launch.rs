@@ -10,11 +10,11 @@ use std::thread::JoinHandle;
 
 use colony_client::{ConnectError, UdpClient};
 use colony_sim::{SceneConfig, SimError, World};
-
-use super::world::WorldOptions;
-use super::LiveError;
-use crate::methods::{build, Method};
-use crate::params::SortParams;
+use colony_sort::live::world::{self, WorldOptions};
+use colony_sort::live::{robot, LiveError};
+use colony_sort::methods::{build, Method};
+use colony_sort::params::SortParams;
+use colony_sort::Controller;
 
 /// Why a swarm could not be launched or run.
 #[derive(Debug, thiserror::Error)]
@@ -114,7 +114,7 @@ pub struct Swarm {
     threads: Vec<JoinHandle<Result<(), LiveError>>>,
     children: Children,
     /// Controllers the world steps itself ([`Controllers::InWorld`]).
-    inline: Vec<Box<dyn crate::Controller>>,
+    inline: Vec<Box<dyn Controller>>,
 }
 
 impl Swarm {
@@ -150,7 +150,7 @@ impl Swarm {
                         let mut client = connect(&spec.hub)?;
                         let (stop, seed) = (stop.clone(), spec.seed);
                         threads.push(std::thread::spawn(move || {
-                            super::robot::run(id, controller.as_mut(), &mut client, seed, &stop)
+                            robot::run(id, controller.as_mut(), &mut client, seed, &stop)
                         }));
                     }
                 }
@@ -208,7 +208,7 @@ impl Swarm {
             metrics_every: 10,
             cluster_threshold: self.spec.params.perception.cluster_threshold_cm,
         };
-        let result = super::world::run_with_controllers(
+        let result = world::run_with_controllers(
             &mut self.world,
             &mut self.client,
             &options,
@@ -234,7 +234,7 @@ impl Swarm {
     }
 }
 
-fn controller(spec: &SwarmSpec) -> Box<dyn crate::Controller> {
+fn controller(spec: &SwarmSpec) -> Box<dyn Controller> {
     build(
         spec.method,
         &spec.params,
@@ -253,7 +253,7 @@ pub fn run_controller(spec: &SwarmSpec, id: usize, stop: &AtomicBool) -> Result<
     }
     let mut controller = controller(spec);
     let mut client = connect(&spec.hub)?;
-    super::robot::run(id, controller.as_mut(), &mut client, spec.seed, stop)?;
+    robot::run(id, controller.as_mut(), &mut client, spec.seed, stop)?;
     Ok(())
 }
 

@@ -29,7 +29,7 @@ fn err(path: &Path, e: impl std::fmt::Display) -> PlotError {
 fn register_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
-        let bytes: &'static [u8] = include_bytes!("../assets/DejaVuSans.ttf");
+        let bytes: &'static [u8] = include_bytes!("../../assets/DejaVuSans.ttf");
         // The bytes are a valid TrueType font, checked by the tests that draw.
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, bytes);
     });

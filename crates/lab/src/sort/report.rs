@@ -6,12 +6,12 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use colony_sim::SceneConfig;
+use colony_sort::methods::Method;
+use colony_sort::params::SortParams;
 
-use crate::experiment::{write_csv, write_error, ExperimentError, TrialResult, TrialSpec};
-use crate::methods::Method;
-use crate::params::SortParams;
-use crate::plot::{self, ArenaView, Band};
-use crate::stats;
+use crate::sort::experiment::{write_csv, write_error, ExperimentError, TrialResult, TrialSpec};
+use crate::sort::plot::{self, ArenaView, Band};
+use crate::sort::stats;
 
 /// The paper's comparisons (Sect. 4.2): methods per number of puck types.
 pub fn methods_for(types: usize) -> Vec<Method> {
@@ -98,7 +98,7 @@ pub(crate) fn label(m: Method) -> &'static str {
 pub(crate) fn band(
     trials: &[&TrialResult],
     name: &str,
-    value: impl Fn(&crate::experiment::Sample) -> Option<f64>,
+    value: impl Fn(&crate::sort::experiment::Sample) -> Option<f64>,
 ) -> Band {
     let n = trials.iter().map(|t| t.samples.len()).min().unwrap_or(0);
     let points = (0..n)

@@ -13,7 +13,7 @@ With ``control="squad"`` the agents are the learner's squads instead, each
 ordered with one of :data:`SQUAD_ORDERS` and carried out by the game's own squad
 behaviours; a squad sees its members' observations stacked.
 
-Observations are arrays (see ``colony_game::env::GameEnv::observe`` for every
+Observations are arrays (see ``colony_env::game::GameEnv::observe`` for every
 field): ``own`` (pose, velocity, health, reload, flag carried, type), ``nearby``
 (the K nearest robots, nearest first, relative to the agent), ``flags`` (both
 teams' flags and bases, relative), ``patch`` (walls, water, allies and enemies

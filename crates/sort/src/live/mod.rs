@@ -11,19 +11,18 @@
 //! [`RobotNode`]): [`world::run`] and [`robot::run`] drive them over a real
 //! hub with colony-node's runtime, and a test or an experiment runs the same
 //! values on colony-node's in-memory [`Bus`](colony_node::Bus) on simulated
-//! time, with no socket.
+//! time, with no socket. colony-lab's `sort::launch` starts a whole swarm of them.
 //!
 //! Every packet is one of [`colony_proto`]'s messages: [`colony_proto::swarm`] for
 //! `camera.N`, `vision`, `debug` and `metrics`, [`colony_proto::radio`] for the commands.
 
-pub mod launch;
 pub mod robot;
 mod robot_node;
 pub mod world;
 mod world_node;
 
 pub use robot_node::RobotNode;
-pub(crate) use world_node::vision_frame;
+pub use world_node::vision_frame;
 pub use world_node::WorldNode;
 
 /// What can stop a live world or robot.

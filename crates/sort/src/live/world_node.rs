@@ -19,7 +19,7 @@ use rayon::prelude::*;
 
 use super::world::{command_hold, WorldOptions};
 use super::{wire_id, LiveError};
-use crate::experiment::ROBOTS_PER_TASK;
+use crate::swarm::ROBOTS_PER_TASK;
 use crate::Controller;
 
 /// The live world: it subscribes to `radio` and holds each robot's command
@@ -213,8 +213,9 @@ impl<W: BorrowMut<World>> Node for WorldNode<W> {
     }
 }
 
-/// The world as the overhead camera sees it (also what `env` publishes for a monitor).
-pub(crate) fn vision_frame(world: &World) -> Result<VisionFrame, LiveError> {
+/// The world as the overhead camera sees it (also what colony-env's sorting environment
+/// publishes for a monitor).
+pub fn vision_frame(world: &World) -> Result<VisionFrame, LiveError> {
     let scene: &SceneConfig = world.config();
     let robots = world
         .robots()

@@ -5,12 +5,12 @@
 use std::time::Duration;
 
 use anyhow::Context as _;
-use colony_game::live_match::MatchPlan;
-use colony_game::measure::{
-    run_series, Series, SeriesSpec, Stats, OUR_THINK_EVERY, PAPER_THINK_EVERY,
-};
 use colony_game::rules::{Mode, Rules, TeamSetup};
 use colony_hub::{HubSite, HubSpec};
+use colony_lab::game::live_match::MatchPlan;
+use colony_lab::game::measure::{
+    run_series, Series, SeriesSpec, Stats, OUR_THINK_EVERY, PAPER_THINK_EVERY,
+};
 
 /// The paper's Table 4 intervals, ms.
 const PAPER_INTERVALS: &str = "100,250,500,750,1000,1500,2000,2500,5000";

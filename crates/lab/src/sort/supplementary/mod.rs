@@ -15,10 +15,10 @@ use std::fmt;
 use std::str::FromStr;
 
 use colony_sim::SceneConfig;
+use colony_sort::methods::Method;
+use colony_sort::params::SortParams;
 
-use crate::experiment::{Disturbance, TrialSpec};
-use crate::methods::Method;
-use crate::params::SortParams;
+use crate::sort::experiment::{Disturbance, TrialSpec};
 
 /// One supplementary experiment.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -8,10 +8,12 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::experiment::{read_csv, write_csv, write_error, ExperimentError, TrialResult};
-use crate::plot::{self, Band};
-use crate::report::{band, fmt_p, label, plot_err, summary_cells, summary_header};
-use crate::stats;
+use crate::sort::experiment::{
+    read_csv, write_csv, write_error, ExperimentError, Sample, TrialResult,
+};
+use crate::sort::plot::{self, Band};
+use crate::sort::report::{band, fmt_p, label, plot_err, summary_cells, summary_header};
+use crate::sort::stats;
 
 use super::{disturbance_steps, Experiment, Plan, PlannedExperiment};
 
@@ -322,7 +324,7 @@ fn t_line(a: &[f64], b: &[f64]) -> (String, Option<stats::TTest>) {
 }
 
 fn normality_cell(xs: &[f64]) -> String {
-    crate::report::normality_text(xs)
+    crate::sort::report::normality_text(xs)
 }
 
 fn index_of_max(xs: &[f64]) -> usize {
@@ -590,7 +592,7 @@ fn pc_before(r: &TrialResult, step: u64) -> Option<f64> {
 }
 
 /// A trial's samples from `from` (inclusive) to `to` (exclusive).
-fn window(r: &TrialResult, from: u64, to: u64) -> impl Iterator<Item = &crate::experiment::Sample> {
+fn window(r: &TrialResult, from: u64, to: u64) -> impl Iterator<Item = &Sample> {
     r.samples
         .iter()
         .filter(move |s| s.step >= from && s.step < to)
@@ -737,7 +739,7 @@ fn reinsert(
                         }
                         let back = std::iter::once(first)
                             .chain(w)
-                            .find(|x| x.pc >= crate::metrics::STC_LEVEL);
+                            .find(|x| x.pc >= colony_sort::metrics::STC_LEVEL);
                         Some(match back {
                             Some(x) => (x.step - s) as f64,
                             None => {
@@ -795,7 +797,7 @@ fn reinsert(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::supplementary::{plan, Scale};
+    use crate::sort::supplementary::{plan, Scale};
     use colony_sim::SceneConfig;
 
     #[test]
@@ -811,10 +813,10 @@ mod tests {
         let plan = plan(
             &Experiment::ALL,
             &scene,
-            &crate::SortParams::default(),
+            &colony_sort::SortParams::default(),
             scale,
         );
-        let results = crate::experiment::run_trials(&plan.specs, &|_| {}).unwrap();
+        let results = crate::sort::experiment::run_trials(&plan.specs, &|_| {}).unwrap();
         write(dir.path(), &plan, &results, "test").unwrap();
         let report = std::fs::read_to_string(dir.path().join("report.md")).unwrap();
         assert_eq!(
@@ -834,13 +836,13 @@ mod tests {
         }
         assert!(dir.path().join("csv/robots/16_robots/summary.csv").exists());
         // Sections of an earlier run survive a run of one experiment.
-        let only = crate::supplementary::plan(
+        let only = crate::sort::supplementary::plan(
             &[Experiment::K2],
             &scene,
-            &crate::SortParams::default(),
+            &colony_sort::SortParams::default(),
             scale,
         );
-        let k2_results = crate::experiment::run_trials(&only.specs, &|_| {}).unwrap();
+        let k2_results = crate::sort::experiment::run_trials(&only.specs, &|_| {}).unwrap();
         write(dir.path(), &only, &k2_results, "test").unwrap();
         let again = std::fs::read_to_string(dir.path().join("report.md")).unwrap();
         assert_eq!(again, report);
