@@ -8,8 +8,10 @@
 //! and does work only when you call [`poll`](UdpClient::poll),
 //! [`recv`](UdpClient::recv) or [`publish`](UdpClient::publish). It starts no
 //! thread and never blocks. With the `tokio` feature, [`AsyncClient`] wraps it
-//! in `AsyncFd`. [`status`] asks a hub what it knows; [`rpc`] is request
-//! and reply between clients, over publish/subscribe.
+//! in `AsyncFd`. [`status`] asks a hub what it knows; [`rate`] measures
+//! channel rates, from the hub's status reports or from the packets
+//! received; [`rpc`] is request and reply between clients, over
+//! publish/subscribe.
 //!
 //! ```no_run
 //! use std::time::Instant;
@@ -31,6 +33,7 @@
 #![cfg_attr(feature = "tokio", deny(unsafe_code))]
 #![warn(missing_docs)]
 
+pub mod rate;
 pub mod rpc;
 mod session;
 pub mod status;

@@ -74,7 +74,7 @@ fn everything_a_real_match_publishes_is_read_by_the_monitor() {
         assert_eq!((s.id, &s.team, &s.squad), (g.id, &g.team, &g.squad));
         assert_eq!((s.alive, &s.behaviour), (g.alive, &g.behaviour));
         assert!((s.health - g.health).abs() < 1e-6);
-        assert!((s.x - g.pose.x).abs() < 0.01 && (s.y - g.pose.y).abs() < 0.01);
+        assert!((s.pose.x - g.pose.x).abs() < 0.01 && (s.pose.y - g.pose.y).abs() < 0.01);
     }
     assert_eq!(shown.squads.len(), game.squads.len());
     for (s, g) in shown.squads.iter().zip(&game.squads) {

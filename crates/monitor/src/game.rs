@@ -48,7 +48,9 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use colony_proto::game::{valid_name, ChatLine, Event, GameState, LobbyState, LobbyStatus};
+use colony_proto::game::{
+    valid_name, ChatLine, Event, GameState, LobbyState, LobbyStatus, RobotState,
+};
 use colony_wire::{Packet, StatusReport};
 use serde::Serialize;
 
@@ -75,103 +77,6 @@ const MAX_FLAGS: usize = 64;
 const MAX_ROBOTS: usize = 4096;
 const MAX_SQUADS: usize = 1024;
 const MAX_PATH: usize = 512;
-
-/// A team's standing.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct TeamView {
-    /// Its name.
-    pub name: String,
-    /// Flags captured (CTF) or robots destroyed (DM).
-    pub score: i64,
-    /// Enemy robots destroyed.
-    pub kills: i64,
-}
-
-/// A flag.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct FlagView {
-    /// Whose flag.
-    pub team: String,
-    /// Where it is, cm.
-    pub x: f64,
-    /// Where it is, cm.
-    pub y: f64,
-    /// On its stand at its base.
-    pub home: bool,
-    /// The robot carrying it.
-    pub carrier: Option<u32>,
-}
-
-/// A robot.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct RobotView {
-    /// Its id.
-    pub id: u32,
-    /// Its team.
-    pub team: String,
-    /// Its squad.
-    pub squad: String,
-    /// Its type (`scout`, `tank`, `infantry`, `amphibian`).
-    pub kind: String,
-    /// Where it is, cm.
-    pub x: f64,
-    /// Where it is, cm.
-    pub y: f64,
-    /// Its heading, rad.
-    pub theta: f64,
-    /// Health left.
-    pub health: f64,
-    /// The health it started with.
-    pub max_health: f64,
-    /// The damage one of its shots does.
-    pub power: f64,
-    /// Not destroyed.
-    pub alive: bool,
-    /// The robot's active behaviour, and why it has control.
-    pub behaviour: String,
-    /// Why that behaviour has control.
-    pub reason: String,
-}
-
-/// A squad.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SquadView {
-    /// Its team.
-    pub team: String,
-    /// Its name.
-    pub name: String,
-    /// Its formation's name.
-    pub formation: String,
-    /// The player's command it carries out, as the game words it.
-    pub order: String,
-    /// The squad behaviour in control.
-    pub behaviour: String,
-    /// Planned turn points, cm.
-    pub path: Vec<(f64, f64)>,
-}
-
-/// One `game.state` packet, as the page shows it.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct GameStateView {
-    /// `ctf` or `dm`.
-    pub mode: String,
-    /// `running` or `over`.
-    pub status: String,
-    /// Game time, s.
-    pub time: f64,
-    /// The winner, when over (None: a draw or not over).
-    pub winner: Option<String>,
-    /// Why it ended.
-    pub reason: String,
-    /// The teams.
-    pub teams: Vec<TeamView>,
-    /// The flags.
-    pub flags: Vec<FlagView>,
-    /// The robots, in id order.
-    pub robots: Vec<RobotView>,
-    /// The squads.
-    pub squads: Vec<SquadView>,
-}
 
 /// An event for the page's log.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -232,7 +137,7 @@ pub fn chat_message(team: &str, backlog: bool, lines: &[ChatView]) -> String {
 pub struct GameView {
     started: Instant,
     wall_start_ms: u64,
-    state: Option<GameStateView>,
+    state: Option<GameState>,
     state_at: Option<Instant>,
     map: MapView,
     events: VecDeque<(EventView, Option<String>)>,
@@ -302,7 +207,7 @@ impl Listeners {
 /// refusal `<team> ...` or `<team>: ...` (`a bad command from <team>: ...`), and a robot's
 /// `robot <id> ...`. Only `refused` events have owners; the rest are what everyone sees on
 /// the battlefield.
-fn owner(kind: &str, text: &str, teams: &[&str], robots: &[RobotView]) -> Option<String> {
+fn owner(kind: &str, text: &str, teams: &[&str], robots: &[RobotState]) -> Option<String> {
     if kind != "refused" {
         return None;
     }
@@ -325,7 +230,7 @@ pub struct GameFrame {
     age: Option<f64>,
     stale: bool,
     prematch: bool,
-    state: Option<GameStateView>,
+    state: Option<GameState>,
     events: Vec<(EventView, Option<String>)>,
     refusals: BTreeMap<Option<String>, EventView>,
     map_version: u64,
@@ -388,7 +293,7 @@ impl GameFrame {
 
 /// A state as `team`'s player may see it: where every robot is and how it fares (the
 /// battlefield shows that), but only its own team's squads, orders, paths and reasons.
-fn for_team(s: &GameStateView, team: &str) -> GameStateView {
+fn for_team(s: &GameState, team: &str) -> GameState {
     let mut s = s.clone();
     s.squads.retain(|q| q.team == team);
     for r in s.robots.iter_mut().filter(|r| r.team != team) {
@@ -407,7 +312,7 @@ struct GameJson<'a> {
     stale: bool,
     prematch: bool,
     heard: Option<bool>,
-    state: Option<&'a GameStateView>,
+    state: Option<&'a GameState>,
     events: Vec<&'a EventView>,
     refusal: Option<&'a EventView>,
     map_version: u64,
@@ -433,71 +338,23 @@ fn cut(text: String) -> String {
 }
 
 /// What the page shows of a state: texts cut short, lists capped, robots in id order.
-fn state_view(s: GameState) -> GameStateView {
-    let mut robots: Vec<RobotView> = s
-        .robots
-        .into_iter()
-        .take(MAX_ROBOTS)
-        .map(|r| RobotView {
-            id: r.id,
-            team: r.team,
-            squad: r.squad,
-            kind: r.kind.name().to_string(),
-            x: r.pose.x,
-            y: r.pose.y,
-            theta: r.pose.theta,
-            health: r.health,
-            max_health: r.max_health,
-            power: r.power,
-            alive: r.alive,
-            behaviour: cut(r.behaviour),
-            reason: cut(r.reason),
-        })
-        .collect();
-    robots.sort_by_key(|r| r.id);
-    GameStateView {
-        mode: s.mode,
-        status: s.status.name().to_string(),
-        time: s.time,
-        winner: s.winner,
-        reason: cut(s.reason),
-        teams: s
-            .teams
-            .into_iter()
-            .take(MAX_TEAMS)
-            .map(|t| TeamView {
-                name: t.name,
-                score: i64::from(t.score),
-                kills: i64::from(t.kills),
-            })
-            .collect(),
-        flags: s
-            .flags
-            .into_iter()
-            .take(MAX_FLAGS)
-            .map(|f| FlagView {
-                team: f.team,
-                x: f.at.x,
-                y: f.at.y,
-                home: f.home,
-                carrier: f.carrier,
-            })
-            .collect(),
-        robots,
-        squads: s
-            .squads
-            .into_iter()
-            .take(MAX_SQUADS)
-            .map(|q| SquadView {
-                team: q.team,
-                name: q.name,
-                formation: q.formation.name().to_string(),
-                order: cut(q.order),
-                behaviour: cut(q.behaviour),
-                path: q.path.iter().take(MAX_PATH).map(|p| (p.x, p.y)).collect(),
-            })
-            .collect(),
+fn page_state(mut s: GameState) -> GameState {
+    s.reason = cut(s.reason);
+    s.teams.truncate(MAX_TEAMS);
+    s.flags.truncate(MAX_FLAGS);
+    s.robots.truncate(MAX_ROBOTS);
+    for r in &mut s.robots {
+        r.behaviour = cut(std::mem::take(&mut r.behaviour));
+        r.reason = cut(std::mem::take(&mut r.reason));
     }
+    s.robots.sort_by_key(|r| r.id);
+    s.squads.truncate(MAX_SQUADS);
+    for q in &mut s.squads {
+        q.order = cut(std::mem::take(&mut q.order));
+        q.behaviour = cut(std::mem::take(&mut q.behaviour));
+        q.path.truncate(MAX_PATH);
+    }
+    s
 }
 
 impl GameView {
@@ -579,7 +436,7 @@ impl GameView {
     }
 
     /// The newest game state.
-    pub fn state(&self) -> Option<&GameStateView> {
+    pub fn state(&self) -> Option<&GameState> {
         self.state.as_ref()
     }
 
@@ -657,7 +514,7 @@ impl GameView {
             return;
         };
         self.bad_lines += read.bad_lines;
-        let s = state_view(read.message);
+        let s = page_state(read.message);
         // Game time going back is a new game: the old one's log is history.
         if self
             .state
@@ -765,6 +622,7 @@ impl GameView {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use colony_proto::Vec2;
 
     fn parse(text: &str) -> Packet<'_> {
         Packet::parse(text.as_bytes()).unwrap()
@@ -791,7 +649,7 @@ squad team red name alpha formation wedge order \"attack robot 4\" behaviour att
         g.on_packet(t0, &parse(STATE_PACKET));
         let s = g.state().unwrap();
         assert_eq!(
-            (s.mode.as_str(), s.status.as_str(), s.time),
+            (s.mode.as_str(), s.status.name(), s.time),
             ("ctf", "running", 12.4)
         );
         assert_eq!(s.winner, None);
@@ -803,7 +661,11 @@ squad team red name alpha formation wedge order \"attack robot 4\" behaviour att
         assert_eq!(s.squads[0].order, "attack robot 4");
         assert_eq!(
             s.squads[0].path,
-            [(310.0, 88.0), (400.0, 120.0), (700.0, 800.0)]
+            [
+                Vec2::new(310.0, 88.0),
+                Vec2::new(400.0, 120.0),
+                Vec2::new(700.0, 800.0)
+            ]
         );
         assert_eq!(g.bad_lines(), 0);
         assert_eq!(g.version(), 1);

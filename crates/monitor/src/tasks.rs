@@ -45,7 +45,8 @@ use std::collections::{BTreeMap, VecDeque};
 use std::time::{Duration, Instant};
 
 use colony_proto::murdoch::{
-    Announcement, Message, Negotiation, RobotReport, Signed, NEGOTIATION_PREFIX,
+    parse_negotiation_subject, Announcement, Message, Negotiation, RobotReport, Signed,
+    NEGOTIATION_PREFIX,
 };
 use colony_proto::DecodeError;
 use colony_wire::seal::PublicKey;
@@ -266,15 +267,154 @@ fn cards<'a>(newest_first: &[&'a TaskView]) -> Vec<CardJson<'a>> {
     out
 }
 
-/// The announcer, task number and round a negotiation subject names
-/// (`murdoch.<announcer>.<task>.<round>`).
-fn read_subject(subject: &str) -> Option<(&str, u64, u32)> {
-    let rest = subject.strip_prefix(NEGOTIATION_PREFIX)?;
-    let mut parts = rest.rsplitn(3, '.');
-    let round = parts.next()?.parse().ok()?;
-    let task = parts.next()?.parse().ok()?;
-    let announcer = parts.next().filter(|a| !a.is_empty())?;
-    Some((announcer, task, round))
+/// Whether a negotiation message is sealed by the key that speaks for whom it claims to come
+/// from: the bidder it names (the first key heard for that bidder this round), or the
+/// announcer `announcer`.
+fn sealed_by_its_speaker(
+    task: &mut TaskView,
+    m: &Negotiation,
+    announcer: &str,
+    key: PublicKey,
+) -> bool {
+    let bidder = match m {
+        Negotiation::Bid(b) => Some(b.bidder.as_str()),
+        Negotiation::Ack { bidder, .. }
+        | Negotiation::Decline { bidder, .. }
+        | Negotiation::Done { bidder, .. }
+        | Negotiation::Abandon { bidder, .. } => Some(bidder.as_str()),
+        Negotiation::Renew { by, .. } if by.as_str() != announcer => Some(by.as_str()),
+        _ => None,
+    };
+    match bidder {
+        Some(b) => match task.bidder_keys.get(b) {
+            Some(k) => *k == key,
+            // Bounded, with room for the bidders past MAX_BIDS that are
+            // only counted as missed.
+            None if task.bidder_keys.len() < 2 * MAX_BIDS => {
+                task.bidder_keys.insert(b.to_owned(), key);
+                true
+            }
+            None => false,
+        },
+        None => speaks(&mut task.announcer_key, key),
+    }
+}
+
+/// What a genuine negotiation message of round `round`, heard at `ms`, does to its task.
+fn apply_negotiation(task: &mut TaskView, round: u32, ms: u64, m: Negotiation) {
+    let from_winner =
+        |task: &TaskView, who: &str| task.winner.as_ref().is_none_or(|w| w.bidder == who);
+    match m {
+        Negotiation::Bid(b) => {
+            let bidder = b.bidder.to_string();
+            if let Some(old) = task
+                .bids
+                .iter_mut()
+                .find(|x| x.round == round && x.bidder == bidder)
+            {
+                old.score = b.score;
+                old.withdrawn = false;
+            } else if task.bids.len() < MAX_BIDS {
+                task.bids.push(BidView {
+                    round,
+                    bidder: bidder.clone(),
+                    score: b.score,
+                    withdrawn: false,
+                });
+            } else {
+                task.bids_missed += 1;
+            }
+            if task.state == TaskState::Announced {
+                task.state = TaskState::Bidding;
+            }
+            note(task, ms, format!("{bidder} bid {}", score_text(b.score)));
+        }
+        Negotiation::Decline { bidder, .. } => {
+            for b in task.bids.iter_mut() {
+                if b.round == round && b.bidder == bidder.as_str() {
+                    b.withdrawn = true;
+                }
+            }
+            note(task, ms, format!("{bidder} withdrew"));
+        }
+        Negotiation::Award {
+            winner,
+            score,
+            bids,
+            ..
+        } => {
+            let heard = task.bids.iter().filter(|b| b.round == round).count() as u32;
+            task.bids_missed = task.bids_missed.max(bids.saturating_sub(heard));
+            let why = if bids == 1 {
+                "the only bid".to_owned()
+            } else {
+                format!("the lowest of {bids} bids")
+            };
+            note(
+                task,
+                ms,
+                format!("awarded to {winner}: {} is {why}", score_text(score)),
+            );
+            task.winner = Some(WinnerView {
+                bidder: winner.to_string(),
+                score,
+                bids,
+            });
+            if !task.state.ended() {
+                task.state = TaskState::Awarded;
+            }
+        }
+        Negotiation::Ack { bidder, .. } => {
+            if from_winner(task, bidder.as_str()) && !task.state.ended() {
+                task.state = TaskState::Running;
+            }
+            note(task, ms, format!("{bidder} took it and started"));
+        }
+        Negotiation::Renew { by, progress, .. } => {
+            task.renewals += 1;
+            let by_winner = task
+                .winner
+                .as_ref()
+                .is_some_and(|w| w.bidder == by.as_str());
+            if by_winner {
+                if progress.is_some() {
+                    task.progress = progress;
+                }
+                if task.state == TaskState::Awarded {
+                    task.state = TaskState::Running;
+                }
+            }
+        }
+        Negotiation::Done { bidder, .. } => {
+            if task.state != TaskState::Done && from_winner(task, bidder.as_str()) {
+                task.state = TaskState::Done;
+                task.progress = Some(1.0);
+                note(task, ms, format!("{bidder} finished it"));
+            }
+        }
+        Negotiation::Abandon { bidder, reason, .. } => {
+            if from_winner(task, bidder.as_str()) && !task.state.ended() {
+                task.state = TaskState::Abandoned;
+            }
+            note(task, ms, format!("{bidder} gave it up: {reason}"));
+            task.reason = clip(&reason);
+        }
+        Negotiation::Cancel { reason, .. } => {
+            if !task.state.ended() {
+                task.state = TaskState::Cancelled;
+            }
+            note(task, ms, format!("the announcer withdrew it: {reason}"));
+            task.reason = clip(&reason);
+        }
+        Negotiation::Unachievable { name, reason, .. } => {
+            if task.name.is_empty() {
+                task.name = name;
+            }
+            task.state = TaskState::Unachievable;
+            note(task, ms, format!("unachievable: {reason}"));
+            task.reason = clip(&reason);
+        }
+    }
 }
 
 /// A packet worth decoding: one that starts with a MURDOCH label.
@@ -355,7 +495,7 @@ impl TaskBoard {
         match message {
             Message::Announce(a) => self.on_announce(now, a, key),
             Message::Negotiation { subject, message } => {
-                if let Some((announcer, id, round)) = read_subject(subject.as_str()) {
+                if let Some((announcer, id, round)) = parse_negotiation_subject(subject.as_str()) {
                     let announcer = announcer.to_owned();
                     self.on_negotiation(now, announcer, id, round, message, key);
                 }
@@ -408,7 +548,7 @@ impl TaskBoard {
     }
 
     fn on_announce(&mut self, now: Instant, a: Announcement, key: PublicKey) {
-        let round = read_subject(a.negotiation.as_str()).map_or(1, |(_, _, r)| r);
+        let round = parse_negotiation_subject(a.negotiation.as_str()).map_or(1, |(_, _, r)| r);
         let ms = self.ms(now);
         let task = self.entry(now, a.announcer.to_string(), a.id);
         if !speaks(&mut task.announcer_key, key) {
@@ -464,146 +604,11 @@ impl TaskBoard {
             new_round(task, round);
             task.state = TaskState::Bidding;
         }
-        // Who the message claims to come from: a bidder it names, or the announcer.
-        let bidder = match &m {
-            Negotiation::Bid(b) => Some(b.bidder.as_str()),
-            Negotiation::Ack { bidder, .. }
-            | Negotiation::Decline { bidder, .. }
-            | Negotiation::Done { bidder, .. }
-            | Negotiation::Abandon { bidder, .. } => Some(bidder.as_str()),
-            Negotiation::Renew { by, .. } if by.as_str() != announcer_token => Some(by.as_str()),
-            _ => None,
-        };
-        let genuine = match bidder {
-            Some(b) => match task.bidder_keys.get(b) {
-                Some(k) => *k == key,
-                // Bounded, with room for the bidders past MAX_BIDS that are
-                // only counted as missed.
-                None if task.bidder_keys.len() < 2 * MAX_BIDS => {
-                    task.bidder_keys.insert(b.to_owned(), key);
-                    true
-                }
-                None => false,
-            },
-            None => speaks(&mut task.announcer_key, key),
-        };
-        if !genuine {
+        if !sealed_by_its_speaker(task, &m, &announcer_token, key) {
             self.forged += 1;
             return;
         }
-        let from_winner =
-            |task: &TaskView, who: &str| task.winner.as_ref().is_none_or(|w| w.bidder == who);
-        match m {
-            Negotiation::Bid(b) => {
-                let bidder = b.bidder.to_string();
-                if let Some(old) = task
-                    .bids
-                    .iter_mut()
-                    .find(|x| x.round == round && x.bidder == bidder)
-                {
-                    old.score = b.score;
-                    old.withdrawn = false;
-                } else if task.bids.len() < MAX_BIDS {
-                    task.bids.push(BidView {
-                        round,
-                        bidder: bidder.clone(),
-                        score: b.score,
-                        withdrawn: false,
-                    });
-                } else {
-                    task.bids_missed += 1;
-                }
-                if task.state == TaskState::Announced {
-                    task.state = TaskState::Bidding;
-                }
-                note(task, ms, format!("{bidder} bid {}", score_text(b.score)));
-            }
-            Negotiation::Decline { bidder, .. } => {
-                for b in task.bids.iter_mut() {
-                    if b.round == round && b.bidder == bidder.as_str() {
-                        b.withdrawn = true;
-                    }
-                }
-                note(task, ms, format!("{bidder} withdrew"));
-            }
-            Negotiation::Award {
-                winner,
-                score,
-                bids,
-                ..
-            } => {
-                let heard = task.bids.iter().filter(|b| b.round == round).count() as u32;
-                task.bids_missed = task.bids_missed.max(bids.saturating_sub(heard));
-                let why = if bids == 1 {
-                    "the only bid".to_owned()
-                } else {
-                    format!("the lowest of {bids} bids")
-                };
-                note(
-                    task,
-                    ms,
-                    format!("awarded to {winner}: {} is {why}", score_text(score)),
-                );
-                task.winner = Some(WinnerView {
-                    bidder: winner.to_string(),
-                    score,
-                    bids,
-                });
-                if !task.state.ended() {
-                    task.state = TaskState::Awarded;
-                }
-            }
-            Negotiation::Ack { bidder, .. } => {
-                if from_winner(task, bidder.as_str()) && !task.state.ended() {
-                    task.state = TaskState::Running;
-                }
-                note(task, ms, format!("{bidder} took it and started"));
-            }
-            Negotiation::Renew { by, progress, .. } => {
-                task.renewals += 1;
-                let by_winner = task
-                    .winner
-                    .as_ref()
-                    .is_some_and(|w| w.bidder == by.as_str());
-                if by_winner {
-                    if progress.is_some() {
-                        task.progress = progress;
-                    }
-                    if task.state == TaskState::Awarded {
-                        task.state = TaskState::Running;
-                    }
-                }
-            }
-            Negotiation::Done { bidder, .. } => {
-                if task.state != TaskState::Done && from_winner(task, bidder.as_str()) {
-                    task.state = TaskState::Done;
-                    task.progress = Some(1.0);
-                    note(task, ms, format!("{bidder} finished it"));
-                }
-            }
-            Negotiation::Abandon { bidder, reason, .. } => {
-                if from_winner(task, bidder.as_str()) && !task.state.ended() {
-                    task.state = TaskState::Abandoned;
-                }
-                note(task, ms, format!("{bidder} gave it up: {reason}"));
-                task.reason = clip(&reason);
-            }
-            Negotiation::Cancel { reason, .. } => {
-                if !task.state.ended() {
-                    task.state = TaskState::Cancelled;
-                }
-                note(task, ms, format!("the announcer withdrew it: {reason}"));
-                task.reason = clip(&reason);
-            }
-            Negotiation::Unachievable { name, reason, .. } => {
-                if task.name.is_empty() {
-                    task.name = name;
-                }
-                task.state = TaskState::Unachievable;
-                note(task, ms, format!("unachievable: {reason}"));
-                task.reason = clip(&reason);
-            }
-        }
+        apply_negotiation(task, round, ms, m);
     }
 
     fn on_robot(&mut self, now: Instant, r: RobotReport) {
@@ -1162,7 +1167,10 @@ mod tests {
             b"@ <murdoch.robots> 0\nrobot name r1 mode idle battery 7 resources \"\"\n",
         );
         assert_eq!((b.version(), b.bad(), b.tasks().count()), (0, 2, 0));
-        assert_eq!(read_subject("murdoch..1.1"), None);
-        assert_eq!(read_subject("murdoch.a.b.1.2"), Some(("a.b", 1, 2)));
+        assert_eq!(parse_negotiation_subject("murdoch..1.1"), None);
+        assert_eq!(
+            parse_negotiation_subject("murdoch.a.b.1.2"),
+            Some(("a.b", 1, 2))
+        );
     }
 }

@@ -146,6 +146,96 @@ pub fn wrap_angle(a: f64) -> f64 {
     }
 }
 
+/// Writes a point as an `[x, y]` pair (for `#[serde(serialize_with)]`): the shape a page
+/// draws from.
+pub(crate) fn point_as_pair<S: serde::Serializer>(p: &Vec2, s: S) -> Result<S::Ok, S::Error> {
+    serde::Serialize::serialize(&(p.x, p.y), s)
+}
+
+/// Writes points as `[x, y]` pairs, as [`point_as_pair`] writes one.
+pub(crate) fn points_as_pairs<S: serde::Serializer>(
+    points: &[Vec2],
+    s: S,
+) -> Result<S::Ok, S::Error> {
+    s.collect_seq(points.iter().map(|p| (p.x, p.y)))
+}
+
+/// The gains of the go-to-point steering law every controller that drives a robot to a point
+/// uses: turn in proportion to the heading error, drive only when roughly facing the point, with
+/// the forward speed scaled by the cosine of the error. Each controller keeps its own gains.
+///
+/// ```
+/// use colony_proto::{Pose, Speed, Steer, Vec2};
+/// const GENTLE: Steer = Steer {
+///     turn_gain: 1.0,
+///     align: 0.5,
+///     speed: Speed::Ramp { over_cm: 20.0, base: 0.0, min: 0.1 },
+/// };
+/// let ahead = GENTLE.toward(Pose::default(), Vec2::new(100.0, 0.0));
+/// assert_eq!((ahead.forward, ahead.turn), (1.0, 0.0));
+/// let behind = GENTLE.toward(Pose::default(), Vec2::new(-100.0, 0.0));
+/// assert_eq!((behind.forward, behind.turn), (0.0, 1.0));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Steer {
+    /// Turn per radian of heading error; the turn saturates at a full turn either way.
+    pub turn_gain: f64,
+    /// The robot drives only while its heading error is below this, rad; otherwise it turns on
+    /// the spot.
+    pub align: f64,
+    /// How fast it goes, by its distance from the point.
+    pub speed: Speed,
+}
+
+/// A [`Steer`]'s forward speed (a fraction of full speed) by the distance to the point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Speed {
+    /// Full speed whatever the distance.
+    Full,
+    /// `d / over_cm + base` at distance `d` cm, kept between `min` and full speed: slower near
+    /// the point.
+    Ramp {
+        /// The distance over which the speed rises by a full speed, cm.
+        over_cm: f64,
+        /// The speed at the point itself, before `min` applies.
+        base: f64,
+        /// The least speed, however close.
+        min: f64,
+    },
+}
+
+impl Speed {
+    /// The speed at `distance` cm from the point.
+    pub fn at(self, distance: f64) -> f64 {
+        match self {
+            Speed::Full => 1.0,
+            Speed::Ramp { over_cm, base, min } => (distance / over_cm + base).clamp(min, 1.0),
+        }
+    }
+}
+
+impl Steer {
+    /// The wheels for a heading error of `error` rad (wrapped, counter-clockwise positive) at
+    /// `speed` when aligned.
+    pub fn wheels(&self, error: f64, speed: f64) -> WheelCommand {
+        WheelCommand {
+            forward: if error.abs() < self.align {
+                speed * error.cos()
+            } else {
+                0.0
+            },
+            turn: (self.turn_gain * error).clamp(-1.0, 1.0),
+        }
+    }
+
+    /// The wheels that take a robot at `me` to `target`.
+    pub fn toward(&self, me: Pose, target: Vec2) -> WheelCommand {
+        let to = target - me.position();
+        let error = wrap_angle(to.angle() - me.theta);
+        self.wheels(error, self.speed.at(to.length()))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

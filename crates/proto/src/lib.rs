@@ -8,7 +8,7 @@
 //!
 //! | module | what it holds |
 //! |---|---|
-//! | [`geometry`] | [`Vec2`], [`Pose`], [`WheelCommand`] with its one clamp rule, [`wrap_angle`] |
+//! | [`geometry`] | [`Vec2`], [`Pose`], [`WheelCommand`] with its one clamp rule, [`wrap_angle`], the go-to-point law [`Steer`] |
 //! | [`radio`] | the `radio` channel's wheel commands |
 //! | [`hold`] | the operator-override hold rule: which command is in force for each robot |
 //! | [`swarm`] | the swarm channels: `camera.N`, `vision` (in parts, with a reassembler), `debug`, `metrics` |
@@ -32,6 +32,6 @@ pub mod radio;
 pub mod swarm;
 
 pub use error::{DecodeError, Skimmed};
-pub use geometry::{wrap_angle, Pose, Vec2, WheelCommand};
+pub use geometry::{wrap_angle, Pose, Speed, Steer, Vec2, WheelCommand};
 pub use hold::CommandHold;
 pub use radio::{RadioCommand, RADIO};

@@ -14,10 +14,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
-use colony_node::{Link, LiveError};
+use colony_node::{Link, LiveError, Time};
 use colony_proto::radio::{self, RadioCommand};
 use colony_proto::swarm::{vision, VisionAssembler, VISION};
-use colony_proto::{wrap_angle, Pose, Vec2, WheelCommand};
+use colony_proto::{wrap_angle, Pose, Speed, Steer, Vec2, WheelCommand};
 use colony_wire::auth::Key;
 use colony_wire::{Priority, Request};
 
@@ -224,6 +224,17 @@ enum Trip {
     Blind,
 }
 
+/// A live robot's gains.
+const DRIVE: Steer = Steer {
+    turn_gain: 2.0,
+    align: 0.6,
+    speed: Speed::Ramp {
+        over_cm: 60.0,
+        base: 0.2,
+        min: 0.2,
+    },
+};
+
 /// Towards `goal`, the heading pushed away from robots closer than
 /// [`KEEP_CLEAR`] (and to the right of one straight ahead, so two robots
 /// meeting head-on pass each other).
@@ -241,8 +252,7 @@ fn steer(me: Pose, goal: Vec2, others: &[Vec2]) -> WheelCommand {
         }
     }
     let e = wrap_angle(dir.angle() - me.theta);
-    let speed = (d / 60.0 + 0.2).min(1.0);
-    WheelCommand::clamped(if e.abs() < 0.6 { speed * e.cos() } else { 0.0 }, 2.0 * e)
+    DRIVE.wheels(e, DRIVE.speed.at(d))
 }
 
 /// Runs the robot against the hub at `hub` until `stop` is set, passing each
@@ -253,110 +263,182 @@ pub fn run(
     stop: &AtomicBool,
     mut say: impl FnMut(&str),
 ) -> Result<RobotSummary, LiveError> {
-    let epoch = Instant::now();
-    let mut link = Link::new(connect(hub, config.key.as_ref())?, epoch);
-    let mut agent = Agent::new(
-        config.name.clone(),
-        config.resources.clone(),
-        config.agent.clone(),
-        link.now(),
-    );
-    agent.set_battery(config.battery);
-    // The hub's status report says which client is which robot, and what it has.
-    let about =
-        |agent: &Agent| Request::About(format!("agent {} {}", agent.id(), agent.resources()));
-    link.client_mut().set_standing(vec![about(&agent)])?;
-    let mut faults = config.faults.clone();
-    faults.sort_by_key(|f| f.at);
-    let mut faults = faults.into_iter().peekable();
-    let mut busy_until: Option<Instant> = None;
-    let mut charging_until: Option<Instant> = None;
-    let mut summary = RobotSummary::default();
-    let mut driver = config
-        .body
-        .map(|id| Driver::new(hub, id, config.key.as_ref()))
-        .transpose()?;
-    let stamp = |now: Instant| format!("{:7.2}", now.duration_since(epoch).as_secs_f64());
-    say(&format!(
-        "{} {} joins with {} (battery {:.2})",
-        stamp(epoch),
-        config.name,
-        agent.resources(),
-        agent.battery()
-    ));
+    let mut robot = Robot::join(hub, &config, &mut say)?;
     while !stop.load(Ordering::Relaxed) {
-        // Woken for the body's own times too: a task's end, a charge, a fault.
+        robot.wait()?;
+        let now_i = Instant::now();
+        let now = robot.link.now();
+        robot.follow_body(now_i, now, &mut say)?;
+        robot.apply_faults(now_i, now, &mut say)?;
+        robot.act_on_events(now_i, &mut say)?;
+        robot.end_work_and_charge(now_i, now, &mut say);
+        robot.link.flush(&mut robot.agent)?;
+    }
+    Ok(robot.summary)
+}
+
+/// A running robot: its agent and link, its body, and the times its body keeps (a task's
+/// end, a charge, the next fault).
+struct Robot<'c> {
+    config: &'c RobotConfig,
+    epoch: Instant,
+    link: Link,
+    agent: Agent,
+    faults: std::iter::Peekable<std::vec::IntoIter<Fault>>,
+    busy_until: Option<Instant>,
+    charging_until: Option<Instant>,
+    summary: RobotSummary,
+    driver: Option<Driver>,
+}
+
+/// What the hub's status report says of a robot: which client it is, and what it has.
+fn about(agent: &Agent) -> Request {
+    Request::About(format!("agent {} {}", agent.id(), agent.resources()))
+}
+
+impl<'c> Robot<'c> {
+    /// Connects the robot (and its body's eyes) to the hub and says so.
+    fn join(
+        hub: SocketAddr,
+        config: &'c RobotConfig,
+        say: &mut impl FnMut(&str),
+    ) -> Result<Robot<'c>, LiveError> {
+        let epoch = Instant::now();
+        let mut link = Link::new(connect(hub, config.key.as_ref())?, epoch);
+        let mut agent = Agent::new(
+            config.name.clone(),
+            config.resources.clone(),
+            config.agent.clone(),
+            link.now(),
+        );
+        agent.set_battery(config.battery);
+        link.client_mut().set_standing(vec![about(&agent)])?;
+        let mut faults = config.faults.clone();
+        faults.sort_by_key(|f| f.at);
+        let driver = config
+            .body
+            .map(|id| Driver::new(hub, id, config.key.as_ref()))
+            .transpose()?;
+        let robot = Robot {
+            config,
+            epoch,
+            link,
+            agent,
+            faults: faults.into_iter().peekable(),
+            busy_until: None,
+            charging_until: None,
+            summary: RobotSummary::default(),
+            driver,
+        };
+        say(&format!(
+            "{} {} joins with {} (battery {:.2})",
+            robot.stamp(epoch),
+            config.name,
+            robot.agent.resources(),
+            robot.agent.battery()
+        ));
+        Ok(robot)
+    }
+
+    /// `now` as the report writes it: seconds since the robot started.
+    fn stamp(&self, now: Instant) -> String {
+        format!("{:7.2}", now.duration_since(self.epoch).as_secs_f64())
+    }
+
+    /// Waits for the hub, or for the body's own next time, and takes in what came.
+    fn wait(&mut self) -> Result<(), LiveError> {
         let now_i = Instant::now();
         let body_due = [
-            busy_until,
-            charging_until,
-            faults.peek().map(|f| epoch + f.at),
+            self.busy_until,
+            self.charging_until,
+            self.faults.peek().map(|f| self.epoch + f.at),
         ]
         .into_iter()
         .flatten()
         .map(|t| t.saturating_duration_since(now_i))
         .min();
         // A body is steered at the pace its world sends frames (10 a second for a room).
-        let tick = Duration::from_millis(if driver.is_some() { 20 } else { 50 });
+        let tick = Duration::from_millis(if self.driver.is_some() { 20 } else { 50 });
         let wait = body_due.map_or(tick, |d| d.min(tick));
-        link.wait(&agent, Some(wait))?;
-        link.pump(&mut agent)?;
-        let now_i = Instant::now();
-        let now = link.now();
-        if let Some(d) = driver.as_mut() {
-            let seen = d.pose.is_some();
-            d.look(now_i)?;
-            if let Some(pose) = d.pose {
-                if !seen {
-                    say(&format!(
-                        "{} sees itself at ({:.0}, {:.0}) on vision",
-                        stamp(now_i),
-                        pose.x,
-                        pose.y
-                    ));
-                }
-                agent.set_position(pose.position());
-                agent.set_heading(pose.theta);
+        self.link.wait(&self.agent, Some(wait))?;
+        self.link.pump(&mut self.agent)
+    }
+
+    /// Looks at `vision`, tells the agent where the body is, and drives it on its trip; a
+    /// trip's end starts the task's work, or gives the task up when the body cannot see itself.
+    fn follow_body(
+        &mut self,
+        now_i: Instant,
+        now: Time,
+        say: &mut impl FnMut(&str),
+    ) -> Result<(), LiveError> {
+        let stamp = self.stamp(now_i);
+        let Some(d) = self.driver.as_mut() else {
+            return Ok(());
+        };
+        let seen = d.pose.is_some();
+        d.look(now_i)?;
+        if let Some(pose) = d.pose {
+            if !seen {
+                say(&format!(
+                    "{stamp} sees itself at ({:.0}, {:.0}) on vision",
+                    pose.x, pose.y
+                ));
             }
-            let trip = d.drive(now_i)?;
-            let at = d.goal.map(|(at, _)| at);
-            match (trip, d.goal) {
-                (Trip::There, Some((at, length))) => {
-                    d.goal = None;
-                    busy_until = Some(now_i + length);
-                    say(&format!(
-                        "{} at ({:.0}, {:.0}): starts work",
-                        stamp(now_i),
-                        at.x,
-                        at.y
-                    ));
-                }
-                (Trip::AsCloseAsItGets(off), Some((_, length))) => {
-                    d.goal = None;
-                    busy_until = Some(now_i + length);
-                    say(&format!(
-                        "{} gets no closer to ({:.0}, {:.0}) than {off:.0} cm: starts work here",
-                        stamp(now_i),
-                        at.map_or(0.0, |a| a.x),
-                        at.map_or(0.0, |a| a.y),
-                    ));
-                }
-                (Trip::Blind, Some(_)) => {
-                    d.goal = None;
-                    if let Some(task) = agent.abandon(now, "cannot see itself on vision") {
-                        summary.stopped += 1;
-                        say(&format!(
-                            "{} gives task #{task} up: body {} is not on vision",
-                            stamp(now_i),
-                            d.id
-                        ));
-                    }
-                }
-                _ => {}
-            }
+            self.agent.set_position(pose.position());
+            self.agent.set_heading(pose.theta);
         }
-        while let Some(fault) = faults.next_if(|f| epoch + f.at <= now_i) {
-            let mut names: Vec<String> = agent.resources().iter().map(|s| s.to_string()).collect();
+        let trip = d.drive(now_i)?;
+        let at = d.goal.map(|(at, _)| at);
+        match (trip, d.goal) {
+            (Trip::There, Some((at, length))) => {
+                d.goal = None;
+                self.busy_until = Some(now_i + length);
+                say(&format!(
+                    "{stamp} at ({:.0}, {:.0}): starts work",
+                    at.x, at.y
+                ));
+            }
+            (Trip::AsCloseAsItGets(off), Some((_, length))) => {
+                d.goal = None;
+                self.busy_until = Some(now_i + length);
+                say(&format!(
+                    "{stamp} gets no closer to ({:.0}, {:.0}) than {off:.0} cm: starts work here",
+                    at.map_or(0.0, |a| a.x),
+                    at.map_or(0.0, |a| a.y),
+                ));
+            }
+            (Trip::Blind, Some(_)) => {
+                d.goal = None;
+                if let Some(task) = self.agent.abandon(now, "cannot see itself on vision") {
+                    self.summary.stopped += 1;
+                    say(&format!(
+                        "{stamp} gives task #{task} up: body {} is not on vision",
+                        d.id
+                    ));
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// Fails or repairs the resources whose time has come; a task that needed a lost one
+    /// stops, and the hub is told what the robot now has.
+    fn apply_faults(
+        &mut self,
+        now_i: Instant,
+        now: Time,
+        say: &mut impl FnMut(&str),
+    ) -> Result<(), LiveError> {
+        let epoch = self.epoch;
+        while let Some(fault) = self.faults.next_if(|f| epoch + f.at <= now_i) {
+            let mut names: Vec<String> = self
+                .agent
+                .resources()
+                .iter()
+                .map(|s| s.to_string())
+                .collect();
             if fault.fails {
                 names.retain(|n| *n != fault.resource);
             } else if !names.contains(&fault.resource) {
@@ -366,47 +448,55 @@ pub fn run(
             let verb = if fault.fails { "fails" } else { "is repaired" };
             say(&format!(
                 "{} {} {}: now {}",
-                stamp(now_i),
+                self.stamp(now_i),
                 fault.resource,
                 verb,
                 resources
             ));
-            if agent.set_resources(now, resources).is_some() {
-                busy_until = None;
-                if let Some(d) = driver.as_mut() {
+            if self.agent.set_resources(now, resources).is_some() {
+                self.busy_until = None;
+                if let Some(d) = self.driver.as_mut() {
                     d.goal = None;
                     d.send(WheelCommand::STOP)?;
                 }
             }
-            link.client_mut().set_standing(vec![about(&agent)])?;
+            self.link
+                .client_mut()
+                .set_standing(vec![about(&self.agent)])?;
         }
-        while let Some(event) = agent.poll_event() {
+        Ok(())
+    }
+
+    /// Starts and stops tasks and charges as the agent says.
+    fn act_on_events(
+        &mut self,
+        now_i: Instant,
+        say: &mut impl FnMut(&str),
+    ) -> Result<(), LiveError> {
+        while let Some(event) = self.agent.poll_event() {
+            let stamp = self.stamp(now_i);
             match event {
                 AgentEvent::Start(ann) => {
-                    summary.started += 1;
+                    self.summary.started += 1;
                     let length = Duration::try_from_secs_f64(ann.spec.length_s).unwrap_or_default();
                     let place = ann.spec.number("x").zip(ann.spec.number("y"));
-                    match (driver.as_mut(), place) {
+                    match (self.driver.as_mut(), place) {
                         (Some(d), Some((x, y))) => d.set_off(Vec2::new(x, y), length, now_i),
-                        _ => busy_until = Some(now_i + length),
+                        _ => self.busy_until = Some(now_i + length),
                     }
-                    let whither = match (&driver, place) {
+                    let whither = match (&self.driver, place) {
                         (Some(_), Some((x, y))) => format!(", driving to ({x:.0}, {y:.0}) first"),
                         _ => String::new(),
                     };
                     say(&format!(
-                        "{} starts task #{} {} for {:.1} s (from {}){whither}",
-                        stamp(now_i),
-                        ann.id,
-                        ann.spec.name,
-                        ann.spec.length_s,
-                        ann.announcer
+                        "{stamp} starts task #{} {} for {:.1} s (from {}){whither}",
+                        ann.id, ann.spec.name, ann.spec.length_s, ann.announcer
                     ));
                 }
                 AgentEvent::Stop { task, name, reason } => {
-                    summary.stopped += 1;
-                    busy_until = None;
-                    if let Some(d) = driver.as_mut() {
+                    self.summary.stopped += 1;
+                    self.busy_until = None;
+                    if let Some(d) = self.driver.as_mut() {
                         d.goal = None;
                         d.send(WheelCommand::STOP)?;
                     }
@@ -415,40 +505,40 @@ pub fn run(
                         StopReason::AnnouncerSilent => "its announcer fell silent".to_owned(),
                         StopReason::LostResource(r) => format!("lost {r}; re-auctioned"),
                     };
-                    say(&format!(
-                        "{} stops task #{task} {name}: {why}",
-                        stamp(now_i)
-                    ));
+                    say(&format!("{stamp} stops task #{task} {name}: {why}"));
                 }
                 AgentEvent::Charge => {
-                    summary.charges += 1;
-                    charging_until = Some(now_i + config.charge_for);
+                    self.summary.charges += 1;
+                    self.charging_until = Some(now_i + self.config.charge_for);
                     say(&format!(
-                        "{} battery {:.2}: leaves every channel to charge",
-                        stamp(now_i),
-                        agent.battery()
+                        "{stamp} battery {:.2}: leaves every channel to charge",
+                        self.agent.battery()
                     ));
                 }
-                AgentEvent::Rejoined => say(&format!("{} charged: listens again", stamp(now_i))),
+                AgentEvent::Rejoined => say(&format!("{stamp} charged: listens again")),
                 _ => {}
             }
         }
-        if busy_until.is_some_and(|t| t <= now_i) {
-            busy_until = None;
-            agent.set_battery(agent.battery() - config.drain_per_task);
-            if let Some(task) = agent.finish(now) {
-                summary.finished += 1;
-                say(&format!("{} done with task #{task}", stamp(now_i)));
+        Ok(())
+    }
+
+    /// Finishes the task whose work is done (at a battery's cost) and the charge that is over.
+    fn end_work_and_charge(&mut self, now_i: Instant, now: Time, say: &mut impl FnMut(&str)) {
+        if self.busy_until.is_some_and(|t| t <= now_i) {
+            self.busy_until = None;
+            self.agent
+                .set_battery(self.agent.battery() - self.config.drain_per_task);
+            if let Some(task) = self.agent.finish(now) {
+                self.summary.finished += 1;
+                say(&format!("{} done with task #{task}", self.stamp(now_i)));
             }
         }
-        if charging_until.is_some_and(|t| t <= now_i) {
-            charging_until = None;
-            agent.set_battery(1.0);
-            agent.charged(now);
+        if self.charging_until.is_some_and(|t| t <= now_i) {
+            self.charging_until = None;
+            self.agent.set_battery(1.0);
+            self.agent.charged(now);
         }
-        link.flush(&mut agent)?;
     }
-    Ok(summary)
 }
 
 /// A client of the hub at `hub`, signing with `key` when there is one.

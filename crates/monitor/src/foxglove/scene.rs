@@ -16,7 +16,7 @@ use serde::Serialize;
 use serde_json::{json, Value};
 
 use crate::game::map::Map;
-use crate::game::GameStateView;
+use colony_proto::game::GameState;
 
 /// The schema name of a scene update.
 pub const SCENE_UPDATE: &str = "foxglove.SceneUpdate";
@@ -381,23 +381,23 @@ pub fn terrain_scene(map: &Map, ns: u64) -> Vec<u8> {
 }
 
 /// The game's robots and flags, as one `foxglove.SceneUpdate`.
-pub fn battlefield_scene(state: &GameStateView, ns: u64) -> Vec<u8> {
+pub fn battlefield_scene(state: &GameState, ns: u64) -> Vec<u8> {
     let team_colour = |team: &str| {
         let i = state.teams.iter().position(|t| t.name == team).unwrap_or(0);
         TEAM_COLOURS[i % TEAM_COLOURS.len()]
     };
     let mut robots = Entity::new(ns, BATTLEFIELD_FRAME, "robots");
     for r in state.robots.iter().filter(|r| r.alive) {
-        let (x, y) = (r.x * CM, r.y * CM);
+        let (x, y) = (r.pose.x * CM, r.pose.y * CM);
         robots.cylinders.push(Cylinder {
-            pose: pose(x, y, 0.05, r.theta),
+            pose: pose(x, y, 0.05, r.pose.theta),
             size: v3(0.3, 0.3, 0.1),
             bottom_scale: 1.0,
             top_scale: 1.0,
             color: colour(team_colour(&r.team), 1.0),
         });
         robots.arrows.push(Arrow {
-            pose: pose(x, y, 0.12, r.theta),
+            pose: pose(x, y, 0.12, r.pose.theta),
             shaft_length: 0.2,
             shaft_diameter: 0.04,
             head_length: 0.1,
@@ -410,7 +410,7 @@ pub fn battlefield_scene(state: &GameStateView, ns: u64) -> Vec<u8> {
         .flags
         .iter()
         .map(|f| Cube {
-            pose: pose(f.x * CM, f.y * CM, 0.3, 0.0),
+            pose: pose(f.at.x * CM, f.at.y * CM, 0.3, 0.0),
             size: v3(0.2, 0.2, 0.2),
             color: colour(team_colour(&f.team), 1.0),
         })

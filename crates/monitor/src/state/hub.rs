@@ -5,6 +5,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::{Duration, Instant};
 
+use colony_client::rate::rates_between;
 use colony_wire::{Packet, StatusReport, Subject, HUB_SUBJECT};
 use serde::Serialize;
 
@@ -134,28 +135,7 @@ impl HubView {
     /// previous one (none across a hub restart), and the channels it names.
     pub(super) fn on_status(&mut self, now: Instant, report: StatusReport) {
         self.last_from_hub = Some(now);
-        let dt_ms = match &self.status {
-            Some(prev) if report.uptime_ms > prev.uptime_ms => {
-                Some((report.uptime_ms - prev.uptime_ms) as f64)
-            }
-            _ => None,
-        };
-        let previous: BTreeMap<&str, u64> = self
-            .status
-            .iter()
-            .flat_map(|r| r.channels.iter())
-            .map(|c| (c.subjects.as_str(), c.packets))
-            .collect();
-        let mut rates = Vec::with_capacity(report.channels.len());
-        for c in &report.channels {
-            let rate = match (dt_ms, previous.get(c.subjects.as_str())) {
-                (Some(dt), Some(&before)) if c.packets >= before => {
-                    Some((c.packets - before) as f64 * 1000.0 / dt)
-                }
-                _ => None,
-            };
-            rates.push(rate);
-        }
+        let rates = rates_between(self.status.as_ref(), &report);
         for c in self.channels.values_mut() {
             c.in_status = false;
             c.rate = None;

@@ -1,27 +1,30 @@
 //! The steering law for a held robot the operator sent to a point.
 
-use colony_proto::{wrap_angle, Pose, Vec2, WheelCommand};
+use colony_proto::{Pose, Speed, Steer, Vec2, WheelCommand};
 
 /// A robot steered to a point stops this close to it (cm).
 pub const ARRIVED_CM: f64 = 3.0;
+
+/// The gains for a robot the operator sent to a point.
+const OPERATOR: Steer = Steer {
+    turn_gain: 1.2,
+    align: 0.6,
+    speed: Speed::Ramp {
+        over_cm: 15.0,
+        base: 0.0,
+        min: 0.15,
+    },
+};
 
 /// Turns toward `target` in proportion to the heading error, drives only when roughly aligned
 /// (slowing near the point and for the remaining error), and stops within [`ARRIVED_CM`] or
 /// when the pose or the point is not a number. `turn` > 0 is counter-clockwise.
 pub fn steer(pose: Pose, target: Vec2) -> WheelCommand {
-    let (dx, dy) = (target.x - pose.x, target.y - pose.y);
-    let dist = dx.hypot(dy);
+    let dist = (target - pose.position()).length();
     if !dist.is_finite() || !pose.theta.is_finite() || dist < ARRIVED_CM {
         return WheelCommand::STOP;
     }
-    let error = wrap_angle(dy.atan2(dx) - pose.theta);
-    let turn = (1.2 * error).clamp(-1.0, 1.0);
-    let forward = if error.abs() < 0.6 {
-        (dist / 15.0).clamp(0.15, 1.0) * error.cos()
-    } else {
-        0.0
-    };
-    WheelCommand { forward, turn }
+    OPERATOR.toward(pose, target)
 }
 
 #[cfg(test)]

@@ -8,9 +8,8 @@
 
 use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 
-use super::read::name;
 use super::ACTION;
-use crate::fields::{bad, robot_id};
+use crate::fields::{bad, plain_name, robot_id};
 use crate::DecodeError;
 
 /// What a robot asks the game logic to do to the world.
@@ -67,7 +66,7 @@ impl Action {
                     },
                     "pickup" => Action::PickUp {
                         robot: robot_id(&l, "id")?,
-                        flag: name(&l, "flag")?,
+                        flag: plain_name(&l, "flag")?,
                     },
                     "beep" => Action::Beep {
                         robot: robot_id(&l, "id")?,

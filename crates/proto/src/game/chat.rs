@@ -10,8 +10,7 @@
 use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 
 use super::chat_channel;
-use super::read::{name, text};
-use crate::fields::bad;
+use crate::fields::{bad, plain_name, text_or_empty};
 use crate::DecodeError;
 
 /// The longest chat text, characters: a line to read at a glance, not a document.
@@ -43,7 +42,7 @@ impl ChatLine {
         packet
             .lines_labelled("chat")
             .map(|l| {
-                let said = text(&l, "text")?;
+                let said = text_or_empty(&l, "text")?;
                 if said.chars().count() > MAX_CHAT || said.chars().any(char::is_control) {
                     return Err(bad(
                         &l,
@@ -52,7 +51,7 @@ impl ChatLine {
                 }
                 Ok(ChatLine {
                     team: team.to_string(),
-                    from: name(&l, "from")?,
+                    from: plain_name(&l, "from")?,
                     text: said,
                 })
             })

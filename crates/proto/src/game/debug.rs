@@ -7,9 +7,8 @@
 
 use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 
-use super::read::text;
 use super::DEBUG;
-use crate::fields::robot_id;
+use crate::fields::{robot_id, text_or_empty};
 use crate::DecodeError;
 
 /// A robot's active behaviour and the reason it has control.
@@ -39,8 +38,8 @@ impl RobotDebug {
         let l = packet.line("robot").ok_or(DecodeError::Missing("robot"))?;
         Ok(RobotDebug {
             robot: robot_id(&l, "id")?,
-            behaviour: text(&l, "behaviour")?,
-            reason: text(&l, "reason")?,
+            behaviour: text_or_empty(&l, "behaviour")?,
+            reason: text_or_empty(&l, "reason")?,
         })
     }
 }

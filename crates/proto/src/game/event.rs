@@ -7,9 +7,8 @@
 
 use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
 
-use super::read::{name, text};
 use super::EVENT;
-use crate::fields::{finite, r};
+use crate::fields::{finite, plain_name, r, text_or_empty};
 use crate::DecodeError;
 use crate::Skimmed;
 
@@ -61,9 +60,9 @@ impl Event {
 
     fn read(l: &Line<'_>) -> Result<Event, DecodeError> {
         Ok(Event {
-            kind: name(l, "kind")?,
+            kind: plain_name(l, "kind")?,
             time: finite(l, "time")?,
-            text: text(l, "text")?,
+            text: text_or_empty(l, "text")?,
         })
     }
 }

@@ -13,9 +13,8 @@
 use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
 use serde::Serialize;
 
-use super::read::{b, name, tally, text};
 use super::{RobotKind, LOBBY};
-use crate::fields::{bad, finite, flag, r};
+use crate::fields::{b, bad, finite, flag, plain_name, r, tally, text_or_empty};
 use crate::DecodeError;
 
 /// The longest setup text a player may send or the lobby publish.
@@ -145,12 +144,12 @@ impl LobbyState {
             match l.label() {
                 "kind" => state.kinds.push(kind(&l)?),
                 "team" => {
-                    let setup = text(&l, "setup")?;
+                    let setup = text_or_empty(&l, "setup")?;
                     if setup.len() > MAX_SETUP {
                         return Err(bad(&l, format!("a setup is at most {MAX_SETUP} bytes")));
                     }
                     state.teams.push(LobbyTeam {
-                        name: name(&l, "name")?,
+                        name: plain_name(&l, "name")?,
                         ready: flag(&l, "ready")?,
                         bot: flag(&l, "bot")?,
                         cost: tally(&l, "cost")?,

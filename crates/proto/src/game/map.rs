@@ -16,10 +16,10 @@
 use std::ops::Range;
 
 use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
+use serde::Serialize;
 
-use super::read::name;
 use super::MAP;
-use crate::fields::{coord, r};
+use crate::fields::{coord, plain_name, r};
 use crate::{DecodeError, Vec2};
 
 /// The widest and tallest map accepted, cells (the Moving AI maps go to 1024).
@@ -35,19 +35,21 @@ const TERRAIN: &[u8] = b".GSTWO@";
 /// Map rows per part are limited to about this many bytes, so every part fits one datagram.
 const MAP_PART_BYTES: usize = 48_000;
 
-/// A team's base and flag stand, cm.
-#[derive(Debug, Clone, PartialEq)]
+/// A team's base and flag stand, cm. As JSON each point is an `[x, y]` pair.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Site {
     /// The team.
     pub team: String,
     /// The centre of its base cell.
+    #[serde(serialize_with = "crate::geometry::point_as_pair")]
     pub base: Vec2,
     /// The centre of its flag's cell.
+    #[serde(serialize_with = "crate::geometry::point_as_pair")]
     pub flag: Vec2,
 }
 
 /// A whole battlefield as the map packets carry it.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct GameMap {
     /// Cells across.
     pub width: u32,
@@ -189,7 +191,7 @@ fn row(line: &Line<'_>, width: u32, height: usize) -> Option<(usize, String)> {
 /// A `site` line.
 fn site(line: &Line<'_>) -> Result<Site, DecodeError> {
     Ok(Site {
-        team: name(line, "team")?,
+        team: plain_name(line, "team")?,
         base: Vec2::new(coord(line, "base_x")?, coord(line, "base_y")?),
         flag: Vec2::new(coord(line, "flag_x")?, coord(line, "flag_y")?),
     })

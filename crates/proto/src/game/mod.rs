@@ -29,7 +29,6 @@ pub mod map;
 pub mod names;
 pub mod order;
 pub mod player;
-mod read;
 pub mod sense;
 pub mod squad;
 pub mod state;

@@ -5,17 +5,7 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
-/// The longest team, squad or formation name, bytes.
-pub const MAX_NAME: usize = 32;
-
-/// A name usable as a token in packets and channel names: 1 to [`MAX_NAME`] characters of
-/// `A-Z a-z 0-9 _ -`.
-pub fn valid_name(s: &str) -> bool {
-    !s.is_empty()
-        && s.len() <= MAX_NAME
-        && s.bytes()
-            .all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'_')
-}
+pub use crate::fields::{valid_plain_name as valid_name, MAX_NAME};
 
 /// The four robot types of the paper (their numbers are the game's rules, not the message's).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]

@@ -12,10 +12,8 @@ use std::fmt;
 
 use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
 
-use super::read::name;
 use super::robot_channel;
-use crate::fields::count;
-use crate::fields::{bad, coord, finite, r, robot_id, within};
+use crate::fields::{bad, coord, count, finite, plain_name, r, robot_id, within};
 use crate::{DecodeError, Vec2};
 
 /// One robot command (the paper's Table 2, plus PickUp from its Capture the
@@ -126,7 +124,7 @@ impl Command {
                 at: Vec2::new(coord(l, "x")?, coord(l, "y")?),
             },
             "pickup" => Command::PickUp {
-                flag: name(l, "flag")?,
+                flag: plain_name(l, "flag")?,
             },
             "stop" => Command::Stop,
             "drive" => Command::Drive {

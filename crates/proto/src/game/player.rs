@@ -21,9 +21,8 @@
 use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
 
 use super::player_channel;
-use super::read::name;
 use super::squad::{read_verb, write_verb, SquadCommand, Verb};
-use crate::fields::{bad, robot_id, within};
+use crate::fields::{bad, plain_name, robot_id, within};
 use crate::DecodeError;
 
 /// How long one `drive` holds the wheels, s: a page repeats it faster while a key is held.
@@ -244,15 +243,15 @@ fn read(team: &str, l: &Line<'_>) -> Result<PlayerCommand, DecodeError> {
             }
             PlayerCommand::Split {
                 team,
-                squad: name(l, "name")?,
+                squad: plain_name(l, "name")?,
                 robots,
-                into: name(l, "into")?,
+                into: plain_name(l, "into")?,
             }
         }
         "merge" => PlayerCommand::Merge {
             team,
-            squad: name(l, "name")?,
-            into: name(l, "into")?,
+            squad: plain_name(l, "name")?,
+            into: plain_name(l, "into")?,
         },
         "drive" => PlayerCommand::Drive {
             team,

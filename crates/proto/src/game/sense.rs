@@ -7,10 +7,8 @@
 
 use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 
-use super::read::b;
 use super::sense_channel;
-use crate::fields::{coord, finite, r};
-use crate::fields::{count, flag};
+use crate::fields::{b, coord, count, finite, flag, r};
 use crate::{DecodeError, Pose};
 
 /// What a robot's sensors report (the paper's touch sensors, sonar and

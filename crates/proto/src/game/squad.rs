@@ -10,9 +10,8 @@ use std::fmt;
 
 use colony_wire::{Line, LineBuilder, Packet, PacketBuilder, ParseError, Priority};
 
-use super::read::{name, parse_path, path_text};
 use super::{player_channel, Formation};
-use crate::fields::{bad, coord, r, robot_id};
+use crate::fields::{bad, coord, parse_path, path_text, plain_name, r, robot_id};
 use crate::{DecodeError, Vec2};
 
 /// What a squad command is about.
@@ -133,7 +132,7 @@ impl SquadCommand {
         };
         Ok(SquadCommand {
             team,
-            squad: name(l, "name")?,
+            squad: plain_name(l, "name")?,
             verb,
             formation,
         })
@@ -201,9 +200,9 @@ pub(crate) fn read_verb(l: &Line<'_>) -> Result<Verb, DecodeError> {
             let target = if l.get("robot").is_some() {
                 Target::Robot(robot_id(l, "robot")?)
             } else if l.get("flag").is_some() {
-                Target::Flag(name(l, "flag")?)
+                Target::Flag(plain_name(l, "flag")?)
             } else if l.get("base").is_some() {
-                Target::Base(name(l, "base")?)
+                Target::Base(plain_name(l, "base")?)
             } else if l.get("x").is_some() {
                 Target::Point(Vec2::new(coord(l, "x")?, coord(l, "y")?))
             } else {
@@ -215,7 +214,7 @@ pub(crate) fn read_verb(l: &Line<'_>) -> Result<Verb, DecodeError> {
                 Verb::Attack(target)
             }
         }
-        "capture" => Verb::Capture(name(l, "flag")?),
+        "capture" => Verb::Capture(plain_name(l, "flag")?),
         "path" => {
             let points = parse_path(l, &l.str("points")?)?;
             if points.is_empty() || points.len() > MAX_DRAWN_POINTS {

@@ -15,16 +15,19 @@
 //! viewer reads it with [`GameState::decode_lenient`], which skips and counts bad lines.
 
 use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
+use serde::Serialize;
 
-use super::read::{b, name, parse_path, path_text, tally, text};
 use super::{Formation, RobotKind, STATE};
-use crate::fields::flag;
-use crate::fields::{bad, coord, finite, r, robot_id};
+use crate::fields::{
+    b, bad, coord, finite, flag, parse_path, path_text, plain_name, r, robot_id, tally,
+    text_or_empty,
+};
 use crate::Skimmed;
 use crate::{DecodeError, Pose, Vec2};
 
 /// Where a game stands.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Status {
     /// Being played.
     Running,
@@ -33,7 +36,7 @@ pub enum Status {
 }
 
 /// A team's standing.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TeamState {
     /// Its name.
     pub name: String,
@@ -44,20 +47,21 @@ pub struct TeamState {
 }
 
 /// A flag as the game logic knows it.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FlagState {
     /// Whose flag.
     pub team: String,
     /// Where it is, cm.
+    #[serde(flatten)]
     pub at: Vec2,
-    /// The robot carrying it.
-    pub carrier: Option<u32>,
     /// It is on its stand at its base.
     pub home: bool,
+    /// The robot carrying it.
+    pub carrier: Option<u32>,
 }
 
 /// A robot as the game logic knows it.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct RobotState {
     /// Its id.
     pub id: u32,
@@ -68,6 +72,7 @@ pub struct RobotState {
     /// Its type.
     pub kind: RobotKind,
     /// Where it is.
+    #[serde(flatten)]
     pub pose: Pose,
     /// Health left.
     pub health: f64,
@@ -84,7 +89,7 @@ pub struct RobotState {
 }
 
 /// A squad as the game logic knows it.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SquadState {
     /// Its team.
     pub team: String,
@@ -97,11 +102,15 @@ pub struct SquadState {
     /// The squad behaviour in control and why.
     pub behaviour: String,
     /// The planned path's turn points, cm.
+    #[serde(serialize_with = "crate::geometry::points_as_pairs")]
     pub path: Vec<Vec2>,
 }
 
 /// The whole game as a player sees it.
-#[derive(Debug, Clone, PartialEq)]
+///
+/// As JSON (the monitor's game page reads it so) a pose or a flag's place is written as its
+/// `x`, `y` (and `theta`) beside the other fields, and a path as `[x, y]` pairs.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct GameState {
     /// The mode (`ctf` or `dm`).
     pub mode: String,
@@ -140,16 +149,16 @@ fn head(g: &Line<'_>) -> Result<GameState, DecodeError> {
         "over" => Status::Over,
         other => return Err(bad(g, format!("unknown status {other:?}"))),
     };
-    let winner = match name(g, "winner")?.as_str() {
+    let winner = match plain_name(g, "winner")?.as_str() {
         "-" => None,
         w => Some(w.to_string()),
     };
     Ok(GameState {
-        mode: name(g, "mode")?,
+        mode: plain_name(g, "mode")?,
         status,
         time: finite(g, "time")?,
         winner,
-        reason: text(g, "reason")?,
+        reason: text_or_empty(g, "reason")?,
         teams: Vec::new(),
         flags: Vec::new(),
         robots: Vec::new(),
@@ -162,12 +171,12 @@ fn head(g: &Line<'_>) -> Result<GameState, DecodeError> {
 fn add_line(state: &mut GameState, l: &Line<'_>) -> Result<(), DecodeError> {
     match l.label() {
         "team" => state.teams.push(TeamState {
-            name: name(l, "name")?,
+            name: plain_name(l, "name")?,
             score: tally(l, "score")?,
             kills: tally(l, "kills")?,
         }),
         "flag" => state.flags.push(FlagState {
-            team: name(l, "team")?,
+            team: plain_name(l, "team")?,
             at: Vec2::new(coord(l, "x")?, coord(l, "y")?),
             home: flag(l, "home")?,
             carrier: match l.get("carrier") {
@@ -177,8 +186,8 @@ fn add_line(state: &mut GameState, l: &Line<'_>) -> Result<(), DecodeError> {
         }),
         "robot" => state.robots.push(RobotState {
             id: robot_id(l, "id")?,
-            team: name(l, "team")?,
-            squad: name(l, "squad")?,
+            team: plain_name(l, "team")?,
+            squad: plain_name(l, "squad")?,
             kind: l
                 .str("kind")?
                 .parse::<RobotKind>()
@@ -199,19 +208,19 @@ fn add_line(state: &mut GameState, l: &Line<'_>) -> Result<(), DecodeError> {
                 None => 0.0,
             },
             alive: flag(l, "alive")?,
-            behaviour: text(l, "behaviour")?,
-            reason: text(l, "reason")?,
+            behaviour: text_or_empty(l, "behaviour")?,
+            reason: text_or_empty(l, "reason")?,
         }),
         "squad" => state.squads.push(SquadState {
-            team: name(l, "team")?,
-            name: name(l, "name")?,
+            team: plain_name(l, "team")?,
+            name: plain_name(l, "name")?,
             formation: l
                 .str("formation")?
                 .parse::<Formation>()
                 .map_err(|e| bad(l, e.to_string()))?,
-            order: text(l, "order")?,
-            behaviour: text(l, "behaviour")?,
-            path: parse_path(l, &text(l, "path")?)?,
+            order: text_or_empty(l, "order")?,
+            behaviour: text_or_empty(l, "behaviour")?,
+            path: parse_path(l, &text_or_empty(l, "path")?)?,
         }),
         _ => {}
     }

@@ -8,10 +8,8 @@
 
 use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 
-use super::read::b;
 use super::WORLD;
-use crate::fields::{coord, finite, r, robot_id};
-use crate::fields::{count, flag};
+use crate::fields::{b, coord, count, finite, flag, r, robot_id};
 use crate::{DecodeError, Pose};
 
 /// One robot in a world frame.

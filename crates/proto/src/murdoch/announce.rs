@@ -6,11 +6,11 @@ use std::time::Duration;
 use colony_wire::{Packet, PacketBuilder, Priority, Subject, Value};
 
 use super::error::{unwritable, EncodeError};
-use super::fields::{self, bad, MAX_DEADLINE, MAX_LENGTH_S};
 use super::{
-    MetricTerm, Param, ParamValue, ResourceSet, TaskSpec, Token, IDLE, MAX_METRICS, MAX_PARAMS,
-    MESSAGES, NEGOTIATION_PREFIX,
+    MetricTerm, Param, ParamValue, ResourceSet, TaskSpec, Token, IDLE, MAX_LENGTH_S, MAX_METRICS,
+    MAX_PARAMS, MESSAGES, NEGOTIATION_PREFIX,
 };
+use crate::fields::{self, bad_field, MAX_DEADLINE};
 use crate::DecodeError;
 
 /// A task on offer: published to its resources and [`IDLE`], so that only robots
@@ -120,22 +120,22 @@ impl Announcement {
         }
         let negotiation = fields::subject(&first, "negotiation")?;
         if !negotiation.as_str().starts_with(NEGOTIATION_PREFIX) {
-            return Err(bad(
+            return Err(bad_field(
                 &first,
                 "negotiation",
                 format!("`{negotiation}` does not start with `{NEGOTIATION_PREFIX}`"),
             ));
         }
-        let length_s = fields::finite(&first, "length_s")?;
+        let length_s = fields::finite_within_magnitude(&first, "length_s")?;
         if !(0.0..=MAX_LENGTH_S).contains(&length_s) {
-            return Err(bad(
+            return Err(bad_field(
                 &first,
                 "length_s",
                 format!("{length_s} is not between 0 and {MAX_LENGTH_S} s"),
             ));
         }
         let mut spec = TaskSpec {
-            name: fields::name(&first, "name")?,
+            name: fields::subject_name(&first, "name")?,
             resources,
             length_s,
             params: Vec::new(),
@@ -148,29 +148,39 @@ impl Announcement {
             match line.label() {
                 "param" => {
                     if spec.params.len() == MAX_PARAMS {
-                        return Err(bad(
+                        return Err(bad_field(
                             &line,
                             "param",
                             format!("more than {MAX_PARAMS} params"),
                         ));
                     }
-                    let name = fields::name(&line, "name")?;
+                    let name = fields::subject_name(&line, "name")?;
                     if spec.params.iter().any(|p| p.name == name) {
-                        return Err(bad(&line, "name", format!("param `{name}` appears twice")));
+                        return Err(bad_field(
+                            &line,
+                            "name",
+                            format!("param `{name}` appears twice"),
+                        ));
                     }
                     let value = match line.get("value") {
                         Some(Value::Quoted(q)) => ParamValue::Text(fields::clip(&q.unescape())),
                         Some(Value::Bare(t)) => match t.parse::<f64>() {
-                            Ok(_) => ParamValue::Number(fields::finite(&line, "value")?),
+                            Ok(_) => {
+                                ParamValue::Number(fields::finite_within_magnitude(&line, "value")?)
+                            }
                             Err(_) => ParamValue::Text(fields::clip(t)),
                         },
                         Some(Value::Group(_)) => {
-                            return Err(bad(&line, "value", "a group is not a parameter value"))
+                            return Err(bad_field(
+                                &line,
+                                "value",
+                                "a group is not a parameter value",
+                            ))
                         }
                         None => {
                             return Err(match line.str("value") {
                                 Err(e) => e.into(),
-                                Ok(_) => bad(&line, "value", "missing"),
+                                Ok(_) => bad_field(&line, "value", "missing"),
                             })
                         }
                     };
@@ -178,21 +188,25 @@ impl Announcement {
                 }
                 "metric" => {
                     if spec.metrics.len() == MAX_METRICS {
-                        return Err(bad(
+                        return Err(bad_field(
                             &line,
                             "metric",
                             format!("more than {MAX_METRICS} metrics"),
                         ));
                     }
-                    let name = fields::name(&line, "name")?;
+                    let name = fields::subject_name(&line, "name")?;
                     if spec.metrics.iter().any(|m| m.name == name) {
-                        return Err(bad(&line, "name", format!("metric `{name}` appears twice")));
+                        return Err(bad_field(
+                            &line,
+                            "name",
+                            format!("metric `{name}` appears twice"),
+                        ));
                     }
-                    let weight = fields::finite(&line, "weight")?;
+                    let weight = fields::finite_within_magnitude(&line, "weight")?;
                     spec.metrics.push(MetricTerm { name, weight });
                 }
                 other => {
-                    return Err(bad(
+                    return Err(bad_field(
                         &line,
                         "label",
                         format!("`{other}` lines do not belong in a task (param, metric)"),

@@ -6,13 +6,13 @@
 //!
 //! | module | what it holds |
 //! |---|---|
-//! | [`resource`] | [`ResourceSet`], [`IDLE`], [`negotiation_subject`]: the whole of MURDOCH's addressing |
+//! | [`resource`] | [`ResourceSet`], [`IDLE`], [`negotiation_subject`] and its inverse [`parse_negotiation_subject`]: the whole of MURDOCH's addressing |
 //! | [`token`] | [`Token`], the short name a bidder or announcer gives itself |
 //! | [`task`] | [`TaskSpec`]: a task as a user writes it |
 //! | [`announce`] | [`Announcement`]: a task on offer |
 //! | [`negotiate`] | [`Negotiation`], [`Bid`]: bids, awards, renewals, the end of a task |
 //! | [`robot`] | [`RobotReport`]: a robot's mode, battery, resources and task, for watchers |
-//! | [`fields`] | the limits every reader holds values to ([`MAX_MAGNITUDE`], ...) |
+//! | [`crate::fields`] | the limits every reader holds values to ([`MAX_MAGNITUDE`], ...), shared with the other messages |
 //! | [`error`] | [`EncodeError`]; reading fails with the crate's [`DecodeError`] |
 //!
 //! # The messages
@@ -92,23 +92,24 @@
 
 pub mod announce;
 pub mod error;
-pub mod fields;
 pub mod negotiate;
 pub mod resource;
 pub mod robot;
 pub mod task;
 pub mod token;
 
+pub use crate::fields::{valid_subject_name as valid_name, MAX_DEADLINE, MAX_MAGNITUDE, MAX_TEXT};
 pub use announce::Announcement;
 pub use error::EncodeError;
-pub use fields::{valid_name, MAX_DEADLINE, MAX_LENGTH_S, MAX_MAGNITUDE, MAX_TEXT};
 pub use negotiate::{Bid, Negotiation};
 pub use resource::{
-    negotiation_subject, ResourceError, ResourceSet, IDLE, MAX_TASK_RESOURCES, NEGOTIATION_PREFIX,
+    negotiation_subject, parse_negotiation_subject, ResourceError, ResourceSet, IDLE,
+    MAX_TASK_RESOURCES, NEGOTIATION_PREFIX,
 };
 pub use robot::{RobotMode, RobotReport, ROBOTS};
 pub use task::{
-    MetricTerm, Param, ParamValue, SpecError, TaskSpec, MAX_METRICS, MAX_METRIC_VALUE, MAX_PARAMS,
+    MetricTerm, Param, ParamValue, SpecError, TaskSpec, MAX_LENGTH_S, MAX_METRICS,
+    MAX_METRIC_VALUE, MAX_PARAMS,
 };
 pub use token::{Token, TokenError, MAX_TOKEN_LEN};
 

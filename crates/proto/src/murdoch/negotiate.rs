@@ -3,8 +3,8 @@
 use colony_wire::{Line, PacketBuilder, Priority, Subject};
 
 use super::error::{unwritable, EncodeError};
-use super::fields::{self, clip, valid_name};
 use super::{Token, MESSAGES, NEGOTIATION_PREFIX};
+use crate::fields::{self, clip, valid_subject_name as valid_name};
 use crate::DecodeError;
 
 /// A robot's offer: its score for the task (a cost: lowest wins).
@@ -217,13 +217,13 @@ impl Negotiation {
             "bid" => Negotiation::Bid(Bid {
                 task,
                 bidder: bidder()?,
-                score: fields::finite(line, "score")?,
+                score: fields::finite_within_magnitude(line, "score")?,
             }),
             "award" => Negotiation::Award {
                 task,
                 winner: fields::token(line, "winner")?,
-                score: fields::finite(line, "score")?,
-                bids: fields::count(line, "bids")?,
+                score: fields::finite_within_magnitude(line, "score")?,
+                bids: fields::tally(line, "bids")?,
             },
             "ack" => Negotiation::Ack {
                 task,
@@ -248,16 +248,16 @@ impl Negotiation {
             "abandon" => Negotiation::Abandon {
                 task,
                 bidder: bidder()?,
-                reason: fields::text(line, "reason")?,
+                reason: fields::clipped_text(line, "reason")?,
             },
             "cancel" => Negotiation::Cancel {
                 task,
-                reason: fields::text(line, "reason")?,
+                reason: fields::clipped_text(line, "reason")?,
             },
             "unachievable" => Negotiation::Unachievable {
                 task,
-                name: fields::name(line, "name")?,
-                reason: fields::text(line, "reason")?,
+                name: fields::subject_name(line, "name")?,
+                reason: fields::clipped_text(line, "reason")?,
             },
             other => {
                 return Err(DecodeError::UnknownMessage {

@@ -138,6 +138,18 @@ pub fn negotiation_subject(announcer: &Token, task: u64, attempt: u32) -> Subjec
         .expect("a token and two numbers always make a valid subject")
 }
 
+/// The announcer, task number and attempt a negotiation subject names: the inverse of
+/// [`negotiation_subject`]. A viewer reads subjects it did not make, so the announcer is
+/// whatever non-empty text precedes the two numbers, token or not.
+pub fn parse_negotiation_subject(subject: &str) -> Option<(&str, u64, u32)> {
+    let rest = subject.strip_prefix(NEGOTIATION_PREFIX)?;
+    let mut parts = rest.rsplitn(3, '.');
+    let attempt = parts.next()?.parse().ok()?;
+    let task = parts.next()?.parse().ok()?;
+    let announcer = parts.next().filter(|a| !a.is_empty())?;
+    Some((announcer, task, attempt))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -247,6 +259,20 @@ mod tests {
     }
 
     #[test]
+    fn a_subject_that_is_not_a_negotiation_reads_as_none() {
+        for s in [
+            "idle",
+            "murdoch.",
+            "murdoch..1.1",
+            "murdoch.u.1",
+            "murdoch.u.x.1",
+            "murdoch.u.1.-1",
+        ] {
+            assert_eq!(parse_negotiation_subject(s), None, "{s}");
+        }
+    }
+
+    #[test]
     fn the_longest_negotiation_subject_still_fits_a_subject() {
         let longest = Token::new(&"z".repeat(MAX_TOKEN_LEN)).unwrap();
         let s = negotiation_subject(&longest, u64::MAX, u32::MAX);
@@ -271,6 +297,17 @@ mod tests {
             let s = negotiation_subject(&Token::new(&who).unwrap(), task, attempt);
             proptest::prop_assert!(s.as_str().starts_with(NEGOTIATION_PREFIX));
             proptest::prop_assert!(ResourceSet::check(s.as_str()).is_err());
+        }
+
+        #[test]
+        fn a_negotiation_subject_reads_back_as_what_made_it(
+            who in "[A-Za-z0-9_-]{1,24}", task in proptest::num::u64::ANY, attempt in proptest::num::u32::ANY,
+        ) {
+            let s = negotiation_subject(&Token::new(&who).unwrap(), task, attempt);
+            proptest::prop_assert_eq!(
+                parse_negotiation_subject(s.as_str()),
+                Some((who.as_str(), task, attempt))
+            );
         }
     }
 }

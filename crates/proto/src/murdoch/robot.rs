@@ -5,8 +5,8 @@
 use colony_wire::{Line, PacketBuilder, Priority};
 
 use super::error::{unwritable, EncodeError};
-use super::fields::{self, clip, valid_name};
 use super::{ResourceSet, Token};
+use crate::fields::{self, clip, valid_subject_name as valid_name};
 use crate::DecodeError;
 
 /// The channel robots report on.
@@ -86,7 +86,7 @@ impl RobotReport {
             "working" => RobotMode::Working,
             "charging" => RobotMode::Charging,
             other => {
-                return Err(fields::bad(
+                return Err(fields::bad_field(
                     line,
                     "mode",
                     format!("`{}` is not idle, working or charging", clip(other)),
@@ -96,11 +96,11 @@ impl RobotReport {
         let resources = line
             .str("resources")?
             .parse::<ResourceSet>()
-            .map_err(|e| fields::bad(line, "resources", e.to_string()))?;
+            .map_err(|e| fields::bad_field(line, "resources", e.to_string()))?;
         let task = match line.get("task") {
             Some(_) => Some((
                 fields::task_number(line, "task")?,
-                fields::name(line, "task_name")?,
+                fields::subject_name(line, "task_name")?,
             )),
             None => None,
         };

@@ -3,8 +3,11 @@
 
 use std::fmt;
 
-use super::fields::{self, valid_name, MAX_LENGTH_S, MAX_MAGNITUDE, MAX_TEXT};
 use super::{ResourceSet, MAX_TASK_RESOURCES};
+use crate::fields::{self, valid_subject_name as valid_name, MAX_MAGNITUDE, MAX_TEXT};
+
+/// The longest task length, s (a week).
+pub const MAX_LENGTH_S: f64 = 7.0 * 24.0 * 3600.0;
 
 /// The most `param` lines one task may carry.
 pub const MAX_PARAMS: usize = 32;

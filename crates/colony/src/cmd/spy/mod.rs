@@ -14,7 +14,6 @@ mod fields;
 mod missed;
 mod model;
 mod playback;
-mod rate;
 mod view;
 
 use std::io::IsTerminal as _;

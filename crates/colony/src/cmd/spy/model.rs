@@ -11,11 +11,11 @@ use std::collections::{BTreeMap, VecDeque};
 use std::ops::Bound;
 use std::time::Duration;
 
+use colony_client::rate::RateWindow;
 use colony_wire::{Packet, Priority, StatusReport};
 
 use super::fields::{self, printable};
 use super::missed::Missed;
-use super::rate::RateWindow;
 
 /// Channels tracked at most (the hub itself counts at most 1024); packets on more are counted
 /// apart.

@@ -146,3 +146,22 @@ proptest! {
         prop_assert!(m.map().is_none_or(|m| m.rows.len() == m.height as usize));
     }
 }
+
+#[test]
+fn as_json_a_map_writes_its_points_as_pairs() {
+    let map = GameMap {
+        width: 2,
+        height: 1,
+        cell: 20.0,
+        rows: vec!["@.".into()],
+        sites: vec![Site {
+            team: "red".into(),
+            base: Vec2::new(10.0, 10.0),
+            flag: Vec2::new(30.5, 10.0),
+        }],
+    };
+    assert_eq!(
+        serde_json::to_string(&map).unwrap(),
+        r#"{"width":2,"height":1,"cell":20.0,"rows":["@."],"sites":[{"team":"red","base":[10.0,10.0],"flag":[30.5,10.0]}]}"#
+    );
+}

@@ -181,3 +181,11 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn as_json_a_state_writes_poses_and_places_as_x_y_and_paths_as_pairs() {
+    assert_eq!(
+        serde_json::to_string(&sample()).unwrap(),
+        r#"{"mode":"ctf","status":"running","time":12.4,"winner":null,"reason":"","teams":[{"name":"red","score":0,"kills":1},{"name":"blue","score":1,"kills":0}],"flags":[{"team":"blue","x":800.0,"y":900.0,"home":false,"carrier":3},{"team":"red","x":100.0,"y":90.0,"home":true,"carrier":null}],"robots":[{"id":4,"team":"blue","squad":"alpha","kind":"scout","x":700.0,"y":800.0,"theta":3.1,"health":45.0,"max_health":45.0,"power":0.0,"alive":true,"behaviour":"goto","reason":"following the path"},{"id":3,"team":"red","squad":"alpha","kind":"tank","x":310.5,"y":88.2,"theta":1.57,"health":120.0,"max_health":120.0,"power":0.0,"alive":true,"behaviour":"shoot","reason":"enemy 4 in range"}],"squads":[{"team":"red","name":"alpha","formation":"wedge","order":"attack robot 4","behaviour":"attack","path":[[310.0,88.0],[400.0,120.0],[700.0,800.0]]}]}"#
+    );
+}

@@ -5,7 +5,7 @@
 
 use std::f64::consts::PI;
 
-use colony_proto::{wrap_angle, Pose, Vec2, WheelCommand};
+use colony_proto::{wrap_angle, Pose, Speed, Steer, Vec2, WheelCommand};
 use colony_sim::field::{BoxSpec, Field, RobotSpec};
 
 use super::{PUSH_LEFT, PUSH_RIGHT};
@@ -64,10 +64,7 @@ pub(super) fn watcher_wheels(me: Pose, box_pose: Pose, goal: Vec2) -> WheelComma
         return drive_to(me, target);
     }
     let e = wrap_angle((box_pose.position() - me.position()).angle() - me.theta);
-    WheelCommand {
-        forward: 0.0,
-        turn: (2.0 * e).clamp(-1.0, 1.0),
-    }
+    DRIVE.wheels(e, 0.0)
 }
 
 /// Whether the watcher, at `me`, sees the box with its laser.
@@ -238,10 +235,7 @@ impl Push {
                 if e.abs() < 0.08 {
                     self.pushing_since = Some(now);
                 } else {
-                    return Some(WheelCommand {
-                        forward: 0.0,
-                        turn: (2.0 * e).clamp(-1.0, 1.0),
-                    });
+                    return Some(DRIVE.wheels(e, 0.0));
                 }
             } else {
                 return Some(drive_to(me, target));
@@ -252,23 +246,31 @@ impl Push {
     }
 }
 
+/// The watcher's and the pushers' gains.
+const DRIVE: Steer = Steer {
+    turn_gain: 2.0,
+    align: 0.6,
+    speed: Speed::Ramp {
+        over_cm: 15.0,
+        base: 0.0,
+        min: 0.15,
+    },
+};
+
 /// A go-to-point controller that backs up to close targets behind it.
 fn drive_to(me: Pose, target: Vec2) -> WheelCommand {
     let d = target - me.position();
     let dist = d.length();
     let e = wrap_angle(d.angle() - me.theta);
-    let speed = (dist / 15.0).clamp(0.15, 1.0);
+    let speed = DRIVE.speed.at(dist);
     if dist < 30.0 && e.abs() > PI / 2.0 {
         let back = wrap_angle(e - PI);
         return WheelCommand {
             forward: -speed * back.cos().max(0.0),
-            turn: (2.0 * back).clamp(-1.0, 1.0),
+            turn: DRIVE.wheels(back, 0.0).turn,
         };
     }
-    WheelCommand {
-        forward: if e.abs() < 0.6 { speed * e.cos() } else { 0.0 },
-        turn: (2.0 * e).clamp(-1.0, 1.0),
-    }
+    DRIVE.wheels(e, speed)
 }
 
 /// Where a pusher switched on again is put back: behind the box, on the side

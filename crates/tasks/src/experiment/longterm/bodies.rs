@@ -8,7 +8,7 @@
 
 use std::f64::consts::PI;
 
-use colony_proto::{wrap_angle, Pose, Vec2, WheelCommand};
+use colony_proto::{Pose, Speed, Steer, Vec2, WheelCommand};
 use colony_sim::field::{Field, FieldConfig, FieldRobotId, FieldSense, RobotSpec, TileMap};
 use colony_sim::SimError;
 use rand::Rng;
@@ -166,6 +166,13 @@ impl Bodies {
     }
 }
 
+/// A Pioneer's gains on the way to its target.
+const DRIVE: Steer = Steer {
+    turn_gain: 2.0,
+    align: 0.5,
+    speed: Speed::Full,
+};
+
 /// Towards `target`, round what the sonar sees on the way, off a pressed bumper.
 fn steer(sense: &FieldSense, target: Vec2) -> WheelCommand {
     let me = sense.pose;
@@ -193,8 +200,7 @@ fn steer(sense: &FieldSense, target: Vec2) -> WheelCommand {
             };
         }
     }
-    let e = wrap_angle(to.angle() - me.theta);
-    WheelCommand::clamped(if e.abs() < 0.5 { e.cos() } else { 0.0 }, 2.0 * e)
+    DRIVE.toward(me, target)
 }
 
 #[cfg(test)]

@@ -1,17 +1,25 @@
-//! A channel's rate and bandwidth over a sliding window.
+//! A channel's rate: its packets (and bytes) per second, as counts over a span of time divided by
+//! that span. Two measurements, because a watcher asks two questions:
 //!
-//! The hub reports cumulative packet counts; a rate is the count over a span of time divided by
-//! that span, which is how the monitor reads two status reports a second apart. The spy counts
-//! the packets it receives the same way, over the last `window`: the window is cut into
-//! [`SLOTS`] slots, and the rate is what the slots wholly inside the window hold, over the time
-//! they cover. Memory is the same whatever the traffic: a few hundred bytes per channel.
+//! - what the hub published: [`rates_between`] two of its status reports, whose cumulative
+//!   packet counts grew by so much over so long (the monitor's hub view);
+//! - what this client received: a [`RateWindow`] counts packets as they arrive, over a sliding
+//!   window (`colony spy`, which taps every channel).
+//!
+//! They differ where packets are lost on the way or the client hears only some channels, which
+//! is why neither stands in for the other.
 
+use std::collections::BTreeMap;
 use std::time::Duration;
+
+use colony_wire::StatusReport;
 
 /// Slots a window is cut into: the window slides in steps of 1/32 of its length.
 pub const SLOTS: usize = 32;
 
-/// Packets and bytes counted over a sliding window of fixed length.
+/// Packets and bytes counted over a sliding window of fixed length: the window is cut into
+/// [`SLOTS`] slots, and the rate is what the slots wholly inside the window hold, over the time
+/// they cover. Memory is the same whatever the traffic: a few hundred bytes.
 #[derive(Debug, Clone)]
 pub struct RateWindow {
     slot: Duration,
@@ -98,9 +106,70 @@ impl RateWindow {
     }
 }
 
+/// Each channel's packets per second between two status reports of one hub, in the order
+/// `report` lists them: the growth of its count over the growth of the hub's uptime. `None`
+/// for a channel the previous report did not list or whose count went down, and for every
+/// channel when there is no previous report or the uptime did not grow (the hub restarted).
+pub fn rates_between(previous: Option<&StatusReport>, report: &StatusReport) -> Vec<Option<f64>> {
+    let dt_ms = match previous {
+        Some(prev) if report.uptime_ms > prev.uptime_ms => {
+            Some((report.uptime_ms - prev.uptime_ms) as f64)
+        }
+        _ => None,
+    };
+    let before: BTreeMap<&str, u64> = previous
+        .iter()
+        .flat_map(|r| r.channels.iter())
+        .map(|c| (c.subjects.as_str(), c.packets))
+        .collect();
+    report
+        .channels
+        .iter()
+        .map(|c| match (dt_ms, before.get(c.subjects.as_str())) {
+            (Some(dt), Some(&before)) if c.packets >= before => {
+                Some((c.packets - before) as f64 * 1000.0 / dt)
+            }
+            _ => None,
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
+    use colony_wire::ChannelInfo;
+
     use super::*;
+
+    fn report(uptime_ms: u64, channels: &[(&str, u64)]) -> StatusReport {
+        StatusReport {
+            uptime_ms,
+            channels: channels
+                .iter()
+                .map(|&(subjects, packets)| ChannelInfo {
+                    subjects: subjects.into(),
+                    packets,
+                    bytes: 0,
+                })
+                .collect(),
+            ..StatusReport::default()
+        }
+    }
+
+    #[test]
+    fn a_rate_between_reports_is_the_count_grown_over_the_time_passed() {
+        let first = report(1000, &[("a", 10), ("b", 5)]);
+        let second = report(3000, &[("a", 30), ("b", 4), ("c", 1)]);
+        assert_eq!(rates_between(None, &first), [None, None]);
+        assert_eq!(
+            rates_between(Some(&first), &second),
+            [Some(10.0), None, None]
+        );
+        // A hub that restarted counts from nothing again: no rate across it.
+        assert_eq!(
+            rates_between(Some(&second), &report(500, &[("a", 1)])),
+            [None]
+        );
+    }
 
     fn ms(n: u64) -> Duration {
         Duration::from_millis(n)
