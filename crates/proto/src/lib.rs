@@ -16,6 +16,7 @@
 //! | [`error`] | [`DecodeError`], what every decoder returns; [`Skimmed`], what a viewer's returns |
 //! | [`game`] | the strategy game's messages, one module per channel (`game.*`) |
 //! | [`murdoch`] | MURDOCH's task-allocation messages, with its resource sets and tokens |
+//! | [`table`] | each message's field table ([`table::MessageTable`]), written beside its codec, read by `colony-schema` |
 //!
 //! Units everywhere: centimetres, seconds, radians (counter-clockwise from +x).
 
@@ -30,6 +31,7 @@ pub mod hold;
 pub mod murdoch;
 pub mod radio;
 pub mod swarm;
+pub mod table;
 
 pub use error::{DecodeError, Skimmed};
 pub use geometry::{wrap_angle, Pose, Speed, Steer, Vec2, WheelCommand};

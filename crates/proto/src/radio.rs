@@ -12,10 +12,17 @@
 use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 
 use crate::fields::{finite, r, robot_id};
+use crate::table::{int, line, num, MessageTable};
 use crate::{DecodeError, WheelCommand};
 
 /// The channel wheel commands travel on, as in the Broker paper's system.
 pub const RADIO: &str = "radio";
+
+/// What a radio packet holds.
+pub const TABLE: MessageTable = MessageTable {
+    channel: RADIO,
+    lines: &[line("cmd", &[int("id"), num("forward"), num("turn")])],
+};
 
 /// One robot's wheel command.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -94,6 +101,12 @@ mod tests {
                 RadioCommand::new(7, 1.0, 0.0)
             ]
         );
+    }
+
+    #[test]
+    fn the_table_is_what_the_writer_writes_and_the_reader_needs() {
+        let bytes = encode(&[RadioCommand::new(2, 0.8, -0.25)], Priority(10)).unwrap();
+        crate::table::check::codec(&TABLE, &[bytes], |p| decode(p).is_ok());
     }
 
     #[test]

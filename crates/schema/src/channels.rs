@@ -1,8 +1,11 @@
 //! The JSON Schema of each channel colony itself publishes on.
 //!
-//! Written from the encoders in `colony-proto` (one line per label there);
-//! a test checks every field of packets those encoders wrote against it.
+//! Generated from the field tables in `colony-proto` (`colony_proto::table`), which tests
+//! there tie to each message's writer and reader; a test here checks every field of packets
+//! colony's processes wrote against the result.
 
+use colony_proto::table::{Kind, MessageTable};
+use colony_proto::{game, murdoch, radio, swarm};
 use serde_json::{json, Map, Value as Json};
 
 /// A channel's schema: its name, as viewers show it, and its JSON Schema text.
@@ -14,239 +17,56 @@ pub struct Schema {
     pub data: Vec<u8>,
 }
 
-#[derive(Clone, Copy)]
-enum Kind {
-    Int,
-    Num,
-    Str,
-}
-
-use Kind::{Int, Num, Str};
-
-/// A label and its fields.
-type Line = (&'static str, &'static [(&'static str, Kind)]);
-
-/// Channels, by exact name or by prefix (ending in `.`), with their lines.
-const CHANNELS: &[(&str, &str, &[Line])] = &[
-    (
-        "vision",
-        "colony.vision",
-        &[
-            ("step", &[("n", Int), ("part", Int), ("parts", Int)]),
-            ("arena", &[("width", Num), ("height", Num), ("corner", Num)]),
-            (
-                "sizes",
-                &[
-                    ("robot_length", Num),
-                    ("robot_width", Num),
-                    ("gripper_radius", Num),
-                    ("puck_diameter", Num),
-                ],
-            ),
-            (
-                "robot",
-                &[
-                    ("id", Int),
-                    ("x", Num),
-                    ("y", Num),
-                    ("theta", Num),
-                    ("carrying", Int),
-                ],
-            ),
-            (
-                "puck",
-                &[("id", Int), ("kind", Int), ("x", Num), ("y", Num)],
-            ),
-            (
-                "box",
-                &[
-                    ("id", Int),
-                    ("x", Num),
-                    ("y", Num),
-                    ("theta", Num),
-                    ("length", Num),
-                    ("width", Num),
-                ],
-            ),
-            ("goal", &[("x", Num), ("y", Num)]),
-        ],
-    ),
-    (
-        "radio",
-        "colony.radio",
-        &[("cmd", &[("id", Int), ("forward", Num), ("turn", Num)])],
-    ),
-    (
-        "debug",
-        "colony.debug",
-        &[
-            (
-                "robot",
-                &[("id", Int), ("state", Str), ("tx", Num), ("ty", Num)],
-            ),
-            (
-                "cache",
-                &[("id", Int), ("kind", Int), ("x", Num), ("y", Num)],
-            ),
-        ],
-    ),
-    (
-        "metrics",
-        "colony.metrics",
-        &[("sort", &[("step", Int), ("pc", Num)])],
-    ),
-    (
-        "camera.",
-        "colony.camera",
-        &[
-            ("step", &[("n", Int)]),
-            ("pose", &[("x", Num), ("y", Num), ("theta", Num)]),
-            ("gripper", &[("kind", Int), ("x", Num), ("y", Num)]),
-            (
-                "puck",
-                &[("kind", Int), ("x", Num), ("y", Num), ("held", Int)],
-            ),
-            ("robot", &[("x", Num), ("y", Num)]),
-            ("obstacle", &[("x", Num), ("y", Num)]),
-        ],
-    ),
-    (
-        "game.world",
-        "colony.game.world",
-        &[
-            ("step", &[("n", Int), ("time", Num)]),
-            (
-                "robot",
-                &[
-                    ("id", Int),
-                    ("x", Num),
-                    ("y", Num),
-                    ("theta", Num),
-                    ("active", Int),
-                ],
-            ),
-        ],
-    ),
-    (
-        "game.sense.",
-        "colony.game.sense",
-        &[(
-            "sense",
-            &[
-                ("step", Int),
-                ("time", Num),
-                ("x", Num),
-                ("y", Num),
-                ("theta", Num),
-                ("bump_front", Int),
-                ("bump_rear", Int),
-                ("border", Int),
-            ],
-        )],
-    ),
-    (
-        "game.state",
-        "colony.game.state",
-        &[
-            (
-                "game",
-                &[
-                    ("mode", Str),
-                    ("status", Str),
-                    ("time", Num),
-                    ("winner", Str),
-                    ("reason", Str),
-                ],
-            ),
-            ("team", &[("name", Str), ("score", Int), ("kills", Int)]),
-            (
-                "flag",
-                &[("team", Str), ("x", Num), ("y", Num), ("home", Int)],
-            ),
-            (
-                "robot",
-                &[
-                    ("id", Int),
-                    ("team", Str),
-                    ("squad", Str),
-                    ("kind", Str),
-                    ("x", Num),
-                    ("y", Num),
-                    ("theta", Num),
-                    ("health", Num),
-                    ("max_health", Num),
-                    ("power", Num),
-                    ("alive", Int),
-                    ("behaviour", Str),
-                    ("reason", Str),
-                ],
-            ),
-            (
-                "squad",
-                &[
-                    ("team", Str),
-                    ("name", Str),
-                    ("formation", Str),
-                    ("order", Str),
-                    ("behaviour", Str),
-                    ("path", Str),
-                ],
-            ),
-        ],
-    ),
-    (
-        "game.debug",
-        "colony.game.debug",
-        &[("robot", &[("id", Int), ("behaviour", Str), ("reason", Str)])],
-    ),
-    (
-        "game.map",
-        "colony.game.map",
-        &[
-            (
-                "map",
-                &[
-                    ("width", Int),
-                    ("height", Int),
-                    ("cell", Num),
-                    ("part", Int),
-                    ("parts", Int),
-                ],
-            ),
-            (
-                "site",
-                &[
-                    ("team", Str),
-                    ("base_x", Num),
-                    ("base_y", Num),
-                    ("flag_x", Num),
-                    ("flag_y", Num),
-                ],
-            ),
-            ("row", &[("y", Int), ("cells", Str)]),
-        ],
-    ),
-    (
-        "murdoch.robots",
-        "colony.murdoch.robots",
-        &[(
-            "robot",
-            &[
-                ("name", Str),
-                ("mode", Str),
-                ("battery", Num),
-                ("resources", Str),
-            ],
-        )],
-    ),
+/// The channels with a schema of their own: those colony's processes publish on, each
+/// described by its message's field table in `colony-proto`.
+const TABLES: &[&MessageTable] = &[
+    &swarm::vision::TABLE,
+    &radio::TABLE,
+    &swarm::debug::TABLE,
+    &swarm::metrics::TABLE,
+    &swarm::camera::TABLE,
+    &game::world::TABLE,
+    &game::sense::TABLE,
+    &game::state::TABLE,
+    &game::debug::TABLE,
+    &game::map::TABLE,
+    &murdoch::robot::TABLE,
 ];
 
 fn kind(k: Kind) -> Json {
     match k {
-        Int => json!({"type": "integer"}),
-        Num => json!({"type": "number"}),
-        Str => json!({"type": "string"}),
+        Kind::Int => json!({"type": "integer"}),
+        Kind::Num => json!({"type": "number"}),
+        Kind::Text => json!({"type": "string"}),
+        Kind::NumOrText => json!({"type": ["number", "string"]}),
     }
+}
+
+/// `colony.vision` for `vision`, `colony.camera` for the `camera.` family.
+fn schema_name(table: &MessageTable) -> String {
+    format!("colony.{}", table.channel.trim_end_matches('.'))
+}
+
+/// The `lines` of a message the table describes: each label an array of objects with the
+/// table's fields; labels it does not name (a newer writer's) still fit.
+fn table_lines(table: &MessageTable) -> Json {
+    let mut properties = Map::new();
+    for line in table.lines {
+        let fields: Map<String, Json> = line
+            .fields
+            .iter()
+            .map(|f| (f.name.to_owned(), kind(f.kind)))
+            .collect();
+        properties.insert(
+            line.label.to_owned(),
+            json!({"type": "array", "items": {"type": "object", "properties": fields}}),
+        );
+    }
+    json!({
+        "type": "object",
+        "properties": properties,
+        "additionalProperties": {"type": "array", "items": {"type": "object"}},
+    })
 }
 
 /// The schema of the envelope every message shares, with `lines` as given.
@@ -276,34 +96,15 @@ fn any_lines() -> Json {
 /// generic one (every packet fits it). Subject sets and unknown channels
 /// get the generic one.
 pub fn schema_for(topic: &str) -> Schema {
-    let known = CHANNELS
+    // A subject set's topic joins its subjects with `+`: no single channel's.
+    let known = TABLES
         .iter()
-        .find(|(channel, _, _)| match channel.strip_suffix('.') {
-            // A family: `camera.` names `camera.0`, `camera.1`, ... (one subject each).
-            Some(_) => topic
-                .strip_prefix(channel)
-                .is_some_and(|rest| !rest.is_empty() && !rest.contains('+')),
-            None => topic == *channel,
-        });
+        .find(|t| !topic.contains('+') && t.names(topic));
     let (name, schema) = match known {
-        Some((_, name, lines)) => {
-            let mut properties = Map::new();
-            for (label, fields) in lines.iter() {
-                let fields: Map<String, Json> = fields
-                    .iter()
-                    .map(|(f, k)| ((*f).to_owned(), kind(*k)))
-                    .collect();
-                properties.insert(
-                    (*label).to_owned(),
-                    json!({"type": "array", "items": {"type": "object", "properties": fields}}),
-                );
-            }
-            let lines = json!({
-                "type": "object",
-                "properties": properties,
-                "additionalProperties": {"type": "array", "items": {"type": "object"}},
-            });
-            ((*name).to_owned(), envelope(name, lines))
+        Some(table) => {
+            let name = schema_name(table);
+            let schema = envelope(&name, table_lines(table));
+            (name, schema)
         }
         None => (
             "colony.packet".to_owned(),
@@ -345,8 +146,20 @@ mod tests {
     }
 
     #[test]
+    fn optional_fields_proto_writes_are_in_their_schemas() {
+        // The hand-kept schemas left these out; proto writes each when it applies.
+        let field = |topic: &str, label: &str, name: &str| {
+            properties(topic)[label]["items"]["properties"][name]["type"].clone()
+        };
+        assert_eq!(field("game.state", "flag", "carrier"), "integer");
+        assert_eq!(field("game.sense.0", "sense", "sonar"), "number");
+        assert_eq!(field("murdoch.robots", "robot", "task_name"), "string");
+    }
+
+    #[test]
     fn every_schema_is_valid_json_with_the_envelope() {
-        for (channel, _, _) in CHANNELS {
+        for table in TABLES {
+            let channel = table.channel;
             let topic = format!("{channel}{}", if channel.ends_with('.') { "0" } else { "" });
             let j: Json = serde_json::from_slice(&schema_for(&topic).data).unwrap();
             assert_eq!(

@@ -10,7 +10,18 @@ use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 
 use super::ACTION;
 use crate::fields::{bad, plain_name, robot_id};
+use crate::table::{int, line, text, MessageTable};
 use crate::DecodeError;
+
+/// What an action packet holds: one line per action.
+pub const TABLE: MessageTable = MessageTable {
+    channel: ACTION,
+    lines: &[
+        line("fire", &[int("id"), int("target")]),
+        line("pickup", &[int("id"), text("flag")]),
+        line("beep", &[int("id")]),
+    ],
+};
 
 /// What a robot asks the game logic to do to the world.
 #[derive(Debug, Clone, PartialEq)]
@@ -106,6 +117,21 @@ mod tests {
                 vec![a]
             );
         }
+        let samples: Vec<Vec<u8>> = [
+            Action::Fire {
+                robot: 1,
+                target: 2,
+            },
+            Action::PickUp {
+                robot: 3,
+                flag: "red".into(),
+            },
+            Action::Beep { robot: 4 },
+        ]
+        .iter()
+        .map(|a| a.encode().unwrap())
+        .collect();
+        crate::table::check::codec(&TABLE, &samples, |p| Action::decode(p).is_ok());
         let p = b"@ <game.action> 0\nfly id 1\n";
         assert!(Action::decode(&Packet::parse(p).unwrap()).is_err());
     }

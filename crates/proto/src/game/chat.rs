@@ -11,10 +11,17 @@ use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 
 use super::chat_channel;
 use crate::fields::{bad, plain_name, text_or_empty};
+use crate::table::{line, text, MessageTable};
 use crate::DecodeError;
 
 /// The longest chat text, characters: a line to read at a glance, not a document.
 pub const MAX_CHAT: usize = 200;
+
+/// What a chat packet holds, on every `game.chat.TEAM`.
+pub const TABLE: MessageTable = MessageTable {
+    channel: "game.chat.",
+    lines: &[line("chat", &[text("from"), text("text").optional()])],
+};
 
 /// One line of a team's chat.
 #[derive(Debug, Clone, PartialEq)]
@@ -73,6 +80,9 @@ mod tests {
         let bytes = c.encode().unwrap();
         let p = Packet::parse(&bytes).unwrap();
         assert_eq!(ChatLine::decode("red", &p).unwrap(), vec![c]);
+        crate::table::check::codec(&TABLE, std::slice::from_ref(&bytes), |p| {
+            ChatLine::decode("red", p).is_ok()
+        });
         // (A control character never arrives: the packet writer replaces it, the parser refuses it.)
         let long = ChatLine {
             team: "red".into(),

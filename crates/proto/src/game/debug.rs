@@ -9,7 +9,21 @@ use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 
 use super::DEBUG;
 use crate::fields::{robot_id, text_or_empty};
+use crate::table::{int, line, text, MessageTable};
 use crate::DecodeError;
+
+/// What a game debug packet holds.
+pub const TABLE: MessageTable = MessageTable {
+    channel: DEBUG,
+    lines: &[line(
+        "robot",
+        &[
+            int("id"),
+            text("behaviour").optional(),
+            text("reason").optional(),
+        ],
+    )],
+};
 
 /// A robot's active behaviour and the reason it has control.
 #[derive(Debug, Clone, PartialEq)]
@@ -60,5 +74,6 @@ mod tests {
             RobotDebug::decode(&Packet::parse(&bytes).unwrap()).unwrap(),
             d
         );
+        crate::table::check::codec(&TABLE, &[bytes], |p| RobotDebug::decode(p).is_ok());
     }
 }

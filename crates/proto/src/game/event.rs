@@ -9,8 +9,18 @@ use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
 
 use super::EVENT;
 use crate::fields::{finite, plain_name, r, text_or_empty};
+use crate::table::{line, num, text, MessageTable};
 use crate::DecodeError;
 use crate::Skimmed;
+
+/// What an event packet holds.
+pub const TABLE: MessageTable = MessageTable {
+    channel: EVENT,
+    lines: &[line(
+        "event",
+        &[text("kind"), num("time"), text("text").optional()],
+    )],
+};
 
 /// Something that happened, for players and the log.
 #[derive(Debug, Clone, PartialEq)]
@@ -81,6 +91,9 @@ mod tests {
         };
         let bytes = e.encode().unwrap();
         assert_eq!(Event::decode(&Packet::parse(&bytes).unwrap()).unwrap(), e);
+        crate::table::check::codec(&TABLE, std::slice::from_ref(&bytes), |p| {
+            Event::decode(p).is_ok()
+        });
         let p = Packet::parse(
             b"@ <game.event> 0\nevent kind hit time 1 text a\nevent kind \"two words\" time 1\nevent time 1\nevent kind over time 2\n",
         )

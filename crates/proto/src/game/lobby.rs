@@ -15,7 +15,47 @@ use serde::Serialize;
 
 use super::{RobotKind, LOBBY};
 use crate::fields::{b, bad, finite, flag, plain_name, r, tally, text_or_empty};
+use crate::table::{int, line, num, text, MessageTable};
 use crate::DecodeError;
+
+/// What a lobby packet holds.
+pub const TABLE: MessageTable = MessageTable {
+    channel: LOBBY,
+    lines: &[
+        line(
+            "lobby",
+            &[
+                text("status"),
+                int("budget"),
+                int("squads"),
+                num("upgrade"),
+                int("max_upgrade"),
+            ],
+        ),
+        line(
+            "kind",
+            &[
+                text("name"),
+                int("cost"),
+                num("health"),
+                num("power"),
+                num("speed"),
+                num("range"),
+                int("amphibious"),
+            ],
+        ),
+        line(
+            "team",
+            &[
+                text("name"),
+                int("ready"),
+                int("bot"),
+                int("cost"),
+                text("setup").optional(),
+            ],
+        ),
+    ],
+};
 
 /// The longest setup text a player may send or the lobby publish.
 pub const MAX_SETUP: usize = 1000;
@@ -210,6 +250,9 @@ mod tests {
         let bytes = s.encode().unwrap();
         let read = LobbyState::decode(&Packet::parse(&bytes).unwrap()).unwrap();
         assert_eq!(read, s);
+        crate::table::check::codec(&TABLE, std::slice::from_ref(&bytes), |p| {
+            LobbyState::decode(p).is_ok()
+        });
         let started = LobbyState {
             status: LobbyStatus::Started,
             ..s

@@ -20,7 +20,36 @@ use serde::Serialize;
 
 use super::MAP;
 use crate::fields::{coord, plain_name, r};
+use crate::table::{int, line, num, text, MessageTable};
 use crate::{DecodeError, Vec2};
+
+/// What a map part holds.
+pub const TABLE: MessageTable = MessageTable {
+    channel: MAP,
+    lines: &[
+        line(
+            "map",
+            &[
+                int("width"),
+                int("height"),
+                num("cell"),
+                int("part").optional(),
+                int("parts").optional(),
+            ],
+        ),
+        line(
+            "site",
+            &[
+                text("team"),
+                num("base_x"),
+                num("base_y"),
+                num("flag_x"),
+                num("flag_y"),
+            ],
+        ),
+        line("row", &[int("y"), text("cells")]),
+    ],
+};
 
 /// The widest and tallest map accepted, cells (the Moving AI maps go to 1024).
 pub const MAX_SIDE: u32 = 4096;

@@ -14,7 +14,23 @@ use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
 
 use super::robot_channel;
 use crate::fields::{bad, coord, count, finite, plain_name, r, robot_id, within};
+use crate::table::{int, line, num, text, MessageTable};
 use crate::{DecodeError, Vec2};
+
+/// What an order holds, on every `game.robot.N`: its head, then one line per command.
+pub const TABLE: MessageTable = MessageTable {
+    channel: "game.robot.",
+    lines: &[
+        line("order", &[int("robot"), int("seq")]),
+        line("beep", &[]),
+        line("rotate", &[num("deg")]),
+        line("goto", &[num("x"), num("y"), num("speed").optional()]),
+        line("shoot", &[int("target"), num("x"), num("y")]),
+        line("pickup", &[text("flag")]),
+        line("stop", &[]),
+        line("drive", &[num("forward"), num("turn"), num("secs")]),
+    ],
+};
 
 /// One robot command (the paper's Table 2, plus PickUp from its Capture the
 /// Flag run and Stop).
@@ -246,6 +262,15 @@ mod tests {
             ],
         };
         assert_eq!(round(&o), o);
+        let mut all = o.clone();
+        all.commands.push(Command::Drive {
+            forward: 0.5,
+            turn: -0.25,
+            secs: 1.0,
+        });
+        crate::table::check::codec(&TABLE, &[all.encode().unwrap()], |p| {
+            Order::decode(p).is_ok()
+        });
     }
 
     #[test]

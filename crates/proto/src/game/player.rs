@@ -23,7 +23,34 @@ use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
 use super::player_channel;
 use super::squad::{read_verb, write_verb, SquadCommand, Verb};
 use crate::fields::{bad, plain_name, robot_id, within};
+use crate::table::{int, line, num, text, MessageTable};
 use crate::DecodeError;
+
+/// What a player's packet holds, on every `game.player.TEAM`: one line per command.
+pub const TABLE: MessageTable = MessageTable {
+    channel: "game.player.",
+    lines: &[
+        super::squad::LINE,
+        line(
+            "robot",
+            &[
+                int("id"),
+                text("do"),
+                num("x").varies(),
+                num("y").varies(),
+                int("robot").varies(),
+                text("flag").varies(),
+                text("base").varies(),
+            ],
+        ),
+        line("split", &[text("name"), text("robots"), text("into")]),
+        line("merge", &[text("name"), text("into")]),
+        line("drive", &[int("robot"), num("forward"), num("turn")]),
+        line("release", &[int("robot")]),
+        line("setup", &[text("squads"), int("ready").optional()]),
+        line("ready", &[int("value")]),
+    ],
+};
 
 /// How long one `drive` holds the wheels, s: a page repeats it faster while a key is held.
 pub const DRIVE_HOLD_S: f64 = 0.5;
@@ -361,6 +388,37 @@ mod tests {
             let read = PlayerCommand::decode("red", &Packet::parse(&bytes).unwrap()).unwrap();
             assert_eq!(read, vec![c], "{}", String::from_utf8_lossy(&bytes));
         }
+    }
+
+    #[test]
+    fn the_table_is_what_the_writer_writes_and_the_reader_needs() {
+        use crate::game::Formation;
+        let verbs = [
+            Verb::Attack(Target::Robot(9)),
+            Verb::Attack(Target::Flag("blue".into())),
+            Verb::Defend(Target::Base("red".into())),
+            Verb::GoTo(Vec2::new(12.5, 40.0)),
+            Verb::Capture("blue".into()),
+            Verb::Stop,
+        ];
+        let mut commands = every_kind();
+        for verb in verbs {
+            commands.push(PlayerCommand::Robot {
+                team: "red".into(),
+                robot: 4,
+                verb: verb.clone(),
+            });
+            commands.push(PlayerCommand::Squad(SquadCommand {
+                team: "red".into(),
+                squad: "alpha".into(),
+                verb,
+                formation: Some(Formation::Wedge),
+            }));
+        }
+        let samples: Vec<Vec<u8>> = commands.iter().map(|c| c.encode().unwrap()).collect();
+        crate::table::check::codec(&TABLE, &samples, |p| {
+            PlayerCommand::decode("red", p).is_ok()
+        });
     }
 
     #[test]

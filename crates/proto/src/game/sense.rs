@@ -9,7 +9,29 @@ use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 
 use super::sense_channel;
 use crate::fields::{b, coord, count, finite, flag, r};
+use crate::table::{int, line, num, MessageTable};
 use crate::{DecodeError, Pose};
+
+/// What a sense packet holds, on every `game.sense.N`.
+pub const TABLE: MessageTable = MessageTable {
+    channel: "game.sense.",
+    lines: &[line(
+        "sense",
+        &[
+            int("step"),
+            num("time"),
+            num("x"),
+            num("y"),
+            num("theta"),
+            int("bump_front"),
+            int("bump_rear"),
+            int("border"),
+            num("contact").optional(),
+            num("sonar").optional(),
+            num("bearing").with("sonar"),
+        ],
+    )],
+};
 
 /// What a robot's sensors report (the paper's touch sensors, sonar and
 /// infrared border detector, plus the overhead tracker's pose).
@@ -106,6 +128,9 @@ mod tests {
         let p = Packet::parse(&bytes).unwrap();
         assert!(p.has_subject("game.sense.3"));
         assert_eq!(Sense::decode(&p).unwrap(), s);
+        crate::table::check::codec(&TABLE, std::slice::from_ref(&bytes), |p| {
+            Sense::decode(p).is_ok()
+        });
         let p = b"@ <game.sense.1> 0\nsense step -1 time 0 x 0 y 0 theta 0 bump_front 0 bump_rear 0 border 0\n";
         assert!(Sense::decode(&Packet::parse(p).unwrap()).is_err());
     }

@@ -12,7 +12,25 @@ use colony_wire::{Line, LineBuilder, Packet, PacketBuilder, ParseError, Priority
 
 use super::{player_channel, Formation};
 use crate::fields::{bad, coord, parse_path, path_text, plain_name, r, robot_id};
+use crate::table::{int, line, num, text, LineTable};
 use crate::{DecodeError, Vec2};
+
+/// A squad command's line, one of a player's ([`super::player::TABLE`]): its name, its verb
+/// (`do`) with what the verb needs, and its formation.
+pub const LINE: LineTable = line(
+    "squad",
+    &[
+        text("name"),
+        text("do"),
+        num("x").varies(),
+        num("y").varies(),
+        int("robot").varies(),
+        text("flag").varies(),
+        text("base").varies(),
+        text("points").varies(),
+        text("formation").optional(),
+    ],
+);
 
 /// What a squad command is about.
 #[derive(Debug, Clone, PartialEq)]

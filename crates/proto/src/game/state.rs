@@ -22,8 +22,66 @@ use crate::fields::{
     b, bad, coord, finite, flag, parse_path, path_text, plain_name, r, robot_id, tally,
     text_or_empty,
 };
+use crate::table::{int, line, num, text, MessageTable};
 use crate::Skimmed;
 use crate::{DecodeError, Pose, Vec2};
+
+/// What a game state holds.
+pub const TABLE: MessageTable = MessageTable {
+    channel: STATE,
+    lines: &[
+        line(
+            "game",
+            &[
+                text("mode"),
+                text("status"),
+                num("time"),
+                text("winner"),
+                text("reason").optional(),
+            ],
+        ),
+        line("team", &[text("name"), int("score"), int("kills")]),
+        line(
+            "flag",
+            &[
+                text("team"),
+                num("x"),
+                num("y"),
+                int("home"),
+                int("carrier").optional(),
+            ],
+        ),
+        line(
+            "robot",
+            &[
+                int("id"),
+                text("team"),
+                text("squad"),
+                text("kind"),
+                num("x"),
+                num("y"),
+                num("theta"),
+                num("health"),
+                num("max_health").optional(),
+                num("power").optional(),
+                int("alive"),
+                text("behaviour").optional(),
+                text("reason").optional(),
+            ],
+        ),
+        line(
+            "squad",
+            &[
+                text("team"),
+                text("name"),
+                text("formation"),
+                text("order").optional(),
+                text("behaviour").optional(),
+                text("path").optional(),
+            ],
+        ),
+    ],
+};
 
 /// Where a game stands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

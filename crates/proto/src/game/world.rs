@@ -10,7 +10,20 @@ use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 
 use super::WORLD;
 use crate::fields::{b, coord, count, finite, flag, r, robot_id};
+use crate::table::{int, line, num, MessageTable};
 use crate::{DecodeError, Pose};
+
+/// What a world frame holds.
+pub const TABLE: MessageTable = MessageTable {
+    channel: WORLD,
+    lines: &[
+        line("step", &[int("n"), num("time")]),
+        line(
+            "robot",
+            &[int("id"), num("x"), num("y"), num("theta"), int("active")],
+        ),
+    ],
+};
 
 /// One robot in a world frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -108,5 +121,6 @@ mod tests {
         );
         let p = b"@ <game.world> 0\nstep n 1 time 0\nrobot id 1 x 0 y 0 theta 0 active 2\n";
         assert!(WorldFrame::decode(&Packet::parse(p).unwrap()).is_err());
+        crate::table::check::codec(&TABLE, &[bytes], |p| WorldFrame::decode(p).is_ok());
     }
 }

@@ -11,7 +11,28 @@ use super::{
     MAX_PARAMS, MESSAGES, NEGOTIATION_PREFIX,
 };
 use crate::fields::{self, bad_field, MAX_DEADLINE};
+use crate::table::{int, line, num, num_or_text, text, MessageTable};
 use crate::DecodeError;
+
+/// What an announcement holds: the task, then its parameters and metrics.
+pub const TABLE: MessageTable = MessageTable {
+    channel: IDLE,
+    lines: &[
+        line(
+            "task",
+            &[
+                text("name"),
+                int("id"),
+                text("negotiation"),
+                int("deadline_ms"),
+                num("length_s"),
+                text("announcer"),
+            ],
+        ),
+        line("param", &[text("name"), num_or_text("value")]),
+        line("metric", &[text("name"), num("weight")]),
+    ],
+};
 
 /// A task on offer: published to its resources and [`IDLE`], so that only robots
 /// that could do it now hear it.
@@ -259,6 +280,17 @@ mod tests {
             Ok(a) => panic!("{extra:?} should be refused, read {a:?}"),
             Err(e) => e.to_string(),
         }
+    }
+
+    #[test]
+    fn the_table_is_what_the_writer_writes_and_the_reader_needs() {
+        let spec = look()
+            .param("x", 3.5)
+            .text_param("color", "red")
+            .metric("distance", 1.0);
+        crate::table::check::codec(&TABLE, &[ann(spec).encode().unwrap()], |p| {
+            Announcement::decode(p).is_ok()
+        });
     }
 
     #[test]

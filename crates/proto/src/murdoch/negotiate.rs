@@ -5,7 +5,31 @@ use colony_wire::{Line, PacketBuilder, Priority, Subject};
 use super::error::{unwritable, EncodeError};
 use super::{Token, MESSAGES, NEGOTIATION_PREFIX};
 use crate::fields::{self, clip, valid_subject_name as valid_name};
+use crate::table::{int, line, num, text, MessageTable};
 use crate::DecodeError;
+
+/// What a negotiation packet holds, on every `murdoch.` negotiation subject: one line, whose
+/// label says which message it is.
+pub const TABLE: MessageTable = MessageTable {
+    channel: NEGOTIATION_PREFIX,
+    lines: &[
+        line("bid", &[int("task"), text("bidder"), num("score")]),
+        line(
+            "award",
+            &[int("task"), text("winner"), num("score"), int("bids")],
+        ),
+        line("ack", &[int("task"), text("bidder")]),
+        line("decline", &[int("task"), text("bidder")]),
+        line(
+            "renew",
+            &[int("task"), text("by"), num("progress").optional()],
+        ),
+        line("done", &[int("task"), text("bidder")]),
+        line("abandon", &[int("task"), text("bidder"), text("reason")]),
+        line("cancel", &[int("task"), text("reason")]),
+        line("unachievable", &[int("task"), text("name"), text("reason")]),
+    ],
+};
 
 /// A robot's offer: its score for the task (a cost: lowest wins).
 #[derive(Debug, Clone, PartialEq)]
@@ -359,6 +383,20 @@ mod tests {
     fn decode(text: &str) -> Result<Negotiation, DecodeError> {
         let packet = Packet::parse(text.as_bytes()).unwrap();
         Negotiation::decode_line(&packet.lines().next().unwrap())
+    }
+
+    #[test]
+    fn the_table_is_what_the_writer_writes_and_the_reader_needs() {
+        let mut all = every(17);
+        all.push(Negotiation::Renew {
+            task: 17,
+            by: token("user"),
+            progress: Some(0.4),
+        });
+        let samples: Vec<Vec<u8>> = all.iter().map(|m| m.encode(&subject()).unwrap()).collect();
+        crate::table::check::codec(&TABLE, &samples, |p| {
+            matches!(Message::decode(p), Ok(Message::Negotiation { .. }))
+        });
     }
 
     #[test]

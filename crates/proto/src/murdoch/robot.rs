@@ -7,10 +7,27 @@ use colony_wire::{Line, PacketBuilder, Priority};
 use super::error::{unwritable, EncodeError};
 use super::{ResourceSet, Token};
 use crate::fields::{self, clip, valid_subject_name as valid_name};
+use crate::table::{int, line, num, text, MessageTable};
 use crate::DecodeError;
 
 /// The channel robots report on.
 pub const ROBOTS: &str = "murdoch.robots";
+
+/// What a robot's report holds.
+pub const TABLE: MessageTable = MessageTable {
+    channel: ROBOTS,
+    lines: &[line(
+        "robot",
+        &[
+            text("name"),
+            text("mode"),
+            num("battery"),
+            text("resources"),
+            int("task").optional(),
+            text("task_name").with("task"),
+        ],
+    )],
+};
 
 /// What a robot is doing.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -149,6 +166,17 @@ mod tests {
             Message::decode_bytes(&idle.encode().unwrap()).unwrap(),
             Message::Robot(idle)
         );
+    }
+
+    #[test]
+    fn the_table_is_what_the_writer_writes_and_the_reader_needs() {
+        let samples = [
+            report(Some((17, "sentry-duty"))).encode().unwrap(),
+            report(None).encode().unwrap(),
+        ];
+        crate::table::check::codec(&TABLE, &samples, |p| {
+            matches!(Message::decode(p), Ok(Message::Robot(_)))
+        });
     }
 
     #[test]

@@ -17,6 +17,7 @@ use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 use super::{puck_kind, PuckKind};
 use crate::error::LinePolicy;
 use crate::fields::{coord, count, finite, flag, r};
+use crate::table::{int, line, num, MessageTable};
 use crate::{DecodeError, Pose, Vec2};
 
 /// A puck the forward camera sees, in the robot frame.
@@ -59,6 +60,19 @@ pub struct CameraView {
 pub fn camera_channel(robot: u32) -> String {
     format!("camera.{robot}")
 }
+
+/// What a camera view holds, on every `camera.N`.
+pub const TABLE: MessageTable = MessageTable {
+    channel: "camera.",
+    lines: &[
+        line("step", &[int("n")]),
+        line("pose", &[num("x"), num("y"), num("theta")]),
+        line("gripper", &[int("kind"), num("x"), num("y")]),
+        line("puck", &[int("kind"), num("x"), num("y"), int("held")]),
+        line("robot", &[num("x"), num("y")]),
+        line("obstacle", &[num("x"), num("y")]),
+    ],
+};
 
 /// Robot `robot`'s observation at control step `step`, on [`camera_channel`]`(robot)`.
 pub fn encode(robot: u32, step: u64, obs: &Observation) -> Result<Vec<u8>, ParseError> {
@@ -188,6 +202,12 @@ mod tests {
              gripper kind 0 x 8.1 y 0.0\npuck kind 1 x 20.3 y -4.0 held 1\n\
              robot x 30.0 y 10.0\nobstacle x 35.0 y -12.0\nobstacle x 35.0 y -11.0\n"
         );
+    }
+
+    #[test]
+    fn the_table_is_what_the_writer_writes_and_the_reader_needs() {
+        let bytes = encode(2, 1200, &observation()).unwrap();
+        crate::table::check::codec(&TABLE, &[bytes], |p| decode(p).is_ok());
     }
 
     #[test]

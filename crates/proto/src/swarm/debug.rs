@@ -14,10 +14,28 @@ use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
 use super::{puck_kind, PuckKind};
 use crate::error::{LinePolicy, Skimmed};
 use crate::fields::{bad, coord, r, robot_id};
+use crate::table::{int, line, num, text, MessageTable};
 use crate::{DecodeError, Vec2};
 
 /// The channel controllers publish their intentions on, for the monitor.
 pub const DEBUG: &str = "debug";
+
+/// What a debug packet holds.
+pub const TABLE: MessageTable = MessageTable {
+    channel: DEBUG,
+    lines: &[
+        line(
+            "robot",
+            &[
+                int("id"),
+                text("state"),
+                num("tx").optional(),
+                num("ty").with("tx"),
+            ],
+        ),
+        line("cache", &[int("id"), int("kind"), num("x"), num("y")]),
+    ],
+};
 
 /// What one robot's controller is doing.
 #[derive(Debug, Clone, PartialEq)]
@@ -146,6 +164,30 @@ mod tests {
         assert_eq!(decode(&Packet::parse(&bytes).unwrap()).unwrap(), sent);
         let bare = decode(&parse("@ <debug> 0\nrobot id 3 state WANDER\n")).unwrap();
         assert_eq!(bare.intents[0].target, None);
+    }
+
+    #[test]
+    fn the_table_is_what_the_writer_writes_and_the_reader_needs() {
+        let sent = Intentions {
+            intents: vec![
+                Intent {
+                    robot: 2,
+                    state: "HOMING".into(),
+                    target: Some(Vec2::new(40.0, 20.0)),
+                },
+                Intent {
+                    robot: 3,
+                    state: "PU_SCAN".into(),
+                    target: None,
+                },
+            ],
+            caches: vec![CachePoint {
+                robot: 2,
+                kind: PuckKind(0),
+                pos: Vec2::new(40.0, 20.0),
+            }],
+        };
+        crate::table::check::codec(&TABLE, &[encode(&sent).unwrap()], |p| decode(p).is_ok());
     }
 
     #[test]

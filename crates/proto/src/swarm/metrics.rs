@@ -11,10 +11,17 @@ use colony_wire::{Line, Packet, PacketBuilder, ParseError, Priority};
 
 use crate::error::{LinePolicy, Skimmed};
 use crate::fields::{count, finite, r};
+use crate::table::{int, line, num, MessageTable};
 use crate::DecodeError;
 
 /// The channel the world publishes sorting progress on.
 pub const METRICS: &str = "metrics";
+
+/// What a metrics packet holds.
+pub const TABLE: MessageTable = MessageTable {
+    channel: METRICS,
+    lines: &[line("sort", &[int("step"), num("pc")])],
+};
 
 /// How far sorting has come at one step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,6 +88,16 @@ mod tests {
                 pc: 87.5
             }
         );
+    }
+
+    #[test]
+    fn the_table_is_what_the_writer_writes_and_the_reader_needs() {
+        let bytes = encode(Progress {
+            step: 1200,
+            pc: 87.5,
+        })
+        .unwrap();
+        crate::table::check::codec(&TABLE, &[bytes], |p| decode(p).is_ok());
     }
 
     #[test]

@@ -32,6 +32,7 @@ use colony_wire::{Packet, PacketBuilder, ParseError, Priority};
 use super::{puck_kind, PuckKind};
 use crate::error::{LinePolicy, Skimmed};
 use crate::fields::{bad, coord, count, finite, puck_id, push_r, r, robot_id, within, MAX_COORD};
+use crate::table::{int, line, num, MessageTable};
 use crate::{DecodeError, Pose, Vec2};
 
 /// The channel the world's global state is published on.
@@ -39,6 +40,50 @@ pub const VISION: &str = "vision";
 
 /// The priority `vision` goes at.
 pub const PRIORITY: Priority = Priority(20);
+
+/// What a vision part holds.
+pub const TABLE: MessageTable = MessageTable {
+    channel: VISION,
+    lines: &[
+        line(
+            "step",
+            &[int("n"), int("part").optional(), int("parts").optional()],
+        ),
+        line("arena", &[num("width"), num("height"), num("corner")]),
+        line(
+            "sizes",
+            &[
+                num("robot_length"),
+                num("robot_width"),
+                num("gripper_radius").optional(),
+                num("puck_diameter"),
+            ],
+        ),
+        line(
+            "robot",
+            &[
+                int("id"),
+                num("x"),
+                num("y"),
+                num("theta"),
+                int("carrying").optional(),
+            ],
+        ),
+        line("puck", &[int("id"), int("kind"), num("x"), num("y")]),
+        line(
+            "box",
+            &[
+                int("id"),
+                num("x"),
+                num("y"),
+                num("theta"),
+                num("length"),
+                num("width"),
+            ],
+        ),
+        line("goal", &[num("x"), num("y")]),
+    ],
+};
 
 /// The largest vision part written, in bytes: well inside one datagram.
 pub const PART_BUDGET: usize = 60_000;
@@ -515,6 +560,25 @@ mod tests {
             ..frame
         };
         assert_eq!(back, frame);
+    }
+
+    #[test]
+    fn the_table_is_what_the_writer_writes_and_the_reader_needs() {
+        let mut frame = big_frame();
+        frame.robots.truncate(4);
+        frame.pucks.truncate(2);
+        frame.boxes.push(VisionBox {
+            id: 0,
+            pose: Pose {
+                x: 10.0,
+                y: -70.0,
+                theta: 0.1,
+            },
+            length: 60.0,
+            width: 8.0,
+        });
+        frame.goal = Some(Vec2::new(10.0, 60.0));
+        crate::table::check::codec(&TABLE, &encode(&frame).unwrap(), |p| decode(p).is_ok());
     }
 
     #[test]

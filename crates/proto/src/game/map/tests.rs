@@ -97,6 +97,14 @@ fn sample(width: u32, height: u32) -> GameMap {
 }
 
 #[test]
+fn the_table_is_what_the_writer_writes_and_the_reader_needs() {
+    crate::table::check::codec(&TABLE, &sample(4, 2).encode().unwrap(), |p| {
+        let mut m = MapAssembler::default();
+        m.on_packet(p) && m.bad_lines() == 0
+    });
+}
+
+#[test]
 fn a_large_map_travels_in_parts_that_fit_a_datagram_and_comes_back_whole() {
     let map = sample(1024, 300);
     let packets = map.encode().unwrap();

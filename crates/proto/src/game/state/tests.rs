@@ -53,6 +53,16 @@ fn a_state_is_read_whole_and_reencodes_to_itself() {
 }
 
 #[test]
+fn the_table_is_what_the_writer_writes_and_the_reader_needs() {
+    let mut s = sample();
+    s.winner = Some("red".into());
+    s.status = Status::Over;
+    crate::table::check::codec(&TABLE, &[s.encode().unwrap()], |p| {
+        GameState::decode(p).is_ok()
+    });
+}
+
+#[test]
 fn a_viewer_skips_and_counts_what_a_node_refuses() {
     let text = "@ <game.state> 0\n\
 game mode ctf status running time 1 winner red reason \"flag home\" future (a 1)\n\
