@@ -44,8 +44,9 @@
 //! the arena and the battlefield as scene entities, and the override for a viewer to publish
 //! (see [`foxglove`]).
 //!
-//! [`state`], [`game`] and [`tasks`] are the logic without sockets or clocks; the bridge
-//! thread feeds them from the hub; the web server (axum) hands snapshots to
+//! [`state`], [`game`] and [`tasks`] are the logic without sockets or clocks; the hub link
+//! (`hub_link`: its timers and subscriptions as a sans-IO core, and the thread that runs it with
+//! the two hub clients) feeds them from the hub; the web server (axum) hands snapshots to
 //! each browser tab.
 //!
 //! ```no_run
@@ -63,10 +64,10 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-mod bridge;
 pub mod foxglove;
 pub mod game;
 pub mod gate;
+mod hub_link;
 mod liveness;
 pub mod protocol;
 mod request;
@@ -74,6 +75,6 @@ mod server;
 pub mod state;
 pub mod tasks;
 
-pub use bridge::{EXTRA_CHANNELS, LEASE_CHANNEL};
+pub use hub_link::{EXTRA_CHANNELS, LEASE_CHANNEL};
 pub use liveness::Liveness;
 pub use server::{Monitor, MonitorConfig, MonitorError};

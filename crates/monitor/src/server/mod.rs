@@ -25,8 +25,8 @@ use std::time::Duration;
 
 use tokio::sync::watch;
 
-use crate::bridge::Bridge;
 use crate::gate::{Gate, RefusalLog};
+use crate::hub_link::LinkThread;
 use crate::liveness::Liveness;
 use crate::request::Envelope;
 use crate::state::PageId;
@@ -108,7 +108,7 @@ struct App {
     closed: Sender<PageId>,
     /// The next page's id.
     pages: Arc<AtomicU64>,
-    world: watch::Receiver<crate::bridge::WorldSnapshot>,
+    world: watch::Receiver<crate::hub_link::WorldSnapshot>,
     hub: watch::Receiver<Arc<str>>,
     game: watch::Receiver<Arc<crate::game::GameFrame>>,
     chat: watch::Receiver<Arc<crate::game::Chats>>,
@@ -164,7 +164,7 @@ impl Monitor {
             .enable_all()
             .build()?;
         let (feed, viewers) = crate::foxglove::feed();
-        let (bridge, handles) = Bridge::connect(hub, config.key.clone(), feed)?;
+        let (bridge, handles) = LinkThread::connect(hub, config.key.clone(), feed)?;
         let stop = Arc::new(AtomicBool::new(false));
         let (requests, requests_rx) = sync_channel(REQUEST_QUEUE);
         let (closed, closed_rx) = channel();

@@ -305,7 +305,7 @@ async fn session(mut socket: WebSocket, app: App, view: View) {
 /// it): a new whole frame's bodies first, then the JSON that goes with them.
 async fn send_world(
     socket: &mut WebSocket,
-    world: &mut watch::Receiver<crate::bridge::WorldSnapshot>,
+    world: &mut watch::Receiver<crate::hub_link::WorldSnapshot>,
     sent: &mut Sent,
     within: Duration,
 ) -> Result<(), End> {
