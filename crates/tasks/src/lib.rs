@@ -19,7 +19,7 @@
 //!
 //! Everything is sans-IO ([`Node`]): the same values run over the real hub
 //! ([`Link`]) and over the in-memory [`Bus`] on simulated time, where
-//! [`experiment`] reproduces the paper's two experiments.
+//! colony-lab's `lab::tasks` reproduces the paper's two experiments.
 //!
 //! This crate does not plan: a task's decomposition is written by the task's
 //! designer (a high-level task announces its sub-tasks as it runs, as the
@@ -36,11 +36,13 @@
 //!   ([`colony_node`], re-exported here): the in-memory hub on simulated time,
 //!   which routes through the real sans-IO hub, and the real hub ([`Link`] for
 //!   one node, [`Mux`] for many on one thread).
-//! - [`experiment`]: long-term autonomy, box pushing, greedy against optimal;
-//!   [`demo`]: the live demonstration `colony tasks demo` runs.
 //! - [`robot`]: one robot's agent as its own process, with an abstract body
-//!   or (with the `field` feature) one of the bodies of a `room`, driven over
-//!   `radio` from what it sees on `vision`.
+//!   or one of the bodies of a world on `vision` and `radio` (such as
+//!   colony-lab's room), driven over `radio` from what it sees on `vision`.
+//!
+//! The experiments (long-term autonomy, box pushing, greedy against optimal),
+//! the live demonstration `colony tasks demo` runs and the room of bodies in the
+//! physics field are colony-lab's (`lab::tasks`): this crate links no simulator.
 //!
 //! # The messages
 //!
@@ -54,13 +56,9 @@
 
 mod agent;
 mod announcer;
-pub mod demo;
-pub mod experiment;
 pub mod metric;
 pub mod request;
 pub mod robot;
-#[cfg(feature = "field")]
-pub mod room;
 #[cfg(test)]
 mod test_keys;
 mod user;

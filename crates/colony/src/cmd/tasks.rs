@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use colony_hub::{HubSite, HubSpec};
-use colony_tasks::experiment::{boxpush, longterm, optimal};
+use colony_lab::tasks::{boxpush, longterm, optimal};
 
 use super::Bounds;
 
@@ -215,12 +215,12 @@ fn demo(args: DemoArgs) -> anyhow::Result<()> {
             h.addr()
         }
     };
-    let config = colony_tasks::demo::DemoConfig {
+    let config = colony_lab::tasks::demo::DemoConfig {
         duration,
         seed: args.seed,
         ..Default::default()
     };
-    let summary = colony_tasks::demo::run(addr, &config, &stop, |line| println!("{line}"))
+    let summary = colony_lab::tasks::demo::run(addr, &config, &stop, |line| println!("{line}"))
         .context("the demo's hub clients failed")?;
     println!(
         "introduced {}, allocated {}, completed {}, unachievable reports {}, recharges {}",
@@ -276,8 +276,9 @@ fn agent(args: AgentArgs) -> anyhow::Result<()> {
 }
 
 fn room(args: RoomArgs) -> anyhow::Result<()> {
-    let mut room = colony_tasks::room::Room::new(args.side, usize::from(args.bodies), args.speed)
-        .map_err(anyhow::Error::msg)?;
+    let mut room =
+        colony_lab::tasks::room::Room::new(args.side, usize::from(args.bodies), args.speed)
+            .map_err(anyhow::Error::msg)?;
     args.hub.no_key("colony tasks room")?;
     let hub = args.hub.connect()?.hub_addr();
     let stop = super::stop_flag()?;
@@ -287,7 +288,8 @@ fn room(args: RoomArgs) -> anyhow::Result<()> {
         args.bodies,
         args.bodies - 1
     );
-    colony_tasks::room::serve(&mut room, hub, &stop).context("the room's hub client failed")?;
+    colony_lab::tasks::room::serve(&mut room, hub, &stop)
+        .context("the room's hub client failed")?;
     Ok(())
 }
 

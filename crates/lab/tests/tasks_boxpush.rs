@@ -1,9 +1,9 @@
 //! Box pushing (section 6.1) in the physics field.
 
-use colony_tasks::experiment::boxpush::{run, BoxPush, BoxPushConfig};
-use colony_tasks::experiment::Progress;
+use colony_lab::tasks::boxpush::{run, BoxPush, BoxPushConfig};
+use colony_lab::tasks::Progress;
 
-fn show(name: &str, out: &colony_tasks::experiment::boxpush::BoxPushOutcome) {
+fn show(name: &str, out: &colony_lab::tasks::boxpush::BoxPushOutcome) {
     println!("== {name}: {:?}", out.report);
     for (t, e) in &out.events {
         println!("  {t:7.1} {e}");

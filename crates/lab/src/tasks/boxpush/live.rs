@@ -13,7 +13,7 @@ use colony_proto::Pose;
 
 use super::control::{BOX, PUSHER};
 use super::{BoxPush, BoxPushConfig, BoxPushError, BoxPushOutcome};
-use crate::experiment::Progress;
+use crate::tasks::Progress;
 
 /// The field is drawn at most this often (wall time).
 const FRAME_EVERY: Duration = Duration::from_millis(100);

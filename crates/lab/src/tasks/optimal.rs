@@ -19,13 +19,13 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::longterm::{roster, PAPER_TASKS};
-use crate::agent::{Agent, AgentConfig};
-use crate::announcer::{Announcer, AnnouncerEvent, AuctionConfig};
-use crate::metric::{Metrics, RobotView};
-use crate::protocol::{ResourceSet, SpecError, TaskSpec, Token, TokenError};
 use colony_node::Bus;
 use colony_node::Node;
 use colony_node::Time;
+use colony_tasks::protocol::{ResourceSet, SpecError, TaskSpec, Token, TokenError};
+use colony_tasks::{Agent, AgentConfig};
+use colony_tasks::{Announcer, AnnouncerEvent, AuctionConfig};
+use colony_tasks::{Metrics, RobotView};
 
 /// One comparison's setting.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,7 +1,7 @@
 //! The long-term experiment (section 6.2) on simulated time.
 
-use colony_tasks::experiment::longterm::{run, Longterm, LongtermConfig, IMPOSSIBLE_TASK};
-use colony_tasks::experiment::Progress;
+use colony_lab::tasks::longterm::{run, Longterm, LongtermConfig, IMPOSSIBLE_TASK};
+use colony_lab::tasks::Progress;
 
 #[test]
 fn a_long_run_completes_most_achievable_tasks_within_its_hours_and_reports_the_rest() {

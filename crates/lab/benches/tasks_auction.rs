@@ -8,7 +8,7 @@
 //! 2. On the in-memory bus: MURDOCH's greedy allocation against the optimal
 //!    assignment (Kuhn-Munkres) on the same streams of tasks.
 //!
-//! `cargo bench -p colony-tasks --bench auction` (add `-- --quick` for fewer rounds).
+//! `cargo bench -p colony-lab --bench tasks_auction` (add `-- --quick` for fewer rounds).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -16,8 +16,8 @@ use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
 use colony_hub::{HubConfig, Server};
+use colony_lab::tasks::optimal::{compare, CompareConfig};
 use colony_node::{Link, Mux};
-use colony_tasks::experiment::optimal::{compare, CompareConfig};
 use colony_tasks::{
     Agent, AgentConfig, AgentEvent, Announcer, AnnouncerEvent, AuctionConfig, TaskSpec, Time, Token,
 };

@@ -34,14 +34,14 @@ pub use report::{BoxPushOutcome, BoxPushReport};
 pub use settings::{BoxPushConfig, MOVE_BOX, PUSH_LEFT, PUSH_RIGHT};
 
 use super::Progress;
-use crate::agent::{Agent, AgentConfig, AgentEvent};
-use crate::announcer::{Announcer, AnnouncerEvent, AuctionConfig};
-use crate::metric::Metrics;
-use crate::protocol::{ResourceError, SpecError, TaskSpec, Token, TokenError};
-use crate::user::{Backoff, UserAgent, UserEvent};
 use colony_node::Bus;
 use colony_node::Node;
 use colony_node::Time;
+use colony_tasks::protocol::{ResourceError, SpecError, TaskSpec, Token, TokenError};
+use colony_tasks::Metrics;
+use colony_tasks::{Agent, AgentConfig, AgentEvent};
+use colony_tasks::{Announcer, AnnouncerEvent, AuctionConfig};
+use colony_tasks::{Backoff, UserAgent, UserEvent};
 use control::{
     comeback_pose, frame, lead_point, placement, push_point, push_task, pusher_resources,
     watcher_resources, watcher_sees, watcher_wheels, Push, BOX, PLACEMENT, PUSHER,

@@ -5,9 +5,9 @@ use std::time::Duration;
 
 use colony_proto::Vec2;
 
-use crate::announcer::AuctionConfig;
-use crate::protocol::TaskSpec;
-use crate::user::Backoff;
+use colony_tasks::protocol::TaskSpec;
+use colony_tasks::AuctionConfig;
+use colony_tasks::Backoff;
 
 /// One kind of task: its name, resources and whether it happens somewhere.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

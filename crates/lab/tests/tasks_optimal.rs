@@ -1,6 +1,6 @@
 //! Greedy auctions against the optimal assignment on the same streams.
 
-use colony_tasks::experiment::optimal::{compare, CompareConfig};
+use colony_lab::tasks::optimal::{compare, CompareConfig};
 
 #[test]
 fn the_optimum_is_never_worse_and_greedy_is_close() {

@@ -17,7 +17,7 @@ use colony_sim::field::{Field, FieldConfig, FieldRobotId};
 use colony_sim::SimError;
 use colony_wire::{Packet, Subject};
 
-use crate::experiment::longterm::bodies::{open_room, pioneer, RADIUS};
+use crate::tasks::longterm::bodies::{open_room, pioneer, RADIUS};
 
 /// The most bodies a room holds.
 pub const MAX_BODIES: usize = 64;

@@ -13,14 +13,14 @@ use super::settings::{
     roster, task_spec, AgentSpec, LongtermConfig, SettingsError, TaskKind, IMPOSSIBLE_TASK,
     PAPER_TASKS,
 };
-use crate::agent::{Agent, AgentConfig, AgentEvent};
-use crate::announcer::AnnouncerEvent;
-use crate::experiment::Progress;
-use crate::protocol::{ResourceError, ResourceSet, SpecError, Token, TokenError};
-use crate::user::{UserAgent, UserEvent};
+use crate::tasks::Progress;
 use colony_node::Bus;
 use colony_node::Node;
 use colony_node::Time;
+use colony_tasks::protocol::{ResourceError, ResourceSet, SpecError, Token, TokenError};
+use colony_tasks::AnnouncerEvent;
+use colony_tasks::{Agent, AgentConfig, AgentEvent};
+use colony_tasks::{UserAgent, UserEvent};
 
 /// Why a run could not be made or went wrong.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -103,7 +103,7 @@ fn agent_config(cfg: &LongtermConfig) -> AgentConfig {
 /// part-way; [`finish`](Longterm::finish) gives the outcome.
 ///
 /// ```
-/// use colony_tasks::experiment::{longterm::{Longterm, LongtermConfig}, Progress};
+/// use colony_lab::tasks::{longterm::{Longterm, LongtermConfig}, Progress};
 /// let mut run = Longterm::new(&LongtermConfig { hours: 0.05, ..Default::default() }).unwrap();
 /// while run.step().unwrap() == Progress::Running && run.now().as_secs_f64() < 60.0 {}
 /// assert!(run.report().introduced <= 1);

@@ -19,7 +19,7 @@ pub const RADIUS: f64 = 22.0;
 /// The room's floor is cut into cells this size (it is open: only its edge is a wall).
 const CELL: f64 = 20.0;
 
-/// An open square room `side_cm` across, its floor cut into [`CELL`]s.
+/// An open square room `side_cm` across, its floor cut into 20 cm cells (`CELL`).
 pub fn open_room(side_cm: f64, config: FieldConfig) -> Result<Field, SimError> {
     let cells = (side_cm / CELL).ceil().max(1.0) as usize;
     Field::new(TileMap::open(cells, cells, CELL)?, config)
@@ -38,7 +38,7 @@ pub fn pioneer(speed: f64) -> RobotSpec {
 const AVOID: f64 = 60.0;
 /// Without this much headway in [`STUCK_AFTER`], a robot stops where it is, cm.
 const HEADWAY: f64 = 20.0;
-/// See [`HEADWAY`], s.
+/// See `HEADWAY`, s.
 pub const STUCK_AFTER: f64 = 60.0;
 
 /// Where a robot is to go, and how close is close enough.

@@ -13,14 +13,14 @@ use colony_wire::{Packet, Subject};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::agent::{Agent, AgentConfig, AgentEvent};
-use crate::announcer::{AnnouncerEvent, AuctionConfig};
-use crate::experiment::longterm::{roster, task_spec, IMPOSSIBLE_TASK, PAPER_TASKS};
-use crate::protocol::Token;
-use crate::user::{Backoff, UserAgent, UserEvent};
+use crate::tasks::longterm::{roster, task_spec, IMPOSSIBLE_TASK, PAPER_TASKS};
 use colony_node::Node;
 use colony_node::Time;
 use colony_node::{Link, LiveError, Mux};
+use colony_tasks::protocol::Token;
+use colony_tasks::{Agent, AgentConfig, AgentEvent};
+use colony_tasks::{AnnouncerEvent, AuctionConfig};
+use colony_tasks::{Backoff, UserAgent, UserEvent};
 
 /// How the demonstration runs.
 #[derive(Debug, Clone, PartialEq)]

@@ -7,23 +7,17 @@
 //! Pioneers, in a 20 m room): they drive to where a task is, steering round
 //! each other with their sonar, spend the task's length there, and drive to a
 //! charger when their battery runs low (`bodies`). What is real is
-//! everything MURDOCH does: every agent is an [`Agent`](crate::Agent) and the
-//! user an [`UserAgent`](crate::UserAgent) exchanging the same packets as over
+//! everything MURDOCH does: every agent is an [`Agent`](colony_tasks::Agent) and the
+//! user an [`UserAgent`](colony_tasks::UserAgent) exchanging the same packets as over
 //! the hub, on the in-memory bus on simulated time. A run lasts exactly the
 //! hours asked for; tasks still open then are counted as such.
-//!
-//! The settings and the report need no physics; the run needs the `field`
-//! feature.
 
-#[cfg(feature = "field")]
 pub mod bodies;
 mod report;
-#[cfg(feature = "field")]
 mod run;
 mod settings;
 
 pub use report::{KindCounts, LogRow, LongtermOutcome, LongtermReport};
-#[cfg(feature = "field")]
 pub use run::{run, Longterm, LongtermError};
 pub use settings::{
     roster, task_spec, AgentSpec, LongtermConfig, SettingsError, TaskKind, IMPOSSIBLE_TASK,

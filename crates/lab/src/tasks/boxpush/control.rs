@@ -9,8 +9,8 @@ use colony_proto::{wrap_angle, Pose, Speed, Steer, Vec2, WheelCommand};
 use colony_sim::field::{BoxSpec, Field, RobotSpec};
 
 use super::{PUSH_LEFT, PUSH_RIGHT};
-use crate::metric::RobotView;
-use crate::protocol::{Announcement, ResourceSet, TaskSpec};
+use colony_tasks::protocol::{Announcement, ResourceSet, TaskSpec};
+use colony_tasks::RobotView;
 
 pub(super) const BOX: BoxSpec = BoxSpec {
     half_length: 30.0,
