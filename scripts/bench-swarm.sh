@@ -18,7 +18,7 @@ features=()
 if [ "${PARALLEL_PHYSICS:-0}" != 0 ]; then
     features=(--features colony-sim/parallel-physics)
 fi
-cargo build --release -q "${features[@]}" -p colony-sort --example swarm_scale -p colony-sim --example field_scale
+cargo build --release -q "${features[@]}" -p colony-lab --example swarm_scale -p colony-sim --example field_scale
 
 # The run lengths the targets are stated over (issue 32): 1,000 control steps at 1,024
 # robots, 150 at 10,000; a few seconds' worth elsewhere, and 5 steps at 100,000.

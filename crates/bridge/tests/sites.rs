@@ -2,7 +2,6 @@
 //! line of peers, and sites meeting at a Zenoh router.
 
 use std::collections::BTreeMap;
-use std::net::TcpListener;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -12,22 +11,11 @@ use colony_bridge::track::Stamp;
 use colony_bridge::{Bridge, BridgeConfig, Mode, Site, Stats};
 use colony_client::UdpClient;
 use colony_hub::{HubSpec, HubThread, Server};
+use colony_testkit::net::{free_tcp_port, tcp_endpoint};
 use zenoh::Wait;
 
 /// Events come within this, or the test fails; they usually take milliseconds.
 const PATIENCE: Duration = Duration::from_secs(20);
-
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-fn endpoint(port: u16) -> String {
-    format!("tcp/127.0.0.1:{port}")
-}
 
 struct Site_ {
     hub: Option<HubThread>,
@@ -169,10 +157,10 @@ fn numbered(channel: &str, n: usize) -> Vec<String> {
 
 #[test]
 fn three_sites_in_a_line_deliver_each_packet_once_to_exactly_its_subscribers() {
-    let (pa, pb) = (free_port(), free_port());
-    let a = Site_::new("a", Mode::Peer, &[], &[endpoint(pa)]);
-    let b = Site_::new("b", Mode::Peer, &[endpoint(pa)], &[endpoint(pb)]);
-    let c = Site_::new("c", Mode::Peer, &[endpoint(pb)], &[]);
+    let (pa, pb) = (free_tcp_port(), free_tcp_port());
+    let a = Site_::new("a", Mode::Peer, &[], &[tcp_endpoint(pa)]);
+    let b = Site_::new("b", Mode::Peer, &[tcp_endpoint(pa)], &[tcp_endpoint(pb)]);
+    let c = Site_::new("c", Mode::Peer, &[tcp_endpoint(pb)], &[]);
 
     let mut publisher = a.client(&[]);
     let mut on_c = c.client(&["talk"]);
@@ -251,19 +239,19 @@ fn three_sites_in_a_line_deliver_each_packet_once_to_exactly_its_subscribers() {
 
 #[test]
 fn sites_meeting_at_a_zenoh_router_share_channels_and_withdraw_when_unsubscribed() {
-    let pr = free_port();
+    let pr = free_tcp_port();
     let mut router = zenoh::Config::default();
     router.insert_json5("mode", "\"router\"").unwrap();
     router
-        .insert_json5("listen/endpoints", &format!("[\"{}\"]", endpoint(pr)))
+        .insert_json5("listen/endpoints", &format!("[\"{}\"]", tcp_endpoint(pr)))
         .unwrap();
     router
         .insert_json5("scouting/multicast/enabled", "false")
         .unwrap();
     let router = zenoh::open(router).wait().unwrap();
 
-    let a = Site_::new("a", Mode::Client, &[endpoint(pr)], &[]);
-    let b = Site_::new("b", Mode::Client, &[endpoint(pr)], &[]);
+    let a = Site_::new("a", Mode::Client, &[tcp_endpoint(pr)], &[]);
+    let b = Site_::new("b", Mode::Client, &[tcp_endpoint(pr)], &[]);
     let mut publisher = a.client(&[]);
     let mut on_b = b.client(&["vision"]);
     until_flowing(
@@ -284,11 +272,11 @@ fn sites_meeting_at_a_zenoh_router_share_channels_and_withdraw_when_unsubscribed
 
 #[test]
 fn forged_wants_and_samples_from_any_zenoh_peer_neither_stop_a_bridge_nor_act_on_its_hub() {
-    let pa = free_port();
-    let a = Site_::new("a", Mode::Peer, &[], &[endpoint(pa)]);
+    let pa = free_tcp_port();
+    let a = Site_::new("a", Mode::Peer, &[], &[tcp_endpoint(pa)]);
     let mut forger = zenoh::Config::default();
     forger
-        .insert_json5("connect/endpoints", &format!("[\"{}\"]", endpoint(pa)))
+        .insert_json5("connect/endpoints", &format!("[\"{}\"]", tcp_endpoint(pa)))
         .unwrap();
     forger
         .insert_json5("scouting/multicast/enabled", "false")
@@ -363,10 +351,10 @@ fn forged_wants_and_samples_from_any_zenoh_peer_neither_stop_a_bridge_nor_act_on
 
 #[test]
 fn three_sites_in_a_triangle_deliver_each_packet_once() {
-    let (pa, pb) = (free_port(), free_port());
-    let a = Site_::new("a", Mode::Peer, &[], &[endpoint(pa)]);
-    let b = Site_::new("b", Mode::Peer, &[endpoint(pa)], &[endpoint(pb)]);
-    let c = Site_::new("c", Mode::Peer, &[endpoint(pa), endpoint(pb)], &[]);
+    let (pa, pb) = (free_tcp_port(), free_tcp_port());
+    let a = Site_::new("a", Mode::Peer, &[], &[tcp_endpoint(pa)]);
+    let b = Site_::new("b", Mode::Peer, &[tcp_endpoint(pa)], &[tcp_endpoint(pb)]);
+    let c = Site_::new("c", Mode::Peer, &[tcp_endpoint(pa), tcp_endpoint(pb)], &[]);
     let mut from_a = a.client(&[]);
     let mut from_c = c.client(&[]);
     let mut on_a = a.client(&["ring"]);
@@ -413,19 +401,19 @@ fn three_sites_in_a_triangle_deliver_each_packet_once() {
 
 #[test]
 fn a_hub_restarted_on_its_address_and_a_router_restarted_on_its_port_are_found_again() {
-    let pr = free_port();
+    let pr = free_tcp_port();
     let router = |port: u16| {
         let mut c = zenoh::Config::default();
         c.insert_json5("mode", "\"router\"").unwrap();
-        c.insert_json5("listen/endpoints", &format!("[\"{}\"]", endpoint(port)))
+        c.insert_json5("listen/endpoints", &format!("[\"{}\"]", tcp_endpoint(port)))
             .unwrap();
         c.insert_json5("scouting/multicast/enabled", "false")
             .unwrap();
         zenoh::open(c).wait().unwrap()
     };
     let r = router(pr);
-    let a = Site_::new("a", Mode::Client, &[endpoint(pr)], &[]);
-    let mut b = Site_::new("b", Mode::Client, &[endpoint(pr)], &[]);
+    let a = Site_::new("a", Mode::Client, &[tcp_endpoint(pr)], &[]);
+    let mut b = Site_::new("b", Mode::Client, &[tcp_endpoint(pr)], &[]);
     let mut publisher = a.client(&[]);
     let mut on_b = b.client(&["vision"]);
     until_flowing(
@@ -461,9 +449,9 @@ fn a_hub_restarted_on_its_address_and_a_router_restarted_on_its_port_are_found_a
 
 #[test]
 fn a_site_whose_hub_stops_answering_withdraws_its_wants() {
-    let pa = free_port();
-    let a = Site_::new("a", Mode::Peer, &[], &[endpoint(pa)]);
-    let mut b = Site_::new("b", Mode::Peer, &[endpoint(pa)], &[]);
+    let pa = free_tcp_port();
+    let a = Site_::new("a", Mode::Peer, &[], &[tcp_endpoint(pa)]);
+    let mut b = Site_::new("b", Mode::Peer, &[tcp_endpoint(pa)], &[]);
     let mut publisher = a.client(&[]);
     let mut on_b = b.client(&["vision"]);
     until_flowing(
@@ -496,8 +484,11 @@ fn hub_drops(site: &Site_) -> BTreeMap<String, u64> {
 
 fn zenoh_peer(connect: u16) -> zenoh::Session {
     let mut c = zenoh::Config::default();
-    c.insert_json5("connect/endpoints", &format!("[\"{}\"]", endpoint(connect)))
-        .unwrap();
+    c.insert_json5(
+        "connect/endpoints",
+        &format!("[\"{}\"]", tcp_endpoint(connect)),
+    )
+    .unwrap();
     c.insert_json5("scouting/multicast/enabled", "false")
         .unwrap();
     zenoh::open(c).wait().unwrap()
@@ -510,8 +501,8 @@ fn zenoh_peer(connect: u16) -> zenoh::Session {
 /// rate-limited the bridge, each time counting every refusal again.
 #[test]
 fn a_stranger_s_flood_of_want_tokens_shuts_no_site_out_nor_churns_the_hub() {
-    let pa = free_port();
-    let a = Site_::new("a", Mode::Peer, &[], &[endpoint(pa)]);
+    let pa = free_tcp_port();
+    let a = Site_::new("a", Mode::Peer, &[], &[tcp_endpoint(pa)]);
     let stranger = zenoh_peer(pa);
     const JUNK: usize = 5_000;
     let tokens: Vec<_> = (0..JUNK)
@@ -533,7 +524,7 @@ fn a_stranger_s_flood_of_want_tokens_shuts_no_site_out_nor_churns_the_hub() {
         std::thread::sleep(Duration::from_millis(50));
     }
 
-    let b = Site_::new("b", Mode::Peer, &[endpoint(pa)], &[]);
+    let b = Site_::new("b", Mode::Peer, &[tcp_endpoint(pa)], &[]);
     let mut publisher = a.client(&[]);
     let mut on_b = b.client(&["vision"]);
     until_flowing(
@@ -563,8 +554,8 @@ fn a_stranger_s_flood_of_want_tokens_shuts_no_site_out_nor_churns_the_hub() {
 /// asks Zenoh for the live tokens again.
 #[test]
 fn a_want_refused_at_its_site_s_bound_is_taken_when_room_frees() {
-    let pa = free_port();
-    let a = Site_::new("a", Mode::Peer, &[], &[endpoint(pa)]);
+    let pa = free_tcp_port();
+    let a = Site_::new("a", Mode::Peer, &[], &[tcp_endpoint(pa)]);
     let other = zenoh_peer(pa);
     let mut tokens: Vec<_> = (0..1_024)
         .map(|i| {
@@ -621,9 +612,9 @@ fn a_want_refused_at_its_site_s_bound_is_taken_when_room_frees() {
 /// of 300 real packets from arriving, each forgery adding 2^20 to `lost`.
 #[test]
 fn a_forged_stamp_far_ahead_neither_silences_a_stream_nor_counts_as_lost() {
-    let (pa, pb) = (free_port(), free_port());
-    let a = Site_::new("a", Mode::Peer, &[], &[endpoint(pa)]);
-    let b = Site_::new("b", Mode::Peer, &[endpoint(pa)], &[endpoint(pb)]);
+    let (pa, pb) = (free_tcp_port(), free_tcp_port());
+    let a = Site_::new("a", Mode::Peer, &[], &[tcp_endpoint(pa)]);
+    let b = Site_::new("b", Mode::Peer, &[tcp_endpoint(pa)], &[tcp_endpoint(pb)]);
     let mut publisher = a.client(&[]);
     let mut on_b = b.client(&["radio"]);
     until_flowing(&mut publisher, "@ <radio> 0\nmsg id 0\n", &mut [&mut on_b]);

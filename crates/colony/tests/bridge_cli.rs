@@ -2,11 +2,9 @@
 //! bridges killed with SIGKILL and started again, and Zenoh's own Python
 //! package as a client colony did not write.
 
-mod common;
-
 use std::collections::BTreeSet;
 use std::io::{BufRead, BufReader};
-use std::net::{SocketAddr, TcpListener};
+use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::process::Stdio;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -14,19 +12,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
-use common::{colony, subscribed, HubProcess, Proc};
-
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-fn endpoint(port: u16) -> String {
-    format!("tcp/127.0.0.1:{port}")
-}
+use colony_testkit::cli::{colony, HubProcess, Proc};
+use colony_testkit::client::{drain_until, subscribed};
+use colony_testkit::net::{free_tcp_port, tcp_endpoint};
 
 /// A `colony bridge` process, killed (SIGKILL) when dropped.
 fn bridge(hub: SocketAddr, site: &str, extra: &[String]) -> Proc {
@@ -105,21 +93,21 @@ fn receive(clients: &mut [(&mut UdpClient, &mut Received)], deadline: Instant, f
 
 #[test]
 fn killing_the_middle_bridge_of_three_loses_only_the_gap_and_recovers_within_three_seconds() {
-    let (pa, pb) = (free_port(), free_port());
+    let (pa, pb) = (free_tcp_port(), free_tcp_port());
     let (ha, hb, hc) = (
         HubProcess::start(&[]),
         HubProcess::start(&[]),
         HubProcess::start(&[]),
     );
-    let _a = bridge(ha.addr, "a", &["--listen".into(), endpoint(pa)]);
+    let _a = bridge(ha.addr, "a", &["--listen".into(), tcp_endpoint(pa)]);
     let b_args = [
         "--connect".into(),
-        endpoint(pa),
+        tcp_endpoint(pa),
         "--listen".into(),
-        endpoint(pb),
+        tcp_endpoint(pb),
     ];
     let mut b = bridge(hb.addr, "b", &b_args);
-    let _c = bridge(hc.addr, "c", &["--connect".into(), endpoint(pb)]);
+    let _c = bridge(hc.addr, "c", &["--connect".into(), tcp_endpoint(pb)]);
     let mut on_b = subscribed(hb.addr, &["stream"]);
     let mut on_c = subscribed(hc.addr, &["stream"]);
     let stream = Stream::start(ha.addr);
@@ -220,12 +208,12 @@ fn zenohs_own_python_package_receives_a_colony_channel_and_publishes_one_back() 
          which installs it (python3 -m pip install --target target/pydeps eclipse-zenoh==1.10.2)",
         deps.display()
     );
-    let port = free_port();
+    let port = free_tcp_port();
     let hub = HubProcess::start(&[]);
-    let _bridge = bridge(hub.addr, "lab", &["--listen".into(), endpoint(port)]);
+    let _bridge = bridge(hub.addr, "lab", &["--listen".into(), tcp_endpoint(port)]);
     let mut python = std::process::Command::new("python3")
         .arg(root.join("python/tests/zenoh_peer.py"))
-        .arg(endpoint(port))
+        .arg(tcp_endpoint(port))
         .env("PYTHONPATH", &deps)
         .env("PYTHONUNBUFFERED", "1")
         .stdin(Stdio::null())
@@ -255,7 +243,7 @@ fn zenohs_own_python_package_receives_a_colony_channel_and_publishes_one_back() 
                 python_got = Some(rest.to_owned());
             }
         }
-        let got = common::drain_until(
+        let got = drain_until(
             &mut back,
             Instant::now() + Duration::from_millis(100),
             |g| !g.is_empty(),
@@ -282,7 +270,7 @@ fn a_bridge_with_no_hub_says_so_within_seconds_and_keeps_trying() {
     let quiet = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     let hub = quiet.local_addr().unwrap().to_string();
     drop(quiet);
-    let listen = endpoint(free_port());
+    let listen = tcp_endpoint(free_tcp_port());
     let mut child = colony()
         .args([
             "bridge", "--hub", &hub, "--site", "lonely", "--listen", &listen,

@@ -9,8 +9,6 @@
 //! Without `cc` or `make` these tests fail and name `scripts/test`, which
 //! installs them: nothing is skipped silently.
 
-mod common;
-
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader, Write as _};
 use std::net::UdpSocket;
@@ -19,8 +17,9 @@ use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
+use colony_testkit::cli::{colony, HubProcess};
+use colony_testkit::client::{drain_until, subscribed};
 use colony_wire::{ErrorKind, Packet};
-use common::{colony, drain_until, subscribed, HubProcess};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")

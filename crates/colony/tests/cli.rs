@@ -1,12 +1,11 @@
 //! The `colony` command as a user types it.
 
-mod common;
-
 use std::fs::OpenOptions;
 use std::process::{Output, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{colony, drain_until, subscribed, HubProcess};
+use colony_testkit::cli::{colony, HubProcess};
+use colony_testkit::client::{drain_until, subscribed};
 
 fn run(args: &[&str]) -> Output {
     colony()

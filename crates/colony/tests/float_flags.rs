@@ -2,12 +2,12 @@
 //! error naming the flag (exit 2), never a panic (101), a spin or a hang.
 //! Other absurd arguments (a key file that never ends) fail cleanly too.
 
-mod common;
+use colony_testkit::cli;
 
 /// Runs `colony args`, killing it if it has not ended within a generous
 /// wait, and returns its exit code (None: it had to be killed) and stderr.
 fn run_bounded(args: &[&str]) -> (Option<i32>, String) {
-    let (code, _, err) = common::run_bounded(args, "warn");
+    let (code, _, err) = cli::run_bounded(args, "warn");
     (code, err)
 }
 
@@ -92,7 +92,7 @@ fn log_offsets_that_are_no_time_are_refused() {
 #[test]
 fn sane_values_are_still_taken() {
     // A short lease at the minimum starts a hub (it reports its address).
-    let hub = common::HubProcess::start(&["--lease", "0.1"]);
+    let hub = cli::HubProcess::start(&["--lease", "0.1"]);
     drop(hub);
     let (code, err) = run_bounded(&["status", "--hub", "127.0.0.1:9", "--timeout", "0.2"]);
     assert_eq!(code, Some(1), "{err}");
@@ -100,7 +100,7 @@ fn sane_values_are_still_taken() {
 
 #[test]
 fn a_key_file_that_never_ends_is_refused_not_read_into_memory() {
-    let (code, _, err) = common::run_bounded(
+    let (code, _, err) = cli::run_bounded(
         &["hub", "--bind", "127.0.0.1:0", "--key", "/dev/zero"],
         "warn",
     );

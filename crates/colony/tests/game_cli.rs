@@ -2,12 +2,11 @@
 //! input, and a live match whose parts are separate processes over a real
 //! hub, one of which is killed and restarted.
 
-mod common;
-
-use std::process::{Child, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
-use common::{colony, drain_until, subscribed, HubProcess};
+use colony_testkit::cli::{colony, HubProcess, Killed, Proc};
+use colony_testkit::client::{drain_until, subscribed};
 
 fn run(args: &[&str]) -> (bool, String, String) {
     let out = colony().args(args).output().unwrap();
@@ -48,7 +47,7 @@ fn a_fast_forwarded_capture_the_flag_match_ends_and_its_record_replays() {
     let hub = HubProcess::start(&[]);
     let mut watch = subscribed(hub.addr, &["game.state"]);
     let mut map = subscribed(hub.addr, &["game.map"]);
-    let _replay = Part(
+    let _replay = Killed(
         colony()
             .args([
                 "replay",
@@ -161,7 +160,7 @@ fn a_live_match_records_mcap_for_a_name_ending_in_mcap() {
     use std::io::{BufRead, BufReader};
     let dir = tempfile::tempdir().unwrap();
     let record = dir.path().join("live.mcap");
-    let mut game = Part(
+    let mut game = Killed(
         colony()
             .args([
                 "game",
@@ -283,22 +282,12 @@ fn bad_setups_give_clear_errors() {
     }
 }
 
-/// A child process killed when dropped.
-struct Part(Child);
-
-impl Drop for Part {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn part(hub: &HubProcess, args: &[&str]) -> Part {
+fn part(hub: &HubProcess, args: &[&str]) -> Killed {
     let addr = hub.addr.to_string();
     let mut all = vec!["game", "part"];
     all.extend_from_slice(args);
     all.extend_from_slice(&["--hub", &addr]);
-    Part(
+    Killed(
         colony()
             .args(&all)
             .stdin(Stdio::null())
@@ -399,7 +388,7 @@ fn game_time(state: &str) -> f64 {
 fn a_match_plays_from_an_empty_directory_on_the_built_in_map() {
     // An installed binary has no source tree beside it: the maps are in it.
     let dir = tempfile::tempdir().unwrap();
-    let out = common::colony()
+    let out = colony()
         .args(["game", "dm", "--fast", "--time-limit", "5"])
         .current_dir(dir.path())
         .output()
@@ -418,7 +407,7 @@ fn a_match_plays_from_an_empty_directory_on_the_built_in_map() {
 fn a_part_says_what_it_is_and_where_it_plays() {
     let hub = HubProcess::start(&[]);
     let addr = hub.addr.to_string();
-    let server = common::Proc::start(&["game", "part", "server", "--hub", &addr]);
+    let server = Proc::start(&["game", "part", "server", "--hub", &addr]);
     assert!(
         server
             .when("the game server of a", Duration::from_secs(20))

@@ -2,11 +2,10 @@
 //! `COLONY_KEY`), against a hub that asks every packet to be signed; and one
 //! without the key is told why the hub does not answer.
 
-mod common;
-
 use std::time::{Duration, Instant};
 
-use common::{colony, drain_until, HubProcess};
+use colony_testkit::cli::{colony, HubProcess};
+use colony_testkit::client::drain_until;
 
 fn key_file(dir: &tempfile::TempDir) -> String {
     let key = dir.path().join("colony.key");

@@ -1,13 +1,12 @@
 //! The hub, its clients and the CLI on real sockets on 127.0.0.1.
 
-mod common;
-
 use std::net::UdpSocket;
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
+use colony_testkit::cli::{colony, HubProcess};
+use colony_testkit::client::{drain_until, subscribed};
 use colony_wire::{PacketBuilder, Priority, Request};
-use common::{colony, drain_until, subscribed, HubProcess};
 
 fn packet(channel: &str, seq: u64) -> Vec<u8> {
     let mut p = PacketBuilder::new([channel], Priority(0));

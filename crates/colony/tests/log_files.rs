@@ -2,8 +2,6 @@
 //! and never cut by the hub, a torn tail is, `--log-max` rotates, and what
 //! the hub writes to a pipe carries no colour codes.
 
-mod common;
-
 use std::io::{BufRead as _, BufReader};
 use std::net::{SocketAddr, UdpSocket};
 use std::path::{Path, PathBuf};
@@ -11,7 +9,7 @@ use std::process::{Output, Stdio};
 use std::time::{Duration, Instant, UNIX_EPOCH};
 
 use colony_hub::log::LogWriter;
-use common::{colony, HubProcess};
+use colony_testkit::cli::{self, colony, HubProcess};
 
 const HEADER: u64 = 13; // `colony-log 1\n`
 
@@ -64,7 +62,7 @@ fn corrupt_log(dir: &Path) -> (PathBuf, u64) {
 
 /// Runs `colony args` to its end, killing it after a generous wait.
 fn run_bounded(args: &[&str]) -> (Option<i32>, String, String) {
-    common::run_bounded(args, "info")
+    cli::run_bounded(args, "info")
 }
 
 #[test]

@@ -6,10 +6,6 @@
 //!
 //! Needs python3 with `mcap` and `zstandard` in target/pydeps: `scripts/test` installs them.
 
-mod common;
-#[path = "../../monitor/tests/common/mod.rs"]
-mod monitor_ws;
-
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
 use std::sync::OnceLock;
@@ -17,8 +13,11 @@ use std::time::{Duration, Instant};
 
 use colony_hub::log::{LogReader, Record};
 use colony_mcap::{McapReader, TrafficReader};
+use colony_testkit::cli::{colony, run_bounded, HubProcess};
+use colony_testkit::client::{drain_until, subscribed};
+use colony_testkit::monitor::with_token;
+use colony_testkit::web::Ws;
 use colony_wire::Packet;
-use common::{run_bounded, HubProcess};
 use serde_json::Value;
 
 /// `colony log export FROM --mcap TO` with these filters, to its end.
@@ -248,10 +247,7 @@ fn an_mcap_log_replays_into_a_monitor_that_draws_the_run() {
         ..Default::default()
     })
     .unwrap();
-    let mut ws = monitor_ws::Ws::connect(
-        monitor.local_addr(),
-        &monitor_ws::with_token(&monitor, "/ws"),
-    );
+    let mut ws = Ws::connect(monitor.local_addr(), &with_token(&monitor, "/ws"));
     // The last poses the log holds for each robot.
     let mut last = std::collections::BTreeMap::new();
     for r in read_mcap(file) {
@@ -585,7 +581,7 @@ fn a_hub_whose_mcap_log_fails_says_so_and_serves_on() {
         magic
     });
     let err_file = dir.path().join("hub.err");
-    let mut child = common::colony()
+    let mut child = colony()
         .args([
             "hub",
             "--bind",
@@ -611,7 +607,7 @@ fn a_hub_whose_mcap_log_fails_says_so_and_serves_on() {
     close.send(()).unwrap();
     assert_eq!(&reader.join().unwrap(), colony_mcap::MAGIC);
     let hub: std::net::SocketAddr = addr.parse().unwrap();
-    let mut sub = common::subscribed(hub, &["after"]);
+    let mut sub = subscribed(hub, &["after"]);
     let mut client = colony_client::UdpClient::connect(hub).unwrap();
     // Traffic for over a second: a chunk is closed and its write fails.
     let deadline = Instant::now() + Duration::from_secs(10);
@@ -627,7 +623,7 @@ fn a_hub_whose_mcap_log_fails_says_so_and_serves_on() {
     client
         .publish(b"@ <after> 0\nnote text \"still here\"\n")
         .unwrap();
-    let got = common::drain_until(&mut sub, Instant::now() + Duration::from_secs(5), |g| {
+    let got = drain_until(&mut sub, Instant::now() + Duration::from_secs(5), |g| {
         !g.is_empty()
     });
     assert!(got.iter().any(|p| p.contains("still here")), "{got:?}");

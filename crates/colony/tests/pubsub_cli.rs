@@ -3,8 +3,6 @@
 //! header cannot hijack a channel), the subjects are one argument and never guessed, and
 //! characters that could act on a terminal are shown escaped.
 
-mod common;
-
 use std::io::Write as _;
 use std::net::SocketAddr;
 use std::process::{Output, Stdio};
@@ -12,7 +10,8 @@ use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
 use colony_hub::log::{LogWriter, Record};
-use common::{colony, drain_until, subscribed, HubProcess};
+use colony_testkit::cli::{colony, HubProcess};
+use colony_testkit::client::{drain_until, subscribed};
 
 /// Runs `colony sub --hub HUB args` until it ends by itself (give it `-n`), sending
 /// `packets` again and again meanwhile: it may take a while to take its lease.

@@ -120,6 +120,7 @@ fn stale_check(installed: &Path) {
         "crates/py/python",
         "crates/sort/src",
         "crates/game/src",
+        "crates/env/src",
         "crates/behave/src",
         "crates/sim/src",
         "crates/node/src",

@@ -2,14 +2,13 @@
 //! century ahead is skipped, not waited out, and Ctrl-C or SIGTERM stops a
 //! replay in the middle of a wait.
 
-mod common;
-
 use std::path::Path;
 use std::process::{Child, Stdio};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use colony_hub::log::LogWriter;
-use common::{colony, drain_until, subscribed, HubProcess};
+use colony_testkit::cli::{colony, run_bounded, HubProcess};
+use colony_testkit::client::{drain_until, subscribed};
 
 const YEAR: Duration = Duration::from_secs(365 * 24 * 3600);
 
@@ -132,7 +131,7 @@ fn sigterm_stops_a_replay_waiting_out_a_gap() {
 fn a_max_gap_that_is_not_a_sensible_number_of_seconds_is_refused() {
     for bad in ["-1", "nan", "inf", "-inf", "0", "1e300", "1e-300", "ten"] {
         let flag = format!("--max-gap={bad}");
-        let (code, _, err) = common::run_bounded(&["replay", &flag, "no-such.clog"], "warn");
+        let (code, _, err) = run_bounded(&["replay", &flag, "no-such.clog"], "warn");
         assert_eq!(code, Some(2), "--max-gap {bad}: {err}");
         assert!(
             err.contains("--max-gap")

@@ -3,8 +3,6 @@
 //! hears what anyone may hear (it subscribes like any client) and answers
 //! calls or announces providers of its own before the real one can.
 
-mod common;
-
 use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -12,9 +10,10 @@ use std::thread;
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
+use colony_testkit::cli::{run_bounded, HubProcess, Proc};
+use colony_testkit::client::{drain_until, subscribed};
 use colony_wire::seal::Identity;
 use colony_wire::Packet;
-use common::{run_bounded, subscribed, HubProcess, Proc};
 
 /// Generous: every wait here is for an event, not a measure of speed.
 const WAIT: Duration = Duration::from_secs(20);
@@ -199,7 +198,7 @@ fn six_new_callers_in_a_row_each_hear_of_the_provider_at_once_and_get_their_answ
             format!("@ <svc.echo> 0\nwho nonce {nonce}\n").as_bytes(),
         );
     }
-    let heard = common::drain_until(&mut asker, Instant::now() + WAIT, |got| {
+    let heard = drain_until(&mut asker, Instant::now() + WAIT, |got| {
         nonces.iter().all(|n| {
             got.iter()
                 .any(|p| p.contains(&format!("nonce {n}")) && p.contains(&id))

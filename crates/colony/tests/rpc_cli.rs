@@ -1,14 +1,12 @@
 //! Request and reply through a real hub: `colony serve` processes as
 //! providers, killed and stopped mid-way, and `colony call`.
 
-mod common;
-
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use colony_client::rpc::{CallClient, CallError, Id};
+use colony_testkit::cli::{run_bounded, HubProcess, Proc};
 use colony_wire::Priority;
-use common::{run_bounded, HubProcess, Proc};
 
 /// Generous: every wait here is for an event, not a measure of speed.
 const WAIT: Duration = Duration::from_secs(20);

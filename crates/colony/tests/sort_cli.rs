@@ -1,11 +1,10 @@
 //! `colony sort`: experiments from the command line, and live mode over a real hub.
 
-mod common;
-
 use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{colony, drain_until, subscribed, HubProcess};
+use colony_testkit::cli::{colony, run_bounded, HubProcess};
+use colony_testkit::client::{drain_until, subscribed};
 
 fn stderr_of(args: &[&str]) -> (bool, String) {
     let o = colony().args(args).stdin(Stdio::null()).output().unwrap();
@@ -375,7 +374,7 @@ fn robot_and_puck_counts_past_what_a_world_takes_are_refused_before_any_memory_i
         // One past the most a world takes (100,000 robots, 10 pucks each).
         ("--scale-robots", "100001", "robots"),
     ] {
-        let (code, _, e) = common::run_bounded(
+        let (code, _, e) = run_bounded(
             &[
                 "sort",
                 "run",
@@ -404,7 +403,7 @@ fn robot_and_puck_counts_past_what_a_world_takes_are_refused_before_any_memory_i
 
 #[test]
 fn a_scale_of_zero_robots_is_refused() {
-    let (code, _, e) = common::run_bounded(
+    let (code, _, e) = run_bounded(
         &[
             "sort",
             "run",
@@ -450,7 +449,7 @@ fn non_finite_numbers_in_a_scene_file_are_refused_naming_the_field() {
     ] {
         let scene = dir.path().join("scene.toml");
         std::fs::write(&scene, text).unwrap();
-        let (code, _, e) = common::run_bounded(
+        let (code, _, e) = run_bounded(
             &[
                 "sort",
                 "run",
@@ -500,7 +499,7 @@ fn an_engine_that_does_not_exist_is_refused_naming_those_that_do() {
         &["sort", "live", "--engine", "warp", "--hub", "127.0.0.1:9"],
         &["demo", "--engine", "warp", "--hub-bind", "127.0.0.1:0"],
     ] {
-        let (code, _, e) = common::run_bounded(args, "warn");
+        let (code, _, e) = run_bounded(args, "warn");
         assert_eq!(code, Some(2), "{args:?}: {e}");
         assert!(
             e.contains("--engine")
@@ -574,7 +573,7 @@ fn long_work_shows_progress_lines_when_stderr_is_not_a_terminal() {
 
 #[test]
 fn a_process_for_each_of_thousands_of_robots_is_refused_before_any_starts() {
-    let (code, _, e) = common::run_bounded(
+    let (code, _, e) = run_bounded(
         &[
             "sort",
             "live",

@@ -2,17 +2,15 @@
 //! running `colony demo` and on a log written by `colony hub --log`. The spy's rates are checked
 //! against the hub's own counts: the status report's packets over a span of its uptime.
 
-mod common;
-
 use std::collections::BTreeMap;
-use std::net::{TcpListener, UdpSocket};
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use colony_client::status::fetch_status;
+use colony_testkit::cli::{colony, run_bounded, HubProcess, Killed};
+use colony_testkit::net::{free_tcp_port, free_udp_port};
 use colony_wire::StatusReport;
-use common::{colony, HubProcess};
 
 /// The world's channels in `colony demo`.
 const WORLD: [&str; 8] = [
@@ -97,32 +95,6 @@ impl Drop for Tmux {
             .stderr(Stdio::null())
             .status();
     }
-}
-
-/// A process killed when dropped.
-struct Killed(Child);
-
-impl Drop for Killed {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn free_udp_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-fn free_tcp_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 /// Each channel's row on the spy's screen: its name and the rate column.
@@ -620,15 +592,15 @@ fn a_bad_window_or_speed_is_a_usage_error_and_no_terminal_is_an_error() {
         (vec!["spy", "--window", "1e300"], "--window"),
         (vec!["spy", "--window", "inf"], "--window"),
     ] {
-        let (code, _, err) = common::run_bounded(&args, "warn");
+        let (code, _, err) = run_bounded(&args, "warn");
         assert_eq!(code, Some(2), "{args:?}: {err}");
         assert!(err.contains(flag) && err.contains("must be from"), "{err}");
     }
     // --speed belongs to --log.
-    let (code, _, err) = common::run_bounded(&["spy", "--speed", "2"], "warn");
+    let (code, _, err) = run_bounded(&["spy", "--speed", "2"], "warn");
     assert_eq!(code, Some(2), "{err}");
     // Standard output is a pipe here: the spy says it needs a terminal, and changes nothing.
-    let (code, out, err) = common::run_bounded(&["spy", "--hub", "127.0.0.1:9"], "warn");
+    let (code, out, err) = run_bounded(&["spy", "--hub", "127.0.0.1:9"], "warn");
     assert_eq!(code, Some(1), "{err}");
     assert!(err.contains("terminal") && out.is_empty(), "{err}");
 }

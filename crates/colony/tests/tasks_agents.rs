@@ -3,11 +3,11 @@
 //! a winner killed mid-task and replaced, a sensor failing on another; and
 //! agents driving bodies of a `colony tasks room` to where a task is.
 
-mod common;
-
 use std::time::{Duration, Instant};
 
-use common::{colony, tasks_agent as agent, tasks_announce as announce, HubProcess, Proc};
+use colony_testkit::cli::{
+    colony, tasks_agent as agent, tasks_announce as announce, HubProcess, Proc,
+};
 
 /// The subscriptions of the client whose about text is `agent NAME ...`.
 fn subscriptions_of(hub: &str, name: &str) -> Option<String> {

@@ -4,16 +4,15 @@
 //! award, cancel, done and bids the others would send, sealed with a key of
 //! its own or copied from theirs.
 
-mod common;
-
 use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
 use colony_tasks::protocol::{Bid, Message, Negotiation, Token};
+use colony_testkit::cli::{tasks_agent, tasks_announce as announce, HubProcess, Proc};
+use colony_testkit::client::subscribed;
 use colony_wire::seal::Identity;
 use colony_wire::{Packet, Subject};
-use common::{subscribed, tasks_agent, tasks_announce as announce, HubProcess, Proc};
 
 /// An attacker that hears every announcement for `resources` and every
 /// message of the auctions it hears of, with a key of its own.

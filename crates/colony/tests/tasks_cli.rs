@@ -1,11 +1,9 @@
 //! `colony tasks`: the paper's two experiments from the command line, the live
 //! demo, and clear errors for bad options.
 
-mod common;
-
 use std::process::Stdio;
 
-use common::colony;
+use colony_testkit::cli::colony;
 
 fn run(args: &[&str]) -> (bool, String, String) {
     let o = colony()

@@ -1,6 +1,5 @@
 //! The parts of the game over a real hub, on colony-node's runtime.
 
-use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -14,76 +13,8 @@ use colony_game::protocol::{FlagState, GameState, RobotState, Status, STATE, WOR
 use colony_game::rules::RobotKind;
 use colony_game::rules::{Mode, Rules, TeamSetup};
 use colony_game::world::GameWorld;
-use colony_hub::{HubConfig, Server};
 use colony_sim::{Pose, Vec2};
-
-/// A hub in this process on a free loopback port.
-struct Hub {
-    addr: SocketAddr,
-    stop: Arc<AtomicBool>,
-    thread: Option<std::thread::JoinHandle<std::io::Result<()>>>,
-}
-
-impl Hub {
-    fn start() -> Hub {
-        let mut server = Server::bind("127.0.0.1:0", HubConfig::default()).unwrap();
-        let addr = server.local_addr().unwrap();
-        let stop = Arc::new(AtomicBool::new(false));
-        let s = stop.clone();
-        let thread = Some(std::thread::spawn(move || server.run(&s)));
-        Hub { addr, stop, thread }
-    }
-
-    /// A client subscribed to `subject`, once the hub has granted it.
-    fn ear(&self, subject: &str) -> UdpClient {
-        let mut c = UdpClient::connect(self.addr).unwrap();
-        c.subscribe(subject).unwrap();
-        // The hub handles datagrams in order; a round trip through it makes
-        // sure the subscription is in place before anyone publishes.
-        let mut probe = UdpClient::connect(self.addr).unwrap();
-        let until = Instant::now() + Duration::from_secs(5);
-        loop {
-            probe
-                .publish(format!("@ <{subject}> 0\nprobe\n").as_bytes())
-                .unwrap();
-            c.wait(Some(Instant::now() + Duration::from_millis(20)))
-                .unwrap();
-            c.poll(Instant::now()).unwrap();
-            if c.recv().unwrap().is_some() {
-                while c.recv().unwrap().is_some() {}
-                return c;
-            }
-            assert!(Instant::now() < until, "the hub never subscribed the ear");
-        }
-    }
-
-    /// Every packet `c` receives in the next `d`, by first line, leaving out the probes
-    /// [`Hub::ear`] sent (on a loaded machine some arrive after the first).
-    fn hear(c: &mut UdpClient, d: Duration) -> Vec<String> {
-        let until = Instant::now() + d;
-        let mut got = Vec::new();
-        while Instant::now() < until {
-            c.wait(Some(until)).unwrap();
-            c.poll(Instant::now()).unwrap();
-            while let Some(p) = c.recv().unwrap() {
-                let label = p.lines().next().map_or("", |l| l.label());
-                if label != "probe" {
-                    got.push(label.to_string());
-                }
-            }
-        }
-        got
-    }
-}
-
-impl Drop for Hub {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
+use colony_testkit::HubOnThread;
 
 fn world() -> GameWorld {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/ctf.map");
@@ -98,7 +29,7 @@ fn world() -> GameWorld {
 
 #[test]
 fn a_live_world_takes_its_steps_at_its_pace_and_hands_its_client_back() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let mut ear = hub.ear(WORLD);
     let mut w = world();
     let mut client = UdpClient::connect(hub.addr).unwrap();
@@ -122,15 +53,15 @@ fn a_live_world_takes_its_steps_at_its_pace_and_hands_its_client_back() {
     let mut frames = Vec::new();
     let give_up = Instant::now() + Duration::from_secs(30);
     while frames.len() < 5 && Instant::now() < give_up {
-        frames.extend(Hub::hear(&mut ear, Duration::from_millis(100)));
+        frames.extend(HubOnThread::hear(&mut ear, Duration::from_millis(100)));
     }
-    frames.extend(Hub::hear(&mut ear, Duration::from_millis(300)));
+    frames.extend(HubOnThread::hear(&mut ear, Duration::from_millis(300)));
     assert_eq!(frames.len(), 5, "{frames:?}");
 }
 
 #[test]
 fn a_live_world_refuses_a_bad_speed_and_a_stopped_one_does_not_step() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let mut w = world();
     let mut client = UdpClient::connect(hub.addr).unwrap();
     let stop = AtomicBool::new(false);
@@ -149,7 +80,7 @@ fn a_live_world_refuses_a_bad_speed_and_a_stopped_one_does_not_step() {
 
 #[test]
 fn a_live_bot_answers_the_game_state_until_stopped() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let mut ear = hub.ear("game.player.red");
     let stop = Arc::new(AtomicBool::new(false));
     let addr = hub.addr;
@@ -163,7 +94,7 @@ fn a_live_bot_answers_the_game_state_until_stopped() {
     let mut heard = Vec::new();
     for _ in 0..100 {
         publisher.publish(&red_state()).unwrap();
-        heard = Hub::hear(&mut ear, Duration::from_millis(50));
+        heard = HubOnThread::hear(&mut ear, Duration::from_millis(50));
         if !heard.is_empty() {
             break;
         }

@@ -5,32 +5,13 @@
 
 use std::net::{SocketAddr, UdpSocket};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::{mpsc, Arc};
+use std::sync::Arc;
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
 use colony_hub::{DropReason, HubConfig, Server};
 use colony_sys::udp::send_connected;
-
-/// A hub serving from a thread until `stop`; it hands the server back.
-struct Running {
-    addr: SocketAddr,
-    stop: Arc<AtomicBool>,
-    done: mpsc::Receiver<Server>,
-}
-
-fn start(config: HubConfig) -> Running {
-    let mut server = Server::bind("127.0.0.1:0", config).unwrap();
-    let addr = server.local_addr().unwrap();
-    let stop = Arc::new(AtomicBool::new(false));
-    let (tx, done) = mpsc::channel();
-    let s = stop.clone();
-    thread::spawn(move || {
-        server.run(&s).unwrap();
-        let _ = tx.send(server);
-    });
-    Running { addr, stop, done }
-}
+use colony_testkit::HubOnThread;
 
 /// Subscribes `sock` to `channel` at the hub; answers a cookie challenge if
 /// the hub makes one.
@@ -108,22 +89,21 @@ fn drain(sock: &UdpSocket) -> usize {
 
 #[test]
 fn the_hub_stops_when_told_while_a_flood_goes_on() {
-    let hub = start(HubConfig::default());
+    let hub = HubOnThread::start();
     // A subscriber makes every flood packet cost the hub a send too.
     let sub = UdpSocket::bind("127.0.0.1:0").unwrap();
     subscribe(&sub, hub.addr, "flood");
     // Two flooders, so the socket stays full even when one is descheduled.
     let floods = [0, 1].map(|_| flood(hub.addr, "flood", Duration::from_secs(20)));
     thread::sleep(Duration::from_millis(500));
-    hub.stop.store(true, Ordering::SeqCst);
     // Before the bound on a poll's work, the hub read on until its socket
     // was empty, which under this flood is when the flood ends (20 s).
-    let stopped = hub.done.recv_timeout(Duration::from_secs(5));
+    let stopped = hub.stop_within(Duration::from_secs(5));
     let flooding = floods.iter().any(|f| !f.handle.is_finished());
     floods.into_iter().for_each(Flood::end);
     assert!(flooding, "the flood ended first: the test shows nothing");
     assert!(
-        stopped.is_ok(),
+        stopped.is_some(),
         "the hub did not stop within 5 s of being told"
     );
 }
@@ -134,7 +114,7 @@ fn leases_run_out_while_a_flood_goes_on() {
         lease: Duration::from_secs(1),
         ..HubConfig::default()
     };
-    let hub = start(config);
+    let hub = HubOnThread::start_with(config);
     let sub = UdpSocket::bind("127.0.0.1:0").unwrap();
     subscribe(&sub, hub.addr, "flood");
     sub.set_nonblocking(true).unwrap();
@@ -152,8 +132,7 @@ fn leases_run_out_while_a_flood_goes_on() {
         quiet = flooding && subscribed.elapsed() > Duration::from_secs(1) && drain(&sub) == 0;
     }
     flood.end();
-    hub.stop.store(true, Ordering::SeqCst);
-    let server = hub.done.recv_timeout(Duration::from_secs(30)).unwrap();
+    let server = hub.stop_within(Duration::from_secs(30)).unwrap();
     assert!(
         got_some,
         "the subscriber got nothing while it held its lease"
@@ -197,7 +176,7 @@ fn datagrams_the_kernel_dropped_at_the_hubs_socket_are_counted() {
 
 #[test]
 fn each_subscriber_gets_a_burst_whole_and_in_order() {
-    let hub = start(HubConfig::default());
+    let hub = HubOnThread::start();
     let subs: Vec<UdpSocket> = (0..3)
         .map(|_| UdpSocket::bind("127.0.0.1:0").unwrap())
         .collect();
@@ -230,8 +209,7 @@ fn each_subscriber_gets_a_burst_whole_and_in_order() {
             );
         }
     }
-    hub.stop.store(true, Ordering::SeqCst);
-    let server = hub.done.recv_timeout(Duration::from_secs(30)).unwrap();
+    let server = hub.stop_within(Duration::from_secs(30)).unwrap();
     assert_eq!(server.hub().drops(DropReason::SendFailed), 0);
     assert_eq!(server.hub().drops(DropReason::SendFull), 0);
 }

@@ -3,16 +3,16 @@
 //! this endpoint alone; and a viewer that took robots and then froze lets go of them. (What a
 //! viewer gets is driven with Foxglove's own client by `tests/browser/foxglove.test.mjs`.)
 
-mod common;
-
 use std::time::Duration;
 
 use colony_monitor::Liveness;
-use common::{monitor, monitor_with, watch_override, with_token, Hub, OverrideView, Ws};
+use colony_testkit::monitor::{monitor, monitor_with, watch_override, with_token, OverrideView};
+use colony_testkit::web::Ws;
+use colony_testkit::HubOnThread;
 
 #[test]
 fn the_foxglove_endpoint_passes_the_pages_gate_and_answers_with_server_info() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let m = monitor(&hub);
     let addr = m.local_addr();
     let host = addr.to_string();
@@ -73,7 +73,7 @@ fn the_foxglove_endpoint_passes_the_pages_gate_and_answers_with_server_info() {
 
 #[test]
 fn a_viewer_that_took_robots_and_stops_answering_lets_go_of_them() {
-    let hub = Hub::with_console();
+    let hub = HubOnThread::with_console();
     let m = monitor_with(
         &hub,
         Liveness {

@@ -4,8 +4,6 @@
 //! scenes the bridge passed over to keep its time budget are counted too. (How long a scene
 //! takes is a benchmark: `cargo bench -p colony-monitor --bench foxglove_scene`.)
 
-mod common;
-
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
@@ -13,7 +11,9 @@ use colony_monitor::foxglove::ARENA_TOPIC;
 use colony_monitor::Liveness;
 use colony_proto::swarm::{vision, PuckKind, VisionFrame, VisionPuck, VisionRobot};
 use colony_proto::{Pose, Vec2};
-use common::{monitor_with, with_token, Hub, Message, Ws};
+use colony_testkit::monitor::{monitor_with, with_token};
+use colony_testkit::web::{Message, Ws};
+use colony_testkit::HubOnThread;
 
 const ROBOTS: u32 = 2000;
 const PUCKS: u32 = 20_000;
@@ -64,7 +64,7 @@ fn counts(message: &[u8]) -> (usize, usize) {
 
 #[test]
 fn a_slow_viewer_of_a_2000_robot_arena_gets_whole_scenes_and_the_rest_is_counted() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     // Pings all but off, and a long deadline: the viewer pauses, it is not gone.
     let m = monitor_with(
         &hub,

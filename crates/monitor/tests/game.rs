@@ -4,18 +4,18 @@
 //! exactly as the game reads it, and a bad one is answered with an error and
 //! publishes nothing.
 
-mod common;
-
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
 
-use common::{get, monitor, with_token, Hub, Ws};
+use colony_testkit::monitor::{monitor, with_token};
+use colony_testkit::web::{get, Ws};
+use colony_testkit::HubOnThread;
 
 /// A client subscribed to `channel`, returned once the hub has granted the lease.
-fn subscriber(hub: &Hub, channel: &str) -> UdpClient {
+fn subscriber(hub: &HubOnThread, channel: &str) -> UdpClient {
     let mut c = UdpClient::connect(hub.addr).unwrap();
     c.subscribe(channel).unwrap();
     let deadline = Instant::now() + Duration::from_secs(5);
@@ -54,7 +54,7 @@ const EVENT: &str =
 
 #[test]
 fn game_packets_reach_the_game_page_and_its_squad_commands_reach_the_game() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let m = monitor(&hub);
     let page = get(m.local_addr(), &with_token(&m, "/game"));
     assert!(
@@ -162,7 +162,7 @@ fn game_packets_reach_the_game_page_and_its_squad_commands_reach_the_game() {
 
 #[test]
 fn the_system_monitor_page_gets_no_game_messages() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let m = monitor(&hub);
     let mut ws = Ws::connect(m.local_addr(), &with_token(&m, "/ws"));
     let mut publisher = UdpClient::connect(hub.addr).unwrap();

@@ -5,8 +5,6 @@
 //! its token, refuses a request with two `Host` headers, and lets a page's robots go when the
 //! page goes, or freezes.
 
-mod common;
-
 use std::time::{Duration, Instant};
 
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -14,13 +12,13 @@ use std::sync::Arc;
 
 use colony_monitor::{Liveness, Monitor, MonitorConfig, MonitorError};
 
-use common::{
-    get, monitor, monitor_with, request, watch_override, with_token, Hub, OverrideView, Ws,
-};
+use colony_testkit::monitor::{monitor, monitor_with, watch_override, with_token, OverrideView};
+use colony_testkit::web::{get, request, Ws};
+use colony_testkit::HubOnThread;
 
 #[test]
 fn the_page_its_script_and_its_style_are_served_from_the_binary() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let m = monitor(&hub);
     assert!(m.url().starts_with("http://127.0.0.1:"));
     let page = get(m.local_addr(), &with_token(&m, "/"));
@@ -45,7 +43,7 @@ fn the_page_its_script_and_its_style_are_served_from_the_binary() {
 
 #[test]
 fn a_taken_port_is_a_clear_error() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let first = monitor(&hub);
     let taken = first.local_addr().to_string();
     let e = Monitor::start(&MonitorConfig {
@@ -73,7 +71,7 @@ fn a_taken_port_is_a_clear_error() {
 
 #[test]
 fn the_monitor_joins_the_hub_as_a_client_and_stops_promptly() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let m = monitor(&hub);
     // The hub lists the monitor's subscriptions once they arrive.
     let deadline = Instant::now() + Duration::from_secs(5);
@@ -124,7 +122,7 @@ fn header<'a>(answer: &'a str, name: &str) -> Option<&'a str> {
 
 #[test]
 fn a_page_of_another_site_cannot_open_the_websocket() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let m = monitor(&hub);
     let addr = m.local_addr();
     let host = addr.to_string();
@@ -179,7 +177,7 @@ fn a_page_of_another_site_cannot_open_the_websocket() {
 
 #[test]
 fn a_request_for_another_host_name_is_refused() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let m = monitor(&hub);
     let addr = m.local_addr();
     let page = with_token(&m, "/");
@@ -246,7 +244,7 @@ fn a_request_for_another_host_name_is_refused() {
 
 #[test]
 fn the_pages_and_the_websocket_need_the_token_the_printed_address_carries() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let m = monitor(&hub);
     let addr = m.local_addr();
     let token = m.token().expect("a token by default").to_owned();
@@ -312,7 +310,7 @@ fn the_pages_and_the_websocket_need_the_token_the_printed_address_carries() {
 
 #[test]
 fn every_answer_carries_the_security_headers() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let m = monitor(&hub);
     let addr = m.local_addr();
     for answer in [
@@ -346,7 +344,7 @@ fn held(world: &serde_json::Value) -> Vec<u64> {
 
 #[test]
 fn closing_the_page_that_took_robots_hands_them_back() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let m = monitor(&hub);
     let addr = m.local_addr();
     let path = with_token(&m, "/ws");
@@ -369,7 +367,7 @@ fn closing_the_page_that_took_robots_hands_them_back() {
 
 #[test]
 fn a_request_with_two_host_headers_is_refused() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let m = monitor(&hub);
     let addr = m.local_addr();
     let page = with_token(&m, "/");
@@ -439,7 +437,7 @@ fn holder(m: &Monitor) -> Ws {
 
 #[test]
 fn a_page_that_stops_answering_lets_go_of_the_robots_and_the_hubs_minimum() {
-    let hub = Hub::with_console();
+    let hub = HubOnThread::with_console();
     let m = monitor_with(&hub, QUICK);
     let mut holder = holder(&m);
     let mut watcher = Ws::connect(m.local_addr(), &with_token(&m, "/ws"));
@@ -484,7 +482,7 @@ fn big_frame(step: u64, n: u32) -> String {
 
 #[test]
 fn a_page_whose_connection_stays_full_lets_go_even_without_pings() {
-    let hub = Hub::with_console();
+    let hub = HubOnThread::with_console();
     // Pings all but off: only a send that cannot finish can find this page gone.
     let m = monitor_with(
         &hub,

@@ -4,15 +4,15 @@
 //! that lost a part is never shown, only counted. What it costs in time is a benchmark
 //! (scripts/bench-monitor-swarm), not asserted here.
 
-mod common;
-
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
 use colony_monitor::state::bodies;
 use colony_proto::swarm::{vision, PuckKind, VisionFrame, VisionPuck, VisionRobot};
 use colony_proto::{Pose, Vec2};
-use common::{monitor, with_token, Hub, Message, Ws};
+use colony_testkit::monitor::{monitor, with_token};
+use colony_testkit::web::{Message, Ws};
+use colony_testkit::HubOnThread;
 use serde_json::Value;
 
 const ROBOTS: u32 = 2000;
@@ -70,7 +70,7 @@ fn f32_at(b: &[u8], at: usize) -> f32 {
 
 #[test]
 fn a_swarm_of_2000_robots_reaches_the_page_in_whole_frames_and_a_lost_part_is_counted() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let m = monitor(&hub);
     let mut ws = Ws::connect(m.local_addr(), &with_token(&m, "/ws"));
     let mut world = UdpClient::connect(hub.addr).unwrap();

@@ -5,15 +5,15 @@
 //! Each message is sealed by the process it speaks for, as the board takes
 //! nothing else; a forged `done` from another key changes nothing.
 
-mod common;
-
 use std::time::Duration;
 
 use colony_client::UdpClient;
 use colony_wire::seal::Identity;
 use serde_json::Value;
 
-use common::{get, monitor, with_token, Hub, Ws};
+use colony_testkit::monitor::{monitor, with_token};
+use colony_testkit::web::{get, Ws};
+use colony_testkit::HubOnThread;
 
 const ANNOUNCE: &str = "@ <camera> <idle> 0\ntask name inspect id 4 negotiation murdoch.user.4.1 deadline_ms 200 length_s 2 announcer user\nmetric name distance weight 1\n";
 const BID: &str = "@ <murdoch.user.4.1> 0\nbid task 4 bidder r2 score 12.5\n";
@@ -42,7 +42,7 @@ fn until(
 
 #[test]
 fn the_board_follows_a_task_from_announced_to_done_on_subjects_nobody_subscribes_to() {
-    let hub = Hub::start();
+    let hub = HubOnThread::start();
     let m = monitor(&hub);
     let page = get(m.local_addr(), &with_token(&m, "/tasks"));
     assert!(

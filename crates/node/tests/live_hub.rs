@@ -2,53 +2,31 @@
 //! threads of their own ([`run`]) and on one mio loop ([`Mux`]).
 
 use std::collections::BTreeSet;
-use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::Arc;
 use std::thread;
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
-use colony_hub::{HubConfig, Server};
+use colony_hub::HubConfig;
+use colony_testkit::HubOnThread;
 use std::ops::ControlFlow;
 
 use colony_node::{run, Link, Mux, Node, Time};
 use colony_wire::{Packet, Priority, Request, Subject};
 
-/// A hub in this process on a free loopback port, stopped when dropped.
 /// The key the test's hub takes operator requests with.
 fn console_key() -> colony_wire::auth::Key {
     colony_wire::auth::Key::new(b"a console key for the live hub tests").unwrap()
 }
 
-struct Hub {
-    addr: SocketAddr,
-    stop: Arc<AtomicBool>,
-    thread: Option<thread::JoinHandle<std::io::Result<()>>>,
-}
-
-impl Hub {
-    fn start() -> Hub {
-        let config = HubConfig {
-            key: Some(console_key()),
-            ..HubConfig::default()
-        };
-        let mut server = Server::bind("127.0.0.1:0", config).unwrap();
-        let addr = server.local_addr().unwrap();
-        let stop = Arc::new(AtomicBool::new(false));
-        let s = stop.clone();
-        let thread = Some(thread::spawn(move || server.run(&s)));
-        Hub { addr, stop, thread }
-    }
-}
-
-impl Drop for Hub {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join().unwrap();
-        }
-    }
+/// A hub in this process on a free loopback port, stopped when dropped,
+/// taking operator requests sealed with [`console_key`].
+fn hub() -> HubOnThread {
+    HubOnThread::start_with(HubConfig {
+        key: Some(console_key()),
+        ..HubConfig::default()
+    })
 }
 
 fn subjects(s: &str) -> BTreeSet<Subject> {
@@ -135,7 +113,7 @@ const LIMIT: Duration = Duration::from_secs(10);
 
 #[test]
 fn two_nodes_on_threads_of_their_own_talk_through_the_hub() {
-    let hub = Hub::start();
+    let hub = hub();
     let epoch = Instant::now();
     let stop = Arc::new(AtomicBool::new(false));
     let pongs = Arc::new(AtomicU32::new(0));
@@ -174,7 +152,7 @@ fn two_nodes_on_threads_of_their_own_talk_through_the_hub() {
 
 #[test]
 fn two_nodes_on_one_mio_loop_talk_through_the_hub_and_obey_its_minimum_priority() {
-    let hub = Hub::start();
+    let hub = hub();
     let epoch = Instant::now();
     let pongs = Arc::new(AtomicU32::new(0));
 
@@ -287,7 +265,7 @@ fn a_new_clients_first_packet_waits_for_its_subscription_so_the_answer_is_not_lo
     // published at once would reach the hub first and find nobody subscribed
     // (here the node itself: it is its own answer). The link holds it until
     // the hub knows the address.
-    let hub = Hub::start();
+    let hub = hub();
     let mut link = Link::new(UdpClient::connect(hub.addr).unwrap(), Instant::now());
     let mut echo = Echo {
         subs: subjects("echo"),

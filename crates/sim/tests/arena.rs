@@ -1,7 +1,5 @@
-mod common;
-
 use colony_sim::{SceneConfig, Vec2, World};
-use common::RandomDriver;
+use colony_testkit::sim::RandomDriver;
 
 #[test]
 fn robots_and_pucks_never_leave_the_arena_over_5000_random_steps() {

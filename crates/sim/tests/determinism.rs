@@ -1,7 +1,5 @@
-mod common;
-
 use colony_sim::{Engine, SceneConfig, World};
-use common::{digest, RandomDriver};
+use colony_testkit::sim::{digest, RandomDriver};
 
 fn run(seed: u64, steps: usize) -> World {
     run_on(Engine::default(), seed, steps)

@@ -1,7 +1,5 @@
-mod common;
-
 use colony_sim::{PuckId, SceneConfig, Vec2, WheelCommand, World};
-use common::{pose, scene, FORWARD};
+use colony_testkit::sim::{pose, scene, FORWARD};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 

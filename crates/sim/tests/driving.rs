@@ -1,7 +1,5 @@
-mod common;
-
 use colony_sim::{SceneConfig, Vec2, WheelCommand, World};
-use common::{angle_diff, pose, scene, FORWARD, LEFT};
+use colony_testkit::sim::{angle_diff, pose, scene, FORWARD, LEFT};
 
 #[test]
 fn full_speed_forward_covers_20_cm_per_second() {

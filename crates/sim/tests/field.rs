@@ -7,8 +7,7 @@ use colony_sim::{Pose, SimError, WheelCommand};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-mod common;
-use common::{bits, pose};
+use colony_testkit::sim::{bits, pose};
 
 /// A map from rows of text, top row first: `#` blocked, `~` water, anything else open.
 fn map(rows: &[&str], cell: f64) -> TileMap {

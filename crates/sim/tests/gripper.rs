@@ -1,7 +1,5 @@
-mod common;
-
 use colony_sim::{RobotId, Vec2, WheelCommand};
-use common::{pose, scene, BACK, FORWARD, LEFT};
+use colony_testkit::sim::{pose, scene, BACK, FORWARD, LEFT};
 
 #[test]
 fn driving_onto_a_puck_captures_it_and_backing_away_leaves_it() {

@@ -1,7 +1,5 @@
-mod common;
-
 use colony_sim::{Pose, PuckKind, RobotId, SceneConfig, Vec2, World};
-use common::{pose, scene};
+use colony_testkit::sim::{pose, scene};
 
 fn close(a: Vec2, b: Vec2) -> bool {
     a.distance(b) < 1e-4

@@ -3,15 +3,13 @@
 //! (`determinism.rs`'s recorded digest, run in this build, ties it to the default build.)
 #![cfg(feature = "parallel-physics")]
 
-mod common;
-
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc;
 use std::time::Duration;
 
 use colony_sim::field::{Field, FieldConfig, RobotSpec, TileMap};
 use colony_sim::{Engine, SceneConfig, WheelCommand, World};
-use common::{bits, digest, pose, RandomDriver};
+use colony_testkit::sim::{bits, digest, pose, RandomDriver};
 use rayon::prelude::*;
 
 /// A sorting world of `robots` robots (ten pucks each) on rapier, after `steps` control

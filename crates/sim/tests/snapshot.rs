@@ -1,7 +1,5 @@
-mod common;
-
 use colony_sim::{SceneConfig, World, WorldSnapshot};
-use common::RandomDriver;
+use colony_testkit::sim::RandomDriver;
 
 #[test]
 fn a_snapshot_holds_every_robot_and_puck_and_round_trips_through_serde() {

@@ -1,16 +1,37 @@
 //! The protocol over a real hub on loopback, every agent with its own UDP client.
 
-mod common;
-
 use std::time::{Duration, Instant};
 
 use colony_node::Mux;
 use colony_proto::Vec2;
 use colony_tasks::{
-    Agent, AgentEvent, AgentMode, Announcer, AnnouncerEvent, Backoff, Node, TaskSpec, Time, Token,
-    UserAgent, UserEvent,
+    Agent, AgentConfig, AgentEvent, AgentMode, Announcer, AnnouncerEvent, AuctionConfig, Backoff,
+    Node, TaskSpec, Time, Token, UserAgent, UserEvent,
 };
-use common::{quick_agent, quick_auction, run_until, settle, Hub};
+use colony_testkit::node::{run_until, settle};
+use colony_testkit::HubOnThread as Hub;
+
+/// Short timings, so that tests on loopback take fractions of a second.
+fn quick_agent() -> AgentConfig {
+    AgentConfig {
+        renew_interval: Duration::from_millis(50),
+        renew_timeout: Duration::from_millis(300),
+        award_grace: Duration::from_millis(300),
+        battery_check: Duration::from_millis(20),
+        linger: Duration::from_millis(300),
+        ..AgentConfig::default()
+    }
+}
+
+fn quick_auction() -> AuctionConfig {
+    AuctionConfig {
+        bid_window: Duration::from_millis(80),
+        ack_timeout: Duration::from_millis(300),
+        renew_interval: Duration::from_millis(50),
+        renew_timeout: Duration::from_millis(300),
+        max_attempts: 16,
+    }
+}
 
 /// A robot or a user, side by side in one mux.
 enum Part {

@@ -5,7 +5,8 @@
 //! [`Caller`] and [`Provider`] are the protocol alone, sans I/O, like
 //! [`Session`](crate::Session); [`CallClient`] and [`ServeClient`] put a
 //! [`UdpClient`](crate::UdpClient) under each, for programs that just want
-//! to call or serve. The packets are in [`message`].
+//! to call or serve. The packets are in [`message`]; [`runner`] serves a
+//! service with a program, one process a call.
 //!
 //! What a caller can count on: every call ends exactly once, with the
 //! answer of a provider it was sent to, proven by that provider's seal, or
@@ -19,6 +20,7 @@ mod caller;
 mod endpoint;
 pub mod message;
 mod provider;
+pub mod runner;
 #[cfg(test)]
 mod tests;
 

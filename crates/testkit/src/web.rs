@@ -1,73 +1,12 @@
-//! What the monitor's server tests share: a real hub on loopback, a monitor joined to it, a
-//! plain HTTP/1.0 GET and just enough of a WebSocket client.
-
-// Each test binary uses part of this.
-#![allow(dead_code)]
+//! A plain HTTP/1.0 request and just enough of a WebSocket client (RFC
+//! 6455) for a test: text frames out (masked, as a client must), text and
+//! binary frames in, pings answered.
 
 use std::io::{Read as _, Write as _};
 use std::net::{SocketAddr, TcpStream};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use colony_hub::{HubConfig, Server};
-use colony_monitor::{Monitor, MonitorConfig};
 use serde_json::Value;
-
-pub struct Hub {
-    pub addr: SocketAddr,
-    stop: Arc<AtomicBool>,
-    thread: Option<std::thread::JoinHandle<std::io::Result<()>>>,
-}
-
-impl Hub {
-    pub fn start() -> Hub {
-        Hub::start_with(HubConfig::default())
-    }
-
-    /// A hub that takes operator requests from loopback: the monitor's "take control of all"
-    /// then raises its minimum priority.
-    pub fn with_console() -> Hub {
-        Hub::start_with(HubConfig {
-            consoles: vec!["127.0.0.1/32".parse().unwrap()],
-            ..HubConfig::default()
-        })
-    }
-
-    pub fn start_with(config: HubConfig) -> Hub {
-        let mut server = Server::bind("127.0.0.1:0", config).unwrap();
-        let addr = server.local_addr().unwrap();
-        let stop = Arc::new(AtomicBool::new(false));
-        let s = stop.clone();
-        let thread = Some(std::thread::spawn(move || server.run(&s)));
-        Hub { addr, stop, thread }
-    }
-}
-
-impl Drop for Hub {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
-
-/// A monitor joined to `hub`, on a free loopback port, needing its token.
-pub fn monitor(hub: &Hub) -> Monitor {
-    Monitor::start(&MonitorConfig {
-        hub: hub.addr.to_string(),
-        bind: "127.0.0.1:0".into(),
-        ..MonitorConfig::default()
-    })
-    .unwrap()
-}
-
-/// `path` on `m` with its token (`path` may have a query already).
-pub fn with_token(m: &Monitor, path: &str) -> String {
-    let sep = if path.contains('?') { '&' } else { '?' };
-    format!("{path}{sep}token={}", m.token().expect("a token"))
-}
 
 /// The whole answer to a request of `head` (everything up to the blank line) sent to `addr`.
 pub fn request(addr: SocketAddr, head: &str) -> String {
@@ -87,14 +26,13 @@ pub fn get(addr: SocketAddr, path: &str) -> String {
     )
 }
 
-/// Just enough of a WebSocket client (RFC 6455) for a test: text frames
-/// out (masked, as a client must), text frames in, pings answered.
-/// A message from the monitor: text (JSON) or binary.
+/// A message from the server: text (JSON) or binary.
 pub enum Message {
     Text(Value),
     Binary(Vec<u8>),
 }
 
+/// A WebSocket client's connection.
 pub struct Ws {
     stream: TcpStream,
 }
@@ -341,97 +279,4 @@ impl Ws {
         }
         panic!("no {what} within {within:?}; the last message: {last}");
     }
-}
-
-/// A monitor joined to `hub` that drops pages and viewers as `liveness` says.
-pub fn monitor_with(hub: &Hub, liveness: colony_monitor::Liveness) -> Monitor {
-    Monitor::start_with_liveness(
-        &MonitorConfig {
-            hub: hub.addr.to_string(),
-            bind: "127.0.0.1:0".into(),
-            ..MonitorConfig::default()
-        },
-        liveness,
-    )
-    .unwrap()
-}
-
-/// The override as a page sees it: the robots held, whether "take control of all" is in
-/// force, whether the monitor has raised the hub's minimum priority, and that minimum as the
-/// hub's newest status report gives it.
-#[derive(Default, Clone, PartialEq)]
-pub struct OverrideView {
-    pub held: Vec<u64>,
-    pub all: bool,
-    pub min_raised: bool,
-    pub hub_min: Option<i64>,
-}
-
-impl std::fmt::Debug for OverrideView {
-    // A thousand held robots would bury the rest.
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let shown: Vec<u64> = self.held.iter().copied().take(8).collect();
-        write!(
-            f,
-            "{} held (first {shown:?}), all: {}, min raised: {}, hub minimum: {:?}",
-            self.held.len(),
-            self.all,
-            self.min_raised,
-            self.hub_min
-        )
-    }
-}
-
-impl OverrideView {
-    pub fn update(&mut self, m: &Value) {
-        if m["t"] == "world" {
-            self.held = m["held"]
-                .as_array()
-                .map(|a| a.iter().filter_map(Value::as_u64).collect())
-                .unwrap_or_default();
-            self.all = m["all"] == true;
-            self.min_raised = m["min_raised"] == true;
-        } else if m["t"] == "hub" {
-            self.hub_min = m["min_priority"].as_i64();
-        }
-    }
-
-    /// Robots 5 and 6 held, all taken, and the hub's minimum at the override's priority.
-    pub fn in_force(&self) -> bool {
-        self.held.contains(&5)
-            && self.held.contains(&6)
-            && self.all
-            && self.min_raised
-            && self.hub_min == Some(10)
-    }
-
-    /// Nothing held, and the hub's minimum back below the override's priority.
-    pub fn released(&self) -> bool {
-        self.held.is_empty() && !self.all && !self.min_raised && self.hub_min.is_none_or(|m| m < 10)
-    }
-}
-
-/// Reads `watcher` until its view of the override satisfies `want`, for at most `within`;
-/// `holder`, if given, is read meanwhile too, so it answers its pings as a live page does.
-pub fn watch_override(
-    watcher: &mut Ws,
-    mut holder: Option<&mut Ws>,
-    view: &mut OverrideView,
-    within: Duration,
-    what: &str,
-    want: impl Fn(&OverrideView) -> bool,
-) {
-    let deadline = Instant::now() + within;
-    while Instant::now() < deadline {
-        for m in watcher.pump(Duration::from_millis(100)) {
-            view.update(&m);
-        }
-        if want(view) {
-            return;
-        }
-        if let Some(h) = holder.as_deref_mut() {
-            h.pump(Duration::from_millis(50));
-        }
-    }
-    panic!("no {what} within {within:?}: {view:?}");
 }

@@ -1,5 +1,4 @@
-//! Helpers shared by the integration tests.
-#![allow(dead_code)]
+//! Simulated scenes, wandering robots, and what compares runs to the last bit.
 
 use colony_sim::{Pose, PuckKind, SceneConfig, Vec2, WheelCommand, World};
 use rand::{Rng, SeedableRng};
@@ -19,6 +18,8 @@ impl RandomDriver {
         }
     }
 
+    // Not an Iterator: each step's commands borrow the driver, which `next` cannot return.
+    #[allow(clippy::should_implement_trait)]
     pub fn next(&mut self) -> &[WheelCommand] {
         for c in &mut self.commands {
             if self.rng.random_bool(0.2) {

@@ -1,16 +1,38 @@
-//! Shared by the integration tests: a real hub process, and bounded waits.
-#![allow(dead_code)]
+//! The `colony` binary's processes: a hub, a run to its end, a process whose
+//! lines are kept, MURDOCH's agents and announcers.
 
 use std::io::{BufRead, BufReader};
 use std::net::SocketAddr;
+use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
 
+/// The `colony` binary of this build. Cargo builds it before the colony
+/// crate's integration tests, next to the directory their executables are in
+/// (nextest names it in an environment variable instead).
 pub fn colony() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_colony"))
+    Command::new(colony_path())
+}
+
+fn colony_path() -> PathBuf {
+    if let Some(path) = std::env::var_os("NEXTEST_BIN_EXE_colony") {
+        return path.into();
+    }
+    let test = std::env::current_exe().expect("the test's own path");
+    let path = test
+        .parent()
+        .and_then(|deps| deps.parent())
+        .expect("a test executable in target/<profile>/deps")
+        .join(format!("colony{}", std::env::consts::EXE_SUFFIX));
+    assert!(
+        path.is_file(),
+        "no colony binary at {}: only the colony crate's tests can run it",
+        path.display()
+    );
+    path
 }
 
 /// A `colony hub` process, killed when dropped.
@@ -84,42 +106,6 @@ fn strip_ansi(s: &str) -> String {
         }
     }
     out
-}
-
-/// Polls `client` until `deadline`, collecting every packet's text.
-pub fn drain_until(
-    client: &mut UdpClient,
-    deadline: Instant,
-    mut done: impl FnMut(&[String]) -> bool,
-) -> Vec<String> {
-    let mut got = Vec::new();
-    while Instant::now() < deadline && !done(&got) {
-        let _ = client.wait(Some(Instant::now() + Duration::from_millis(20)));
-        client.poll(Instant::now()).expect("poll");
-        while let Some(p) = client.recv().expect("recv") {
-            got.push(p.to_string());
-        }
-    }
-    got
-}
-
-/// Subscribes and waits until the hub has acknowledged the lease.
-pub fn subscribed(hub: SocketAddr, subjects: &[&str]) -> UdpClient {
-    let mut c = UdpClient::connect(hub).expect("client");
-    for s in subjects {
-        c.subscribe(s).expect("subscribe");
-    }
-    let deadline = Instant::now() + Duration::from_secs(5);
-    while c.session().lease().is_none() {
-        assert!(
-            Instant::now() < deadline,
-            "the hub at {hub} never acknowledged a subscription"
-        );
-        let _ = c.wait(Some(Instant::now() + Duration::from_millis(20)));
-        c.poll(Instant::now()).unwrap();
-        while c.recv_reply().unwrap().is_some() {}
-    }
-    c
 }
 
 /// Runs `colony args` to its end with `COLONY_LOG=log`, killing it if it has
@@ -244,8 +230,17 @@ impl Drop for Proc {
     }
 }
 
+/// A child process killed when dropped.
+pub struct Killed(pub Child);
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
 /// A `colony tasks agent` process on `hub`, once it has joined.
-#[allow(dead_code)] // Not every test file that shares this module starts agents.
 pub fn tasks_agent(hub: &str, name: &str, resources: &str, extra: &[&str]) -> Proc {
     let mut args = vec![
         "tasks",
@@ -267,7 +262,6 @@ pub fn tasks_agent(hub: &str, name: &str, resources: &str, extra: &[&str]) -> Pr
 }
 
 /// `colony tasks announce` of a task `length` seconds long, on `hub`, giving up after 60 s.
-#[allow(dead_code)] // Not every test file that shares this module announces.
 pub fn tasks_announce(hub: &str, name: &str, needs: &str, length: &str) -> Proc {
     Proc::start(&[
         "tasks",
