@@ -9,6 +9,10 @@
 //! site's interest, and its priorities carry the packets' (see
 //! [`keys`] for the key layout and the priority table).
 //!
+//! Every decision a bridge makes is in a sans-IO core, [`relay::Relay`] (what arrived and the
+//! time in; what to do on the hub and on Zenoh, and the next deadline, out); [`Bridge`] is the
+//! thread that runs it between a hub client and a Zenoh session.
+//!
 //! ```no_run
 //! use colony_bridge::{Bridge, BridgeConfig, Site};
 //! use std::sync::atomic::AtomicBool;
@@ -25,6 +29,7 @@
 pub mod config;
 pub mod interest;
 pub mod keys;
+pub mod relay;
 mod run;
 mod stats;
 pub mod track;

@@ -50,8 +50,8 @@ pub struct Stats {
     pub suspect: AtomicU64,
     /// Wants of other sites refused (beyond a site's share of the table, see
     /// [`crate::wants`]) or let go for another site's, and channels left
-    /// out of the exports beyond [`MAX_EXPORTS`](crate::run): each counted once when it
-    /// happens.
+    /// out of the exports beyond [`MAX_EXPORTS`](crate::relay::MAX_EXPORTS):
+    /// each counted once when it happens.
     pub refused_wants: AtomicU64,
     /// Errors talking to the hub (it may be down, or unreachable for a while).
     pub hub_errors: AtomicU64,

@@ -1,44 +1,25 @@
-//! Zenoh's side of the bridge: its callbacks handed to the bridge's thread, a hub packet put
-//! on its key, and the session's configuration.
+//! Zenoh's side of the bridge: its callbacks handed to the bridge's thread, a put made as the
+//! [`Relay`](crate::relay::Relay) numbered it, and the session's configuration.
 
-use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{SyncSender, TrySendError};
 use std::sync::Arc;
 
-use colony_wire::Packet;
 use mio::Waker;
 use zenoh::{Session, Wait};
 
 use crate::config::BridgeConfig;
-use crate::keys::{self, Site};
+use crate::relay::{Put, Sample, Want};
 use crate::stats::{BridgeError, Stats};
 use crate::track::Stamp;
 
-/// The most distinct keys numbered at once (a new stamp run starts afresh).
-const MAX_KEYS: usize = 65_536;
 /// The longest key a sample may have to be looked at.
 const MAX_KEY: usize = 4_096;
-
-pub(crate) struct Data {
-    pub(crate) key: String,
-    pub(crate) payload: Vec<u8>,
-    pub(crate) priority: u8,
-    pub(crate) stamp: Option<Stamp>,
-}
-
-pub(crate) struct Want {
-    pub(crate) key: String,
-    pub(crate) alive: bool,
-    /// From a fresh listing of the live tokens: refused again, it is not
-    /// counted again.
-    pub(crate) again: bool,
-}
 
 /// Passes Zenoh's callbacks to the bridge's thread and wakes it.
 #[derive(Clone)]
 pub(crate) struct Inbox {
-    pub(crate) data: SyncSender<Data>,
+    pub(crate) data: SyncSender<Sample>,
     pub(crate) wants: SyncSender<Want>,
     pub(crate) wants_lost: Arc<AtomicBool>,
     pub(crate) waker: Arc<Waker>,
@@ -59,7 +40,7 @@ impl Inbox {
             Stats::add(&self.stats.rejected, 1);
             return;
         }
-        let data = Data {
+        let data = Sample {
             key: key.to_owned(),
             payload: sample.payload().to_bytes().into_owned(),
             priority: sample.priority() as u8,
@@ -86,43 +67,16 @@ impl Inbox {
     }
 }
 
-/// Puts one packet from the hub on its key, numbered per key and priority.
-pub(crate) fn export(
-    session: &Session,
-    site: &Site,
-    stamp_run: &mut u64,
-    seqs: &mut HashMap<(String, u8), u64>,
-    stats: &Stats,
-    packet: &Packet<'_>,
-) {
-    let key = keys::data_key(site, packet.subjects());
-    let (priority, congestion) = keys::zenoh_qos(packet.priority());
-    let stream = (key, priority as u8);
-    if seqs.len() >= MAX_KEYS && !seqs.contains_key(&stream) {
-        // Numbering afresh under the same run would read as repeats.
-        seqs.clear();
-        *stamp_run = rand::random();
-    }
-    let seq = seqs.entry(stream.clone()).or_insert(0);
-    *seq += 1;
-    let stamp = Stamp {
-        run: *stamp_run,
-        seq: *seq,
-    };
-    let put = session
-        .put(stream.0, packet.as_str().as_bytes().to_vec())
-        .priority(priority)
-        .congestion_control(congestion)
-        .express(priority == zenoh::qos::Priority::RealTime)
-        .attachment(stamp.to_bytes().to_vec())
-        .wait();
-    match put {
-        Ok(()) => Stats::add(&stats.exported, 1),
-        Err(e) => {
-            tracing::debug!(error = %e, "zenoh refused a put");
-            Stats::add(&stats.put_failed, 1);
-        }
-    }
+/// Puts one packet from the hub, as the relay numbered it.
+pub(crate) fn put(session: &Session, put: Put) -> Result<(), String> {
+    session
+        .put(put.key, put.payload)
+        .priority(put.priority)
+        .congestion_control(put.congestion)
+        .express(put.express)
+        .attachment(put.stamp.to_bytes().to_vec())
+        .wait()
+        .map_err(|e| e.to_string())
 }
 
 /// Zenoh's configuration for this bridge: no multicast scouting (explicit
