@@ -41,8 +41,9 @@
 //!
 //! Foxglove and Lichtblick connect to `ws://HOST:PORT/foxglove?token=...`
 //! ([`Monitor::foxglove_url`]): every channel the monitor receives, as colony-schema's JSON,
-//! the arena and the battlefield as scene entities, and the override for a viewer to publish
-//! (see [`foxglove`]).
+//! the arena and the battlefield as scene entities, and the override for a viewer to publish.
+//! The endpoint is the crate [`colony_foxglove`]; the monitor serves it, feeds it from its hub
+//! link and carries out a viewer's override as a page's (`server::viewer`).
 //!
 //! [`state`], [`game`] and [`tasks`] are the logic without sockets or clocks; the hub link
 //! (`hub_link`: its timers and subscriptions as a sans-IO core, and the thread that runs it with
@@ -64,17 +65,15 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-pub mod foxglove;
 pub mod game;
 pub mod gate;
 mod hub_link;
-mod liveness;
 pub mod protocol;
 mod request;
 mod server;
 pub mod state;
 pub mod tasks;
 
+pub use colony_foxglove::Liveness;
 pub use hub_link::{EXTRA_CHANNELS, LEASE_CHANNEL};
-pub use liveness::Liveness;
 pub use server::{Monitor, MonitorConfig, MonitorError};

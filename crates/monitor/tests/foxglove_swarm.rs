@@ -7,7 +7,7 @@
 use std::time::{Duration, Instant};
 
 use colony_client::UdpClient;
-use colony_monitor::foxglove::ARENA_TOPIC;
+use colony_foxglove::ARENA_TOPIC;
 use colony_monitor::Liveness;
 use colony_proto::swarm::{vision, PuckKind, VisionFrame, VisionPuck, VisionRobot};
 use colony_proto::{Pose, Vec2};

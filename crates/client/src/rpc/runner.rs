@@ -215,7 +215,10 @@ mod tests {
             LIMIT,
             &stop,
         );
-        assert_eq!(got.unwrap(), ["text a \"x\"", "n v 2", "id 0000000000000007"]);
+        assert_eq!(
+            got.unwrap(),
+            ["text a \"x\"", "n v 2", "id 0000000000000007"]
+        );
     }
 
     #[test]

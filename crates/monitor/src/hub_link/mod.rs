@@ -52,9 +52,9 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use colony_foxglove::{self as foxglove, SceneBudget};
 use colony_wire::{Packet, Request, StatusReport, HUB_SUBJECT};
 
-use crate::foxglove::{self, SceneBudget};
 use crate::game::{Chats, GameFrame, GameView, Listeners, GAME_CHANNELS};
 use crate::state::{Command, CommandError, MonitorState, PageId, CORE_CHANNELS};
 use crate::tasks::TaskBoard;

@@ -22,11 +22,11 @@ use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use colony_client::UdpClient;
+use colony_foxglove::{self as foxglove, Feed};
 use colony_wire::{Reply, Request};
 use tokio::sync::watch;
 
 use super::{HubLink, Output, Scene, Snapshots, Transmit, Watched, WorldSnapshot, LEASE_CHANNEL};
-use crate::foxglove::{self, Feed};
 use crate::game::{Chats, GameFrame};
 use crate::request::Envelope;
 use crate::state::{Command, CommandError, PageId};

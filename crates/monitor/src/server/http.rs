@@ -12,7 +12,8 @@ use axum::routing::get;
 use axum::Router;
 use tokio::sync::watch;
 
-use super::page::{foxglove_ws, ws};
+use super::page::ws;
+use super::viewer::foxglove_ws;
 use super::{App, Guard};
 
 const INDEX_HTML: &str = include_str!("../../web/index.html");
@@ -49,7 +50,7 @@ async fn guarded(
         .is_none_or(|a| guard.gate.check_host(a.as_str()));
     // A viewer's origin the operator allowed passes for the Foxglove endpoint alone.
     let origin = header_str(header::ORIGIN).filter(|o| {
-        uri.path() != crate::foxglove::PATH
+        uri.path() != colony_foxglove::PATH
             || !guard
                 .foxglove_origins
                 .read()
@@ -63,7 +64,7 @@ async fn guarded(
         origin,
         upgrade: headers.contains_key(header::UPGRADE)
             || uri.path() == "/ws"
-            || uri.path() == crate::foxglove::PATH,
+            || uri.path() == colony_foxglove::PATH,
     };
     let verdict = if authority_ok {
         guard.gate.check(&checked)
@@ -150,7 +151,7 @@ pub(super) async fn serve(
         .route("/tasks.js", get(|| asset("text/javascript", TASKS_JS)))
         .route("/common.js", get(|| asset("text/javascript", COMMON_JS)))
         .route("/ws", get(ws))
-        .route(crate::foxglove::PATH, get(foxglove_ws))
+        .route(colony_foxglove::PATH, get(foxglove_ws))
         .with_state(app)
         .layer(axum::middleware::from_fn_with_state(guard, guarded));
     axum::serve(

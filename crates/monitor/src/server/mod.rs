@@ -23,16 +23,17 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+use colony_foxglove::Liveness;
 use tokio::sync::watch;
 
 use crate::gate::{Gate, RefusalLog};
 use crate::hub_link::LinkThread;
-use crate::liveness::Liveness;
 use crate::request::Envelope;
 use crate::state::PageId;
 
 mod http;
 mod page;
+mod viewer;
 
 /// Requests waiting for the bridge, at most.
 const REQUEST_QUEUE: usize = 256;
@@ -115,7 +116,7 @@ struct App {
     map: watch::Receiver<Arc<str>>,
     tasks: watch::Receiver<Arc<str>>,
     shutdown: watch::Receiver<bool>,
-    viewers: crate::foxglove::Viewers,
+    viewers: colony_foxglove::Viewers,
     /// For the refusals the page shows.
     guard: Arc<Guard>,
     /// When a page or a viewer that stopped answering is dropped.
@@ -132,7 +133,7 @@ pub struct Monitor {
     shutdown_tx: watch::Sender<bool>,
     server: Option<JoinHandle<std::io::Result<()>>>,
     bridge: Option<JoinHandle<()>>,
-    viewers: crate::foxglove::Viewers,
+    viewers: colony_foxglove::Viewers,
 }
 
 impl Monitor {
@@ -163,7 +164,7 @@ impl Monitor {
             .thread_name("monitor-web")
             .enable_all()
             .build()?;
-        let (feed, viewers) = crate::foxglove::feed();
+        let (feed, viewers) = colony_foxglove::feed();
         let (bridge, handles) = LinkThread::connect(hub, config.key.clone(), feed)?;
         let stop = Arc::new(AtomicBool::new(false));
         let (requests, requests_rx) = sync_channel(REQUEST_QUEUE);
@@ -264,9 +265,9 @@ impl Monitor {
     }
 
     /// The Foxglove WebSocket's address (`ws://.../foxglove?token=...`), for Foxglove or
-    /// Lichtblick's "open connection" (see [`crate::foxglove`]).
+    /// Lichtblick's "open connection" (see [`colony_foxglove`]).
     pub fn foxglove_url(&self) -> String {
-        let page = self.page_url(crate::foxglove::PATH, "");
+        let page = self.page_url(colony_foxglove::PATH, "");
         format!("ws://{}", page.trim_start_matches("http://"))
     }
 

@@ -2,18 +2,18 @@
 //! hub side and answered.
 
 use std::sync::atomic::Ordering;
-use std::sync::mpsc::{Sender, TrySendError};
+use std::sync::mpsc::Sender;
 use std::sync::Arc;
 use std::time::Duration;
 
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{RawQuery, State};
 use axum::response::Response;
-use tokio::sync::{oneshot, watch};
+use colony_foxglove::liveness::{ping_if_due, ready, send_within, End, Pinger, MAX_READY};
+use tokio::sync::watch;
 use tokio::time::Instant;
 
 use super::App;
-use crate::liveness::{ping_if_due, ready, send_within, End, Pinger, MAX_READY};
 use crate::protocol::{kind_of, parse_message, ReplyJson, MAX_MESSAGE};
 use crate::state::PageId;
 
@@ -82,25 +82,6 @@ pub(super) async fn ws(
         .on_upgrade(move |socket| session(socket, app, view))
 }
 
-/// The Foxglove WebSocket: `foxglove.websocket.v1` (see [`crate::foxglove`]).
-pub(super) async fn foxglove_ws(upgrade: WebSocketUpgrade, State(app): State<App>) -> Response {
-    use crate::foxglove::{protocol::SUBPROTOCOL, Link, MAX_VIEWER_MESSAGE};
-    upgrade
-        .protocols([SUBPROTOCOL])
-        .max_message_size(MAX_VIEWER_MESSAGE)
-        .max_frame_size(MAX_VIEWER_MESSAGE)
-        .on_upgrade(move |socket| {
-            let link = Link {
-                requests: app.requests.clone(),
-                closed: app.closed.clone(),
-                page: PageId(app.pages.fetch_add(1, Ordering::Relaxed)),
-                shutdown: app.shutdown.clone(),
-                liveness: app.liveness,
-            };
-            crate::foxglove::run(socket, app.viewers.clone(), link)
-        })
-}
-
 fn reply(to: Option<&str>, result: &Result<String, crate::protocol::Refusal>) -> String {
     let r = match result {
         Ok(msg) => ReplyJson {
@@ -130,30 +111,13 @@ async fn handle(app: &App, page: PageId, text: &str) -> String {
         Ok(c) => c,
         Err(e) => return reply(to.as_deref(), &Err(e)),
     };
-    let (tx, rx) = oneshot::channel();
-    let refusal = |m: &str| crate::protocol::Refusal {
-        message: m.into(),
-        line: None,
-        column: None,
-    };
-    match app.requests.try_send((page, command, tx)) {
-        Ok(()) => {}
-        Err(TrySendError::Full(_)) => {
-            return reply(
-                to.as_deref(),
-                &Err(refusal("the monitor is busy; try again")),
-            )
-        }
-        Err(TrySendError::Disconnected(_)) => {
-            return reply(to.as_deref(), &Err(refusal("the monitor is stopping")))
-        }
-    }
-    let answer = match tokio::time::timeout(Duration::from_secs(2), rx).await {
-        Ok(Ok(Ok(msg))) => Ok(msg),
-        Ok(Ok(Err(e))) => Err(refusal(&e.to_string())),
-        Ok(Err(_)) => Err(refusal("the monitor is stopping")),
-        Err(_) => Err(refusal("no answer from the hub bridge within 2 s")),
-    };
+    let answer = crate::request::carry_out(&app.requests, page, command)
+        .await
+        .map_err(|message| crate::protocol::Refusal {
+            message,
+            line: None,
+            column: None,
+        });
     reply(to.as_deref(), &answer)
 }
 

@@ -3,9 +3,9 @@
 //! robots with 3,000 pucks and 1,500 cache points, and `sort live --scale-robots 10000`'s
 //! swarm (10,000 robots, 100,000 pucks; the cache points the monitor keeps at most).
 //!
-//! `cargo bench -p colony-monitor --bench foxglove_scene`
+//! `cargo bench -p colony-foxglove --bench scene`
 
-use colony_monitor::foxglove::scene::arena_scene;
+use colony_foxglove::scene::arena_scene;
 use colony_proto::swarm::{Arena, PuckKind, VisionFrame, VisionPuck, VisionRobot};
 use colony_proto::{Pose, Vec2};
 use criterion::{criterion_group, criterion_main, Criterion};

@@ -15,8 +15,7 @@ use colony_proto::swarm::{Arena, Sizes, VisionFrame};
 use serde::Serialize;
 use serde_json::{json, Value};
 
-use crate::game::map::Map;
-use colony_proto::game::GameState;
+use colony_proto::game::{GameMap as Map, GameState};
 
 /// The schema name of a scene update.
 pub const SCENE_UPDATE: &str = "foxglove.SceneUpdate";

@@ -15,17 +15,18 @@
 //! A viewer may publish only the operator's override: on [`OVERRIDE_TOPIC`] (the monitor page's
 //! own override requests as JSON, such as `{"t":"drive","ids":[3],"forward":0.5,"turn":0}`) or
 //! on `radio` (a colony packet in colony-schema's JSON, whose `cmd` lines take and drive those
-//! robots). Either becomes the page's [`Command`]s, which the monitor carries out exactly as a
-//! page's: held for this connection, released when it closes. Anything else is refused.
+//! robots). Either is handed on as a [`Request`], which the application the endpoint serves reads
+//! as its override's commands (the monitor: the page's, carried out exactly as a page's, held
+//! for this connection, released when it closes; see [`crate::Operator`]). Anything else is
+//! refused.
 
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::time::{Duration, Instant};
 
-use colony_proto::radio;
+use colony_proto::radio::{self, RadioCommand};
 use colony_wire::Packet;
 
-use super::protocol::{self, Channel, ClientChannel, ClientOp, Level};
-use crate::state::Command;
+use crate::protocol::{self, Channel, ClientChannel, ClientOp, Level};
 
 /// The topic a viewer publishes the monitor page's override requests on.
 pub const OVERRIDE_TOPIC: &str = "/colony/override";
@@ -56,6 +57,16 @@ pub enum Out<P> {
         /// The message.
         payload: P,
     },
+}
+
+/// What a viewer published on a channel it may publish on, read as far as the endpoint reads
+/// it; what it means is the application's ([`crate::Operator::read`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Request {
+    /// A message on [`OVERRIDE_TOPIC`]: the monitor page's own override request, JSON text.
+    Override(String),
+    /// A message on `radio`: the `cmd` lines of a packet on `radio` alone (at least one).
+    Radio(Vec<RadioCommand>),
 }
 
 /// Where a viewer's client channel goes.
@@ -196,8 +207,8 @@ impl<P: Clone> Session<P> {
         self.dropped += n;
     }
 
-    /// A text frame from the viewer; returns the override commands it carries, if any.
-    pub fn handle_text(&mut self, text: &str) -> Vec<Command> {
+    /// A text frame from the viewer; returns the override requests it carries, if any.
+    pub fn handle_text(&mut self, text: &str) -> Vec<Request> {
         match protocol::parse_text(text) {
             Ok(op) => self.handle(op),
             Err(e) => {
@@ -207,8 +218,8 @@ impl<P: Clone> Session<P> {
         }
     }
 
-    /// A binary frame from the viewer; returns the override commands it carries, if any.
-    pub fn handle_binary(&mut self, frame: &[u8]) -> Vec<Command> {
+    /// A binary frame from the viewer; returns the override requests it carries, if any.
+    pub fn handle_binary(&mut self, frame: &[u8]) -> Vec<Request> {
         match protocol::parse_binary(frame) {
             Ok(op) => self.handle(op),
             Err(e) => {
@@ -226,7 +237,25 @@ impl<P: Clone> Session<P> {
         self.texts.push_back(protocol::status(level, message));
     }
 
-    fn handle(&mut self, op: ClientOp) -> Vec<Command> {
+    /// Reads `requests` with `read` (the application's reading of its override, see
+    /// [`crate::Operator::read`]) into commands; each one refused is told to the viewer in an
+    /// error `status`.
+    pub fn read<C>(
+        &mut self,
+        requests: Vec<Request>,
+        read: impl Fn(Request) -> Result<Vec<C>, String>,
+    ) -> Vec<C> {
+        let mut commands = Vec::new();
+        for r in requests {
+            match read(r) {
+                Ok(c) => commands.extend(c),
+                Err(e) => self.status(Level::Error, &e),
+            }
+        }
+        commands
+    }
+
+    fn handle(&mut self, op: ClientOp) -> Vec<Request> {
         match op {
             ClientOp::Subscribe(subs) => {
                 for s in subs {
@@ -294,8 +323,8 @@ impl<P: Clone> Session<P> {
                         );
                         Vec::new()
                     }
-                    Some(sink) => match read_override(*sink, &payload) {
-                        Ok(commands) => commands,
+                    Some(sink) => match read_request(*sink, &payload) {
+                        Ok(request) => vec![request],
                         Err(e) => {
                             self.status(Level::Error, &e);
                             Vec::new()
@@ -393,26 +422,12 @@ impl<P: Clone> Session<P> {
     }
 }
 
-/// A viewer's override message read as the page's commands, or why not.
-fn read_override(sink: Sink, payload: &[u8]) -> Result<Vec<Command>, String> {
+/// A viewer's message on one of its client channels, read as far as the endpoint reads it.
+fn read_request(sink: Sink, payload: &[u8]) -> Result<Request, String> {
     let text = std::str::from_utf8(payload)
         .map_err(|_| "an override message must be JSON text (UTF-8)".to_string())?;
     match sink {
-        Sink::Override => {
-            let command = crate::protocol::parse_message(text).map_err(|e| e.message)?;
-            match command {
-                Command::Take(_)
-                | Command::TakeAll
-                | Command::Release(_)
-                | Command::ReleaseAll
-                | Command::Drive { .. }
-                | Command::Goto { .. } => Ok(vec![command]),
-                _ => Err(format!(
-                    "`{OVERRIDE_TOPIC}` takes the override's requests only (take, take_all, \
-                     release, release_all, drive, goto)"
-                )),
-            }
-        }
+        Sink::Override => Ok(Request::Override(text.to_owned())),
         Sink::Radio => {
             let (packet, _) = colony_schema::packet_text(payload).ok_or_else(|| {
                 "a radio message is colony-schema JSON: {\"packet\": \"@ <radio> 10\\ncmd id 0 forward 0.5 turn 0\\n\"}"
@@ -426,19 +441,7 @@ fn read_override(sink: Sink, payload: &[u8]) -> Result<Vec<Command>, String> {
             if commands.is_empty() {
                 return Err("the radio packet holds no `cmd` line".into());
             }
-            if commands.len() > crate::state::MAX_HELD {
-                return Err(format!(
-                    "at most {} robots can be held",
-                    crate::state::MAX_HELD
-                ));
-            }
-            let mut out = vec![Command::Take(commands.iter().map(|c| c.robot).collect())];
-            out.extend(commands.iter().map(|c| Command::Drive {
-                ids: Some(vec![c.robot]),
-                forward: c.wheels.forward,
-                turn: c.wheels.turn,
-            }));
-            Ok(out)
+            Ok(Request::Radio(commands))
         }
     }
 }
@@ -658,71 +661,6 @@ mod tests {
             s.handle_text("{");
         }
         assert!(texts(&mut s).len() <= MAX_TEXTS);
-    }
-
-    #[test]
-    fn the_override_topic_becomes_the_pages_override_commands() {
-        let mut s = session();
-        texts(&mut s);
-        s.handle_text(
-            r#"{"op":"advertise","channels":[{"id":4,"topic":"/colony/override","encoding":"json","schemaName":"colony.Override"}]}"#,
-        );
-        let mut frame = vec![1, 4, 0, 0, 0];
-        frame.extend_from_slice(br#"{"t":"take","ids":[3]}"#);
-        assert_eq!(s.handle_binary(&frame), [Command::Take(vec![3])]);
-        let mut frame = vec![1, 4, 0, 0, 0];
-        frame.extend_from_slice(br#"{"t":"drive","ids":[3],"forward":0.5,"turn":0}"#);
-        assert_eq!(
-            s.handle_binary(&frame),
-            [Command::Drive {
-                ids: Some(vec![3]),
-                forward: 0.5,
-                turn: 0.0
-            }]
-        );
-        // Forging a packet is the page's, not the override's.
-        let mut frame = vec![1, 4, 0, 0, 0];
-        frame.extend_from_slice(
-            br#"{"t":"publish","text":"@ <radio> 99\ncmd id 0 forward 1 turn 0\n"}"#,
-        );
-        assert!(s.handle_binary(&frame).is_empty());
-        let t = texts(&mut s);
-        assert!(
-            t[0]["message"].as_str().unwrap().contains("override"),
-            "{t:?}"
-        );
-    }
-
-    #[test]
-    fn a_radio_packet_takes_and_drives_its_robots() {
-        let mut s = session();
-        texts(&mut s);
-        s.handle_text(
-            r#"{"op":"advertise","channels":[{"id":1,"topic":"radio","encoding":"json"}]}"#,
-        );
-        let mut frame = vec![1, 1, 0, 0, 0];
-        frame.extend_from_slice(br#"{"packet":"@ <radio> 10\ncmd id 2 forward 2 turn -0.5\n"}"#);
-        assert_eq!(
-            s.handle_binary(&frame),
-            [
-                Command::Take(vec![2]),
-                Command::Drive {
-                    ids: Some(vec![2]),
-                    forward: 1.0,
-                    turn: -0.5
-                }
-            ]
-        );
-        for junk in [
-            &b"{\"packet\":\"@ <vision> 0\\nx\\n\"}"[..],
-            b"\xff\xfe",
-            b"[]",
-        ] {
-            let mut frame = vec![1, 1, 0, 0, 0];
-            frame.extend_from_slice(junk);
-            assert!(s.handle_binary(&frame).is_empty());
-        }
-        assert_eq!(texts(&mut s).len(), 3);
     }
 
     #[test]

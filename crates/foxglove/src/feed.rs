@@ -1,70 +1,24 @@
-//! The Foxglove WebSocket endpoint (`/foxglove` on the monitor's own server): the hub's
-//! channels for Foxglove, Lichtblick and any other `foxglove.websocket.v1` viewer.
-//!
-//! - **Channels as they appear.** The bridge thread writes every packet the monitor receives
-//!   into a [`Feed`]: each topic (a channel, or a subject set joined by `+`, as
-//!   [`colony_schema::topic`] names it) becomes a channel the first time it is seen (at most
-//!   [`MAX_CHANNELS`]), advertised at once to every viewer, with encoding `json` and
-//!   colony-schema's JSON Schema. Besides the hub's channels, three scene topics: the arena
-//!   ([`ARENA_TOPIC`]) and the battlefield ([`BATTLEFIELD_TOPIC`], [`TERRAIN_TOPIC`]) as
-//!   `foxglove.SceneUpdate` (see [`scene`]), and their frames placed in `world`
-//!   ([`FRAMES_TOPIC`], `foxglove.FrameTransforms`); a new subscriber gets each one's newest at
-//!   once.
-//! - **Receive timestamps.** Each message carries the wall-clock time the monitor received it.
-//! - **Nothing waits for a viewer.** The feed is a `tokio` broadcast: the bridge never blocks
-//!   on it, and does nothing for it beyond noting a topic while no viewer is connected. A viewer
-//!   that falls behind the broadcast misses messages, and each connection keeps at most the
-//!   few newest messages of each channel waiting ([`session`]); both are counted and told to the
-//!   viewer.
-//!   JSON is written on the web server's threads, for the channels a viewer subscribed to.
-//! - **Publishing is the override.** A viewer may publish only the operator's override
-//!   ([`session::OVERRIDE_TOPIC`] or `radio`), which becomes the monitor page's own commands,
-//!   carried out by the bridge for this connection exactly as for a page, and let go when it
-//!   closes or stops answering pings or taking messages (see [`crate::Liveness`]). The endpoint
-//!   passes the same [`crate::gate`] as the page's WebSocket: the monitor's host names, a
-//!   same-site `Origin` if there is one, and the token.
-
-pub mod protocol;
-pub mod scene;
-pub mod session;
+//! The feed: where the hub link writes every packet the monitor receives and each scene, and
+//! what the connections read from it (a `tokio` broadcast, the channel list and the scenes kept
+//! for new subscribers).
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::mpsc::{Sender, SyncSender, TrySendError};
 use std::sync::{Arc, OnceLock, RwLock};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
-use axum::extract::ws::{Message, WebSocket};
 use colony_wire::Packet;
-use tokio::sync::{broadcast, oneshot, watch};
+use tokio::sync::broadcast;
 
-use crate::liveness::{ping_if_due, ready, send_within, End, Pinger, MAX_READY};
-use crate::request::Envelope;
-use crate::state::PageId;
-use protocol::{Channel, Level};
-use session::{Out, Session};
+use crate::protocol::Channel;
+use crate::scene;
+use crate::{
+    ARENA_TOPIC, BATTLEFIELD_TOPIC, FRAMES_TOPIC, MAX_CHANNELS, SINGLE_SUBJECT_RESERVE,
+    TERRAIN_TOPIC,
+};
 
-/// The path the endpoint is served at.
-pub const PATH: &str = "/foxglove";
-/// The arena's scene topic.
-pub const ARENA_TOPIC: &str = "/colony/arena";
-/// The battlefield's robots and flags.
-pub const BATTLEFIELD_TOPIC: &str = "/colony/battlefield";
-/// The battlefield's terrain (sent when the map changes).
-pub const TERRAIN_TOPIC: &str = "/colony/battlefield/terrain";
-/// The scene frames placed in a common `world` frame (`foxglove.FrameTransforms`).
-pub const FRAMES_TOPIC: &str = "/colony/frames";
-/// Channels advertised at most (the hub counts at most 1,024 channels of its own).
-pub const MAX_CHANNELS: usize = 1024;
-/// Channels kept for topics of one subject (the monitor subscribes to well under this many
-/// subjects): subject-set topics, which a forger can make by the thousand, stop short of them.
-pub const SINGLE_SUBJECT_RESERVE: usize = 256;
-/// Foxglove viewers connected at once, at most; further connections are closed with a reason.
-pub const MAX_VIEWERS: u64 = 16;
 /// Messages the broadcast holds for a viewer that is behind, at most.
-const FEED_CAPACITY: usize = 512;
-/// A viewer's own message is read up to this size (an override request is a few dozen bytes).
-pub const MAX_VIEWER_MESSAGE: usize = 64 * 1024;
+pub(crate) const FEED_CAPACITY: usize = 512;
 
 /// A message for viewers: a hub packet's text (written as JSON once, by the first viewer that
 /// wants it, and shared by the rest) or a message already in JSON (a scene).
@@ -84,7 +38,7 @@ pub struct PacketText {
 }
 
 impl Payload {
-    fn packet(text: &[u8]) -> Self {
+    pub(crate) fn packet(text: &[u8]) -> Self {
         Payload::Packet(Arc::new(PacketText {
             text: text.into(),
             json: OnceLock::new(),
@@ -92,7 +46,7 @@ impl Payload {
     }
 
     /// The message as a viewer gets it (the same bytes for every viewer).
-    fn to_json(&self) -> Arc<[u8]> {
+    pub(crate) fn to_json(&self) -> Arc<[u8]> {
         match self {
             Payload::Json(j) => j.clone(),
             Payload::Packet(p) => p
@@ -107,7 +61,7 @@ impl Payload {
 }
 
 #[derive(Debug, Clone)]
-enum Event {
+pub(crate) enum Event {
     /// New channels are in the registry.
     Channels,
     Message {
@@ -118,7 +72,7 @@ enum Event {
 }
 
 #[derive(Debug, Default)]
-struct Registry {
+pub(crate) struct Registry {
     by_topic: HashMap<String, u32>,
     channels: Vec<Channel>,
     /// The newest message of each scene channel, for new subscribers.
@@ -127,32 +81,32 @@ struct Registry {
 
 /// Counters shared by the feed and the connections.
 #[derive(Debug, Default)]
-struct Counters {
-    viewers: AtomicU64,
-    dropped: AtomicU64,
+pub(crate) struct Counters {
+    pub(crate) viewers: AtomicU64,
+    pub(crate) dropped: AtomicU64,
     /// Connections subscribed to the arena's scene, and to the battlefield's.
-    arena_subscribers: AtomicU64,
-    battlefield_subscribers: AtomicU64,
+    pub(crate) arena_subscribers: AtomicU64,
+    pub(crate) battlefield_subscribers: AtomicU64,
     /// Packets whose topic found no room in the channel list (never advertised).
-    not_advertised: AtomicU64,
-    /// Connections refused past [`MAX_VIEWERS`].
-    refused_viewers: AtomicU64,
+    pub(crate) not_advertised: AtomicU64,
+    /// Connections refused past [`MAX_VIEWERS`](crate::MAX_VIEWERS).
+    pub(crate) refused_viewers: AtomicU64,
     /// World frames whose arena scene was never built: a newer frame came while the scene
     /// budget ([`SceneBudget`]) was spent.
-    scenes_skipped: AtomicU64,
+    pub(crate) scenes_skipped: AtomicU64,
 }
 
-/// The share of the bridge thread that building arena scenes may take: a scene of 10,000
-/// robots and 100,000 pucks takes the bridge some 100 ms, and at every world frame it would
+/// The share of the hub link's thread that building arena scenes may take: a scene of 10,000
+/// robots and 100,000 pucks takes the hub link some 100 ms, and at every world frame it would
 /// leave too little time to read the hub's datagrams.
 pub const SCENE_SHARE: f64 = 0.25;
 /// Scenes are built at most this often, however cheap.
 pub const SCENE_EVERY: Duration = Duration::from_millis(33);
 
-/// When the bridge may build the next arena scene: a build that took `t` is followed by none
+/// When the hub link may build the next arena scene: a build that took `t` is followed by none
 /// for `t / SCENE_SHARE` (at least [`SCENE_EVERY`]). World frames that come meanwhile are not
 /// built at all, only the newest once the budget allows; the ones passed over are counted
-/// ([`Viewers::scenes_skipped`]). No clock: the bridge passes the times.
+/// ([`Viewers::scenes_skipped`]). No clock: the hub link passes the times.
 #[derive(Debug, Default)]
 pub struct SceneBudget {
     next: Option<std::time::Instant>,
@@ -176,7 +130,7 @@ impl SceneBudget {
     }
 }
 
-/// The bridge's end: where received packets and scenes are written.
+/// The hub link's end: where received packets and scenes are written.
 #[derive(Debug)]
 pub struct Feed {
     tx: broadcast::Sender<Event>,
@@ -192,12 +146,12 @@ pub struct Feed {
 /// The web server's end: what each connection reads.
 #[derive(Debug, Clone)]
 pub struct Viewers {
-    tx: broadcast::Sender<Event>,
-    registry: Arc<RwLock<Registry>>,
-    counters: Arc<Counters>,
-    session_id: Arc<str>,
+    pub(crate) tx: broadcast::Sender<Event>,
+    pub(crate) registry: Arc<RwLock<Registry>>,
+    pub(crate) counters: Arc<Counters>,
+    pub(crate) session_id: Arc<str>,
     /// The arena's, the battlefield's and its terrain's scene channels.
-    scenes: [u32; 3],
+    pub(crate) scenes: [u32; 3],
 }
 
 /// The wall clock now, nanoseconds since the Unix epoch.
@@ -416,19 +370,19 @@ impl Viewers {
         self.counters.not_advertised.load(Ordering::Relaxed)
     }
 
-    /// Connections refused past [`MAX_VIEWERS`] so far.
+    /// Connections refused past [`MAX_VIEWERS`](crate::MAX_VIEWERS) so far.
     pub fn refused(&self) -> u64 {
         self.counters.refused_viewers.load(Ordering::Relaxed)
     }
 
-    fn channels(&self) -> Vec<Channel> {
+    pub(crate) fn channels(&self) -> Vec<Channel> {
         self.registry
             .read()
             .map(|r| r.channels.clone())
             .unwrap_or_default()
     }
 
-    fn latched(&self) -> Vec<(u32, u64, Payload)> {
+    pub(crate) fn latched(&self) -> Vec<(u32, u64, Payload)> {
         self.registry
             .read()
             .map(|r| {
@@ -441,294 +395,10 @@ impl Viewers {
     }
 }
 
-/// What a connection needs from the web server: where the override's commands go, and where
-/// to say that it closed (so what it held is let go).
-pub struct Link {
-    /// The bridge's request queue.
-    pub requests: SyncSender<Envelope>,
-    /// Where a closed connection's page id goes.
-    pub closed: Sender<PageId>,
-    /// This connection's page id.
-    pub page: PageId,
-    /// Whether the monitor is stopping.
-    pub shutdown: watch::Receiver<bool>,
-    /// When a viewer that stopped answering is dropped.
-    pub liveness: crate::Liveness,
-}
-
-/// Tells the bridge the connection has gone, however it ends.
-struct Gone {
-    page: PageId,
-    closed: Sender<PageId>,
-    counters: Arc<Counters>,
-    /// Whether this connection is subscribed to the arena's scene, and the battlefield's.
-    scenes: [bool; 2],
-}
-
-impl Gone {
-    /// Counts this connection's scene subscriptions as `now`.
-    fn scenes(&mut self, now: [bool; 2]) {
-        let subscribers = [
-            &self.counters.arena_subscribers,
-            &self.counters.battlefield_subscribers,
-        ];
-        for ((was, now), count) in self.scenes.iter_mut().zip(now).zip(subscribers) {
-            match (*was, now) {
-                (false, true) => count.fetch_add(1, Ordering::Relaxed),
-                (true, false) => count.fetch_sub(1, Ordering::Relaxed),
-                _ => 0,
-            };
-            *was = now;
-        }
-    }
-}
-
-impl Drop for Gone {
-    fn drop(&mut self) {
-        let _ = self.closed.send(self.page);
-        self.counters.viewers.fetch_sub(1, Ordering::Relaxed);
-        self.scenes([false, false]);
-    }
-}
-
-/// Hands one override command to the bridge and waits for its answer.
-async fn carry_out(link: &Link, command: crate::state::Command) -> Result<String, String> {
-    let (tx, rx) = oneshot::channel();
-    match link.requests.try_send((link.page, command, tx)) {
-        Ok(()) => {}
-        Err(TrySendError::Full(_)) => return Err("the monitor is busy; try again".into()),
-        Err(TrySendError::Disconnected(_)) => return Err("the monitor is stopping".into()),
-    }
-    match tokio::time::timeout(Duration::from_secs(2), rx).await {
-        Ok(Ok(Ok(msg))) => Ok(msg),
-        Ok(Ok(Err(e))) => Err(e.to_string()),
-        Ok(Err(_)) => Err("the monitor is stopping".into()),
-        Err(_) => Err("no answer from the hub bridge within 2 s".into()),
-    }
-}
-
-/// Runs one viewer's connection until it closes or the monitor stops.
-pub async fn run(mut socket: WebSocket, viewers: Viewers, mut link: Link) {
-    if viewers.counters.viewers.fetch_add(1, Ordering::Relaxed) >= MAX_VIEWERS {
-        viewers.counters.viewers.fetch_sub(1, Ordering::Relaxed);
-        viewers
-            .counters
-            .refused_viewers
-            .fetch_add(1, Ordering::Relaxed);
-        tracing::warn!(
-            refused = viewers.refused(),
-            "a Foxglove viewer was refused: {MAX_VIEWERS} are connected"
-        );
-        let _ = link.closed.send(link.page);
-        let close = Message::Close(Some(axum::extract::ws::CloseFrame {
-            code: 1013,
-            reason: format!("too many Foxglove viewers: at most {MAX_VIEWERS} at once").into(),
-        }));
-        let within = Pinger::new(link.liveness, std::time::Instant::now()).deadline();
-        let _ = send_within(&mut socket, close, within).await;
-        return;
-    }
-    let mut gone = Gone {
-        page: link.page,
-        closed: link.closed.clone(),
-        counters: viewers.counters.clone(),
-        scenes: [false, false],
-    };
-    let mut rx = viewers.tx.subscribe();
-    let mut s: Session<Payload> = Session::new("colony monitor", &viewers.session_id);
-    // Each scene is a whole frame: a slow viewer gets the newest, older ones dropped, counted.
-    for c in viewers.scenes {
-        s.newest_only(c);
-    }
-    s.on_channels(&viewers.channels());
-    let mut tick = tokio::time::interval(Duration::from_millis(500));
-    let mut reported = 0;
-    let mut refused_told = 0;
-    let mut pinger = Pinger::new(link.liveness, std::time::Instant::now());
-    let within = pinger.deadline();
-    let mut end = None;
-    'conn: loop {
-        // Take in what the feed has, then send what waits, newest first per channel.
-        loop {
-            drain(&mut rx, &mut s, &viewers);
-            let Some(out) = s.poll_transmit() else { break };
-            let msg = match out {
-                Out::Text(t) => Message::Text(t.into()),
-                Out::Message {
-                    subscription,
-                    receive_ns,
-                    payload,
-                } => Message::Binary(
-                    protocol::message_data(subscription, receive_ns, &payload.to_json()).into(),
-                ),
-            };
-            if let Err(e) = send_within(&mut socket, msg, within).await {
-                end = Some(End::from(e));
-                break 'conn;
-            }
-        }
-        if s.dropped() > reported {
-            viewers
-                .counters
-                .dropped
-                .fetch_add(s.dropped() - reported, Ordering::Relaxed);
-            reported = s.dropped();
-        }
-        tokio::select! {
-            incoming = socket.recv() => {
-                let flow = take_in(incoming, &mut s, &viewers, &mut gone, &link, &mut pinger);
-                if let Err(e) = flow.await {
-                    end = Some(e);
-                    break;
-                }
-            }
-            event = rx.recv() => match event {
-                Ok(e) => on_event(e, &mut s, &viewers),
-                Err(broadcast::error::RecvError::Lagged(n)) => lagged(n, &mut s, &viewers),
-                Err(broadcast::error::RecvError::Closed) => break,
-            },
-            _ = tick.tick() => {
-                s.poll_timeout(std::time::Instant::now());
-                let refused = viewers.not_advertised();
-                if refused > refused_told {
-                    refused_told = refused;
-                    s.status(Level::Warning, &not_advertised_status(refused));
-                }
-            }
-            _ = pinger.sleep() => {
-                let mut flow = Ok(());
-                if pinger.overdue(std::time::Instant::now()) {
-                    for _ in 0..MAX_READY {
-                        let Some(incoming) = ready(&mut socket).await else { break };
-                        flow = take_in(incoming, &mut s, &viewers, &mut gone, &link, &mut pinger)
-                            .await;
-                        if flow.is_err() {
-                            break;
-                        }
-                    }
-                }
-                if flow.is_ok() {
-                    flow = ping_if_due(&mut pinger, &mut socket).await.map_err(End::from);
-                }
-                if let Err(e) = flow {
-                    end = Some(e);
-                    break;
-                }
-            }
-            changed = link.shutdown.changed() => {
-                if changed.is_err() || *link.shutdown.borrow_and_update() {
-                    let _ = send_within(&mut socket, Message::Close(None), within).await;
-                    break;
-                }
-            }
-        }
-    }
-    if let Some(why) = end.and_then(End::frozen) {
-        tracing::info!(
-            page = link.page.0,
-            "a Foxglove viewer was dropped because {why}: what it held is let go"
-        );
-    }
-    if s.dropped() > 0 {
-        tracing::info!(
-            page = link.page.0,
-            dropped = s.dropped(),
-            "a Foxglove viewer left; it was sent the newest of each channel and missed the rest"
-        );
-    }
-}
-
-/// Takes in one frame from a viewer: its requests are handled (the override's carried out by
-/// the bridge), a pong goes to `pinger`.
-async fn take_in(
-    incoming: Option<Result<Message, axum::Error>>,
-    s: &mut Session<Payload>,
-    viewers: &Viewers,
-    gone: &mut Gone,
-    link: &Link,
-    pinger: &mut Pinger,
-) -> Result<(), End> {
-    let commands = match incoming {
-        None | Some(Err(_)) | Some(Ok(Message::Close(_))) => return Err(End::Closed),
-        Some(Ok(Message::Text(t))) => {
-            let before = subscribed_latched(s, viewers);
-            let commands = s.handle_text(t.as_str());
-            let [arena, field, terrain] = viewers.scenes.map(|c| s.is_subscribed(c));
-            gone.scenes([arena, field || terrain]);
-            for (channel, ns, payload) in viewers.latched() {
-                if s.is_subscribed(channel) && !before.contains(&channel) {
-                    s.on_message(channel, ns, payload);
-                }
-            }
-            commands
-        }
-        Some(Ok(Message::Binary(b))) => s.handle_binary(&b),
-        Some(Ok(Message::Pong(p))) => {
-            pinger.on_pong(&p, std::time::Instant::now());
-            return Ok(());
-        }
-        Some(Ok(_)) => return Ok(()),
-    };
-    for c in commands {
-        if let Err(e) = carry_out(link, c).await {
-            s.status(Level::Error, &e);
-        }
-    }
-    Ok(())
-}
-
-fn subscribed_latched(s: &Session<Payload>, viewers: &Viewers) -> Vec<u32> {
-    viewers
-        .latched()
-        .into_iter()
-        .map(|(c, _, _)| c)
-        .filter(|c| s.is_subscribed(*c))
-        .collect()
-}
-
-fn drain(rx: &mut broadcast::Receiver<Event>, s: &mut Session<Payload>, viewers: &Viewers) {
-    // Bounded: at most what the broadcast holds.
-    for _ in 0..FEED_CAPACITY {
-        match rx.try_recv() {
-            Ok(e) => on_event(e, s, viewers),
-            Err(broadcast::error::TryRecvError::Lagged(n)) => lagged(n, s, viewers),
-            Err(_) => return,
-        }
-    }
-}
-
-/// The viewer fell behind the feed by `n` events: channels announced among them are offered
-/// now, and the missed messages are counted only if it subscribed to anything (a viewer
-/// subscribed to nothing missed nothing it asked for).
-fn lagged(n: u64, s: &mut Session<Payload>, viewers: &Viewers) {
-    s.on_channels(&viewers.channels());
-    if s.has_subscriptions() {
-        s.on_missed(n);
-    }
-}
-
-/// What a viewer is told when topics found no room in the channel list.
-fn not_advertised_status(n: u64) -> String {
-    format!(
-        "the channel list is full ({MAX_CHANNELS} channels, {SINGLE_SUBJECT_RESERVE} of them \
-         kept for single subjects): {n} packets of further topics were not advertised"
-    )
-}
-
-fn on_event(e: Event, s: &mut Session<Payload>, viewers: &Viewers) {
-    match e {
-        Event::Channels => s.on_channels(&viewers.channels()),
-        Event::Message {
-            channel,
-            receive_ns,
-            payload,
-        } => s.on_message(channel, receive_ns, payload),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::connection::not_advertised_status;
 
     #[test]
     fn scenes_keep_to_their_share_of_the_bridge_and_passed_over_frames_are_counted() {
@@ -868,31 +538,6 @@ mod tests {
         assert!(viewers.channels().iter().any(|c| c.topic == "game.state"));
         assert_eq!(viewers.not_advertised(), refused);
         assert!(not_advertised_status(refused).contains(&refused.to_string()));
-    }
-
-    #[test]
-    fn a_lagged_viewer_hears_of_new_channels_and_is_not_blamed_for_what_it_never_asked() {
-        let (mut feed, viewers) = feed();
-        let mut s: Session<Payload> = Session::new("t", "1");
-        s.on_channels(&viewers.channels());
-        while s.poll_transmit().is_some() {}
-        feed.on_packet(&packet("@ <vision> 0\nx\n"), 0);
-        lagged(7, &mut s, &viewers);
-        assert_eq!(s.dropped(), 0);
-        let mut advertised = false;
-        while let Some(out) = s.poll_transmit() {
-            if let Out::Text(t) = out {
-                advertised |= t.contains("\"advertise\"") && t.contains("\"vision\"");
-            }
-        }
-        assert!(advertised);
-        // Subscribed to something: what it missed is counted.
-        let id = viewers.channels()[0].id;
-        s.handle_text(&format!(
-            r#"{{"op":"subscribe","subscriptions":[{{"id":1,"channelId":{id}}}]}}"#
-        ));
-        lagged(3, &mut s, &viewers);
-        assert_eq!(s.dropped(), 3);
     }
 
     #[test]

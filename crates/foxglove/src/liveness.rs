@@ -1,6 +1,9 @@
 //! Whether a page or a viewer is still there: WebSocket pings with a deadline.
 //!
-//! A connection's holds last as long as the connection (see [`crate::state::operator`]), so a
+//! Here, below the monitor, because both of its WebSockets use it: a Foxglove viewer's (this
+//! crate's [`run`](crate::run)) and a monitor page's (colony-monitor's `server::page`).
+//!
+//! A connection's holds last as long as the connection (the monitor's override), so a
 //! peer that froze with its connection open (a hung tab, a viewer stopped in a debugger, a
 //! script that stopped reading) would otherwise hold its robots, and with "take control of
 //! all" the hub's minimum priority, for as long as the operating system keeps the connection.
@@ -43,7 +46,7 @@ impl Default for Liveness {
 
 /// Why a connection was found dead.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Dead {
+pub enum Dead {
     /// A ping went unanswered past the deadline.
     Unanswered,
     /// A message could not be sent within the deadline.
@@ -54,11 +57,12 @@ pub(crate) enum Dead {
 
 impl Dead {
     /// Whether the peer went quiet (worth a line in the log), rather than away.
-    pub(crate) fn frozen(self) -> bool {
+    pub fn frozen(self) -> bool {
         self != Dead::Closed
     }
 
-    pub(crate) fn as_str(self) -> &'static str {
+    /// Why, as a line for the log.
+    pub fn as_str(self) -> &'static str {
         match self {
             Dead::Unanswered => "it did not answer a ping in time",
             Dead::Stuck => "it took no message in time",
@@ -69,7 +73,7 @@ impl Dead {
 
 /// Why a connection's loop ends.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum End {
+pub enum End {
     /// The peer closed it, or the monitor is stopping.
     Closed,
     /// The peer was found dead.
@@ -84,7 +88,7 @@ impl From<Dead> for End {
 
 impl End {
     /// A line for the log when the peer froze, rather than went away.
-    pub(crate) fn frozen(self) -> Option<&'static str> {
+    pub fn frozen(self) -> Option<&'static str> {
         match self {
             End::Dead(d) if d.frozen() => Some(d.as_str()),
             _ => None,
@@ -93,11 +97,11 @@ impl End {
 }
 
 /// Frames taken in at most, without waiting, before a peer is judged (see [`ready`]).
-pub(crate) const MAX_READY: usize = 256;
+pub const MAX_READY: usize = 256;
 
 /// One connection's pings: when the next one is due, and the one in flight.
 #[derive(Debug)]
-pub(crate) struct Pinger {
+pub struct Pinger {
     liveness: Liveness,
     /// The ping in flight: its payload and when it went.
     waiting: Option<([u8; 8], Instant)>,
@@ -105,7 +109,8 @@ pub(crate) struct Pinger {
 }
 
 impl Pinger {
-    pub(crate) fn new(liveness: Liveness, now: Instant) -> Pinger {
+    /// A connection's pings from `now`, the first due `liveness.ping_every` later.
+    pub fn new(liveness: Liveness, now: Instant) -> Pinger {
         // Kept where `Instant` arithmetic cannot overflow and a deadline can be met at all.
         let bound = |d: Duration| d.clamp(Duration::from_millis(1), Duration::from_secs(86_400));
         let liveness = Liveness {
@@ -120,7 +125,7 @@ impl Pinger {
     }
 
     /// When [`on_due`](Self::on_due) has something to do.
-    pub(crate) fn due(&self) -> Instant {
+    pub fn due(&self) -> Instant {
         match self.waiting {
             Some((_, sent)) => sent + self.liveness.deadline,
             None => self.next_ping,
@@ -128,7 +133,7 @@ impl Pinger {
     }
 
     /// Time passed to `now`: the payload of a ping to send, nothing yet, or the peer is dead.
-    pub(crate) fn on_due(&mut self, now: Instant) -> Result<Option<[u8; 8]>, Dead> {
+    pub fn on_due(&mut self, now: Instant) -> Result<Option<[u8; 8]>, Dead> {
         match self.waiting {
             Some((_, sent)) if now >= sent + self.liveness.deadline => Err(Dead::Unanswered),
             Some(_) => Ok(None),
@@ -142,7 +147,7 @@ impl Pinger {
     }
 
     /// A pong came at `now`: the next ping is due a while after it, if it answers ours.
-    pub(crate) fn on_pong(&mut self, payload: &[u8], now: Instant) {
+    pub fn on_pong(&mut self, payload: &[u8], now: Instant) {
         if self.waiting.is_some_and(|(p, _)| p[..] == *payload) {
             self.waiting = None;
             self.next_ping = now + self.liveness.ping_every;
@@ -150,25 +155,25 @@ impl Pinger {
     }
 
     /// Whether the ping in flight is past its deadline at `now`.
-    pub(crate) fn overdue(&self, now: Instant) -> bool {
+    pub fn overdue(&self, now: Instant) -> bool {
         self.waiting
             .is_some_and(|(_, sent)| now >= sent + self.liveness.deadline)
     }
 
     /// Sleeps until [`due`](Self::due), holding no borrow of the pinger.
-    pub(crate) fn sleep(&self) -> tokio::time::Sleep {
+    pub fn sleep(&self) -> tokio::time::Sleep {
         tokio::time::sleep_until(tokio::time::Instant::from_std(self.due()))
     }
 
     /// The bound on one send.
-    pub(crate) fn deadline(&self) -> Duration {
+    pub fn deadline(&self) -> Duration {
         self.liveness.deadline
     }
 }
 
 /// Sends `msg`, giving up after `within`: a peer that stopped reading leaves a send waiting for
 /// room in its buffers forever.
-pub(crate) async fn send_within(
+pub async fn send_within(
     socket: &mut WebSocket,
     msg: Message,
     within: Duration,
@@ -184,7 +189,7 @@ pub(crate) async fn send_within(
 /// without waiting. A connection's loop may have been busy (a long send) while the peer's pong
 /// came; what came is taken in before the peer is judged overdue, so a slow loop does not drop
 /// a live peer.
-pub(crate) async fn ready(socket: &mut WebSocket) -> Option<Option<Result<Message, axum::Error>>> {
+pub async fn ready(socket: &mut WebSocket) -> Option<Option<Result<Message, axum::Error>>> {
     // A zero timeout still polls the receive once (tokio polls the future before the timer).
     tokio::time::timeout(Duration::ZERO, socket.recv())
         .await
@@ -194,7 +199,7 @@ pub(crate) async fn ready(socket: &mut WebSocket) -> Option<Option<Result<Messag
 /// Sends the ping that is due at `now`, if one is, or says the peer is dead. Called once
 /// [`Pinger::sleep`] is over, from a branch's body rather than inside a `select!`, so a ping is
 /// never half sent when another branch wins.
-pub(crate) async fn ping_if_due(pinger: &mut Pinger, socket: &mut WebSocket) -> Result<(), Dead> {
+pub async fn ping_if_due(pinger: &mut Pinger, socket: &mut WebSocket) -> Result<(), Dead> {
     if let Some(payload) = pinger.on_due(Instant::now())? {
         let within = pinger.deadline();
         send_within(socket, Message::Ping(payload.to_vec().into()), within).await?;
