@@ -27,18 +27,18 @@ use serde::Serialize;
 pub mod bodies;
 pub mod command;
 pub mod forge;
-pub mod hub;
+pub mod hub_view;
 pub mod operator;
 pub mod steer;
-pub mod world;
+pub mod world_view;
 
 pub use command::{Command, CommandError};
 pub use forge::{check_forged, ForgeError};
 pub use operator::{Mode, PageId, MAX_COORD, MAX_HELD, OVERRIDE_PRIORITY};
 pub use steer::{steer, ARRIVED_CM};
-pub use world::{Progress, WorldView};
+pub use world_view::{Progress, WorldView};
 
-use hub::HubView;
+use hub_view::HubView;
 use operator::Override;
 
 /// The channels the monitor always subscribes to.
@@ -85,7 +85,7 @@ struct WorldJson<'a> {
     t: &'static str,
     now: u64,
     #[serde(flatten)]
-    world: world::WorldJson<'a>,
+    world: world_view::WorldJson<'a>,
     #[serde(flatten)]
     operator: operator::OverrideJson,
     hub_stale_since: Option<u64>,
@@ -489,7 +489,7 @@ mod tests {
         let big = format!("@ <big> 0\n{}", "x v é\n".repeat(1000));
         s.on_packet(t0, &parse(&big));
         let kept = s.last_packet("big").unwrap();
-        assert!(kept.len() <= hub::LAST_TEXT_LIMIT && kept.starts_with("@ <big> 0"));
+        assert!(kept.len() <= hub_view::LAST_TEXT_LIMIT && kept.starts_with("@ <big> 0"));
         s.on_packet(t0, &parse("@ <a> <b> 0\nx v 1\n"));
         assert!(s.last_packet("a b").is_some());
     }
