@@ -121,7 +121,10 @@ pub struct Replanner {
     goal: Cell,
     /// The last goal on the map: the heuristic's target in every key.
     key_goal: usize,
-    km: f64,
+    /// How far the goal has moved since the search was rooted, as exact counts: a key that
+    /// is a lower bound of the fresh one in exact arithmetic must stay one when both are
+    /// rounded, or a tie between a stale key and the goal's ends the search early.
+    km: Cost,
     expanded: usize,
 }
 
@@ -142,7 +145,7 @@ impl Replanner {
             start: 0,
             goal,
             key_goal: 0,
-            km: 0.0,
+            km: Cost::ZERO,
             expanded: 0,
         };
         r.set_start(start);
@@ -172,7 +175,7 @@ impl Replanner {
         // Off the map there is no path; keys keep aiming at the last goal
         // on it, which is still a valid (if weaker) ordering.
         if let Some(b) = self.grid.index(goal) {
-            self.km += self.grid.distance(self.key_goal, b);
+            self.km = self.km.plus(self.grid.octile_cost(self.key_goal, b));
             self.key_goal = b;
         }
     }
@@ -196,7 +199,7 @@ impl Replanner {
         self.epoch += 1;
         self.queued_count = 0;
         self.heap.clear();
-        self.km = 0.0;
+        self.km = Cost::ZERO;
         self.expanded = 0;
         // An empty map has no cells; index 0 is then a border cell of class 0.
         self.start = self.grid.index(start).unwrap_or(0);
@@ -278,8 +281,11 @@ impl Replanner {
         if m == Cost::INFINITE {
             return Key(f64::INFINITY, f64::INFINITY);
         }
-        let f = m.plus(self.grid.octile_cost(i, self.key_goal)).value();
-        Key(f + self.km, m.value())
+        let f = m
+            .plus(self.grid.octile_cost(i, self.key_goal))
+            .plus(self.km)
+            .value();
+        Key(f, m.value())
     }
 
     /// Queues `i` under its current key (replacing an older entry).
