@@ -138,25 +138,8 @@ fn add_subsets(subs: &[Subject], out: &mut BTreeSet<Vec<Subject>>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fixtures::{client, report};
     use colony_wire::ClientInfo;
-
-    fn client(about: &str, subs: &[&str]) -> ClientInfo {
-        ClientInfo {
-            addr: "127.0.0.1:1".into(),
-            idle_ms: 0,
-            subscriptions: subs.iter().map(|s| (s.to_string(), 1000)).collect(),
-            about: about.into(),
-            tap: false,
-            batch: 0,
-        }
-    }
-
-    fn report(clients: Vec<ClientInfo>) -> StatusReport {
-        StatusReport {
-            clients,
-            ..StatusReport::default()
-        }
-    }
 
     #[test]
     fn each_client_brings_its_channels_and_the_sets_it_could_receive() {

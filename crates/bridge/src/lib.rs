@@ -27,6 +27,8 @@
 #![warn(missing_docs)]
 
 pub mod config;
+#[cfg(test)]
+mod fixtures;
 pub mod interest;
 pub mod keys;
 pub mod relay;

@@ -1,8 +1,8 @@
 use super::*;
+use crate::fixtures::{client, report};
 use crate::keys::Site;
 use crate::stats::Stats;
 use crate::wants::PER_SITE;
-use colony_wire::ClientInfo;
 
 fn ms(n: u64) -> Duration {
     Duration::from_millis(n)
@@ -27,24 +27,6 @@ fn hub(op: ToHub) -> Output {
 
 fn zenoh(op: ToZenoh) -> Output {
     Output::Zenoh(op)
-}
-
-fn client(about: &str, subs: &[&str]) -> ClientInfo {
-    ClientInfo {
-        addr: "127.0.0.1:1".into(),
-        idle_ms: 0,
-        subscriptions: subs.iter().map(|s| (s.to_string(), 1000)).collect(),
-        about: about.into(),
-        tap: false,
-        batch: 0,
-    }
-}
-
-fn report(clients: Vec<ClientInfo>) -> StatusReport {
-    StatusReport {
-        clients,
-        ..StatusReport::default()
-    }
 }
 
 fn want(site: &str, channel: &str, alive: bool) -> Want {
